@@ -1,0 +1,799 @@
+"""IOData: the one container for an input/output experiment log.
+
+Time runs down the rows: ``u`` is ``(n_samples, n_inputs)`` and ``y`` is
+``(n_samples, n_outputs)``, sampled every ``ts`` seconds from ``t0``. Every
+channel has a name and a unit. Angles are in degrees unless a unit says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["IOData", "as_experiments"]
+
+FloatArray = NDArray[np.float64]
+
+#: Relative tolerance on the spacing of time stamps before a log counts as non-uniform.
+TIME_JITTER_TOLERANCE = 0.05
+
+
+def _as_2d(values: ArrayLike | None, argument: str, n_samples: int | None = None) -> FloatArray:
+    """Return ``values`` as a contiguous 2-D float64 array, time down the rows."""
+    if values is None:
+        if n_samples is None:
+            raise ValueError(f"{argument} is required")
+        return np.zeros((n_samples, 0))
+    try:
+        array = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{argument} must be numeric; could not convert it: {exc}") from exc
+    if array.ndim == 0:
+        raise ValueError(f"{argument} must be 1-D or 2-D (time down the rows); got a scalar")
+    if array.ndim == 1:
+        array = array[:, None]
+    if array.ndim != 2:
+        raise ValueError(
+            f"{argument} must be 1-D or 2-D (time down the rows); got shape {array.shape}"
+        )
+    return np.ascontiguousarray(array)
+
+
+def check_finite(array: FloatArray, argument: str, names: Sequence[str] | None = None) -> None:
+    """Raise ``ValueError`` naming the channel, the row and the value of the first NaN or inf.
+
+    Parameters
+    ----------
+    array : ndarray, shape (n_samples, n_channels)
+        The values to check.
+    argument : str
+        What the array is called in the message (``"u"``, ``"y"``, ``"commands"``).
+    names : sequence of str, optional
+        Channel names, one per column.
+    """
+    bad = ~np.isfinite(array)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        channel = names[col] if names is not None and col < len(names) else f"column {col}"
+        count = int(bad.sum())
+        raise ValueError(
+            f"{argument} channel {channel!r} has a non-finite value {array[row, col]!r} at row {row}"
+            f" ({count} non-finite value{'s' if count > 1 else ''} in {argument} in all);"
+            " clean or interpolate the log before identification"
+        )
+
+
+def _names(names: Sequence[str] | None, count: int, prefix: str, argument: str) -> tuple[str, ...]:
+    if names is None:
+        if count == 1:
+            return (prefix,)
+        return tuple(f"{prefix}{i + 1}" for i in range(count))
+    if isinstance(names, str):
+        names = [names]
+    names = tuple(str(n) for n in names)
+    if len(names) != count:
+        raise ValueError(f"{argument} has {len(names)} names {list(names)} for {count} channels")
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})
+        raise ValueError(f"{argument} must be unique; repeated: {dup}")
+    return names
+
+
+def _units(units: Sequence[str] | None, count: int, argument: str) -> tuple[str, ...]:
+    if units is None:
+        return ("",) * count
+    if isinstance(units, str):
+        units = [units]
+    units = tuple(str(x) for x in units)
+    if len(units) != count:
+        raise ValueError(f"{argument} has {len(units)} entries for {count} channels")
+    return units
+
+
+def check_ts(ts: float) -> float:
+    """Return the sampling period as a float, refusing what is not a positive finite number."""
+    try:
+        value = float(ts)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"ts must be a number of seconds; got {ts!r}") from exc
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"ts must be a positive number of seconds; got {ts!r}")
+    return value
+
+
+def ts_from_time(time: ArrayLike, column: str = "time") -> tuple[float, float]:
+    """Infer ``(ts, t0)`` from a vector of time stamps and check that it is uniform.
+
+    Raises ``ValueError`` naming the row of the first time stamp that is not finite, repeats,
+    goes back in time, or departs from uniform sampling by more than 5 % of ``ts``.
+    """
+    t = np.asarray(time, dtype=np.float64).ravel()
+    if t.size < 2:
+        raise ValueError(
+            f"{column!r} needs at least 2 time stamps to give a sampling period; got {t.size}"
+        )
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(
+            f"time column {column!r} has a non-finite value {t[bad[0]]!r} at row {bad[0]}"
+        )
+    dt = np.diff(t)
+    back = np.flatnonzero(dt < 0)
+    if back.size:
+        r = int(back[0]) + 1
+        raise ValueError(
+            f"time column {column!r} is not sorted: row {r} has t={t[r]!r} after t={t[r - 1]!r};"
+            " sort the log by time first"
+        )
+    same = np.flatnonzero(dt == 0)
+    if same.size:
+        r = int(same[0]) + 1
+        raise ValueError(
+            f"time column {column!r} repeats the time stamp {t[r]!r} at rows {r - 1} and {r};"
+            " drop duplicated samples first"
+        )
+    ts = float(np.median(dt))
+    off = np.flatnonzero(np.abs(dt - ts) > TIME_JITTER_TOLERANCE * ts)
+    if off.size:
+        r = int(off[0]) + 1
+        raise ValueError(
+            f"time column {column!r} is not uniformly sampled: the step before row {r} is"
+            f" {dt[r - 1]!r} s, the median step is {ts!r} s; resample the log onto a uniform grid"
+        )
+    # The mean step is the least-squares estimate of ts from a uniform grid.
+    ts = float((t[-1] - t[0]) / (t.size - 1))
+    return ts, float(t[0])
+
+
+class IOData:
+    """An input/output experiment log sampled uniformly in time.
+
+    Parameters
+    ----------
+    u : array_like, shape (n_samples, n_inputs) or (n_samples,)
+        Inputs, time down the rows. A 1-D array is one channel.
+    y : array_like, shape (n_samples, n_outputs) or (n_samples,), optional
+        Outputs, time down the rows. ``None`` gives a log with no output channel (a command sequence).
+    ts : float
+        Sampling period in seconds, > 0.
+    input_names, output_names : sequence of str, optional
+        Channel names; default ``u``/``u1, u2, ...`` and ``y``/``y1, y2, ...``.
+    input_units, output_units : sequence of str, optional
+        Channel units (free text such as ``"rad/s"`` or ``"deg"``); default empty.
+    t0 : float, default 0.0
+        Time of the first sample, in seconds.
+    name : str, optional
+        A label for the experiment (for example the file it came from).
+
+    Raises
+    ------
+    ValueError
+        If a channel holds NaN or inf (the message names the channel and the row), the input and
+        output lengths differ, ``ts`` is not positive, or the names do not match the channels.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData
+    >>> data = IOData(u=np.ones(5), y=np.arange(5.0), ts=0.02, input_names=["cmd"],
+    ...               output_names=["incl"], input_units=["rad/s"], output_units=["deg"])
+    >>> data
+    IOData(n_samples=5, ts=0.02, inputs=['cmd'], outputs=['incl'])
+    >>> data.time
+    array([0.  , 0.02, 0.04, 0.06, 0.08])
+    >>> data[1:3].y.ravel()
+    array([1., 2.])
+    """
+
+    __slots__ = (
+        "_u",
+        "_y",
+        "input_names",
+        "input_units",
+        "name",
+        "output_names",
+        "output_units",
+        "t0",
+        "ts",
+    )
+
+    def __init__(
+        self,
+        u: ArrayLike,
+        y: ArrayLike | None = None,
+        ts: float = 1.0,
+        *,
+        input_names: Sequence[str] | None = None,
+        output_names: Sequence[str] | None = None,
+        input_units: Sequence[str] | None = None,
+        output_units: Sequence[str] | None = None,
+        t0: float = 0.0,
+        name: str | None = None,
+    ) -> None:
+        u_arr = _as_2d(u, "u")
+        y_arr = _as_2d(y, "y", n_samples=u_arr.shape[0])
+        if u_arr.shape[0] != y_arr.shape[0]:
+            raise ValueError(
+                f"u and y must have the same number of samples (rows); got u with {u_arr.shape[0]}"
+                f" and y with {y_arr.shape[0]}"
+            )
+        if u_arr.shape[0] == 0:
+            raise ValueError("an IOData needs at least one sample; got 0 rows")
+        self.input_names = _names(input_names, u_arr.shape[1], "u", "input_names")
+        self.output_names = _names(output_names, y_arr.shape[1], "y", "output_names")
+        clash = set(self.input_names) & set(self.output_names)
+        if clash:
+            raise ValueError(f"a name cannot be both an input and an output: {sorted(clash)}")
+        check_finite(u_arr, "u", self.input_names)
+        check_finite(y_arr, "y", self.output_names)
+        self.input_units = _units(input_units, u_arr.shape[1], "input_units")
+        self.output_units = _units(output_units, y_arr.shape[1], "output_units")
+        self.ts = check_ts(ts)
+        t0_value = float(t0)
+        if not math.isfinite(t0_value):
+            raise ValueError(f"t0 must be a finite number of seconds; got {t0!r}")
+        self.t0 = t0_value
+        self.name = name
+        # Own copies, read-only: nothing the user passed in is changed, and nothing changes ours.
+        self._u = u_arr.copy()
+        self._y = y_arr.copy()
+        self._u.flags.writeable = False
+        self._y.flags.writeable = False
+
+    # ------------------------------------------------------------------ basic properties
+    @property
+    def u(self) -> FloatArray:
+        """Inputs, shape ``(n_samples, n_inputs)`` (read-only view)."""
+        return self._u
+
+    @property
+    def y(self) -> FloatArray:
+        """Outputs, shape ``(n_samples, n_outputs)`` (read-only view)."""
+        return self._y
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self._u.shape[0])
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of input channels."""
+        return int(self._u.shape[1])
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of output channels."""
+        return int(self._y.shape[1])
+
+    @property
+    def time(self) -> FloatArray:
+        """Time stamps in seconds, ``t0 + k * ts``."""
+        return self.t0 + self.ts * np.arange(self.n_samples, dtype=np.float64)
+
+    @property
+    def duration(self) -> float:
+        """Length of the log in seconds, ``n_samples * ts``."""
+        return self.n_samples * self.ts
+
+    def __len__(self) -> int:
+        return self.n_samples
+
+    def __repr__(self) -> str:
+        label = f", name={self.name!r}" if self.name else ""
+        return (
+            f"IOData(n_samples={self.n_samples}, ts={self.ts!r}, inputs={list(self.input_names)},"
+            f" outputs={list(self.output_names)}{label})"
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, IOData):
+            return NotImplemented
+        return (
+            self.ts == other.ts
+            and self.t0 == other.t0
+            and self.input_names == other.input_names
+            and self.output_names == other.output_names
+            and self.input_units == other.input_units
+            and self.output_units == other.output_units
+            and np.array_equal(self._u, other._u)
+            and np.array_equal(self._y, other._y)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def _replace(self, **changes: Any) -> IOData:
+        fields: dict[str, Any] = {
+            "u": self._u,
+            "y": self._y,
+            "ts": self.ts,
+            "input_names": self.input_names,
+            "output_names": self.output_names,
+            "input_units": self.input_units,
+            "output_units": self.output_units,
+            "t0": self.t0,
+            "name": self.name,
+        }
+        fields.update(changes)
+        return IOData(**fields)
+
+    # ------------------------------------------------------------------ channel access
+    def channel(self, name: str) -> FloatArray:
+        """Return one channel (input or output) by name as a 1-D array.
+
+        Raises
+        ------
+        KeyError
+            If no input or output has that name; the message lists the channels there are.
+        """
+        if name in self.input_names:
+            return self._u[:, self.input_names.index(name)]
+        if name in self.output_names:
+            return self._y[:, self.output_names.index(name)]
+        raise KeyError(
+            f"no channel named {name!r}; inputs are {list(self.input_names)},"
+            f" outputs are {list(self.output_names)}"
+        )
+
+    def unit(self, name: str) -> str:
+        """Return the unit of a channel by name."""
+        if name in self.input_names:
+            return self.input_units[self.input_names.index(name)]
+        if name in self.output_names:
+            return self.output_units[self.output_names.index(name)]
+        raise KeyError(f"no channel named {name!r}")
+
+    def select(
+        self, inputs: Sequence[str] | None = None, outputs: Sequence[str] | None = None
+    ) -> IOData:
+        """Keep only the named channels, in the order given.
+
+        Parameters
+        ----------
+        inputs, outputs : sequence of str, optional
+            Channel names to keep; ``None`` keeps all of that kind. A name may be moved between
+            kinds: an output named in ``inputs`` becomes an input, and the other way round.
+
+        Raises
+        ------
+        KeyError
+            If a name is not a channel of this log.
+        """
+
+        def gather(
+            names: Sequence[str] | None, argument: str, default: str
+        ) -> tuple[FloatArray, list[str], list[str]]:
+            if names is None:
+                if default == "inputs":
+                    return self._u, list(self.input_names), list(self.input_units)
+                return self._y, list(self.output_names), list(self.output_units)
+            if isinstance(names, str):
+                names = [names]
+            columns = []
+            for n in names:
+                try:
+                    columns.append(self.channel(n))
+                except KeyError:
+                    raise KeyError(
+                        f"{argument} names {n!r}, which is not a channel; inputs are"
+                        f" {list(self.input_names)}, outputs are {list(self.output_names)}"
+                    ) from None
+            array = np.column_stack(columns) if columns else np.zeros((self.n_samples, 0))
+            return array, list(names), [self.unit(n) for n in names]
+
+        u, un, uu = gather(inputs, "inputs", "inputs")
+        y, yn, yu = gather(outputs, "outputs", "outputs")
+        return self._replace(
+            u=u, y=y, input_names=un, output_names=yn, input_units=uu, output_units=yu
+        )
+
+    def with_channel(
+        self, name: str, values: ArrayLike, *, unit: str = "", kind: str = "input"
+    ) -> IOData:
+        """Return a copy with one more channel appended.
+
+        Parameters
+        ----------
+        name : str
+            Name of the new channel; must not exist yet.
+        values : array_like, shape (n_samples,)
+            The channel's values.
+        unit : str, optional
+            Its unit.
+        kind : {"input", "output"}
+            Where to put it.
+        """
+        column = _as_2d(values, name)
+        if column.shape != (self.n_samples, 1):
+            raise ValueError(
+                f"channel {name!r} must have shape ({self.n_samples},); got {np.shape(values)}"
+            )
+        if kind == "input":
+            return self._replace(
+                u=np.hstack([self._u, column]),
+                input_names=(*self.input_names, name),
+                input_units=(*self.input_units, unit),
+            )
+        if kind == "output":
+            return self._replace(
+                y=np.hstack([self._y, column]),
+                output_names=(*self.output_names, name),
+                output_units=(*self.output_units, unit),
+            )
+        raise ValueError(f"kind must be 'input' or 'output'; got {kind!r}")
+
+    def with_derivative(
+        self,
+        channel: str,
+        *,
+        name: str | None = None,
+        kind: str | None = None,
+        method: str = "central",
+    ) -> IOData:
+        """Return a copy with the numerical time derivative of a channel appended.
+
+        Parameters
+        ----------
+        channel : str
+            The channel to differentiate.
+        name : str, optional
+            Name of the derived channel; default ``"d(<channel>)/dt"``.
+        kind : {"input", "output"}, optional
+            Where to put it; default the same kind as ``channel``.
+        method : {"central", "backward"}
+            ``"central"``: second-order central differences (one-sided at the ends, as
+            :func:`numpy.gradient`). ``"backward"``: ``(x[k] - x[k-1]) / ts``, causal, with
+            the first sample equal to the second (what a controller on the robot can compute).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> d = IOData(u=np.zeros(4), y=[0.0, 1.0, 2.0, 3.0], ts=0.5, output_names=["x"])
+        >>> d.with_derivative("x").channel("d(x)/dt")
+        array([2., 2., 2., 2.])
+        """
+        x = self.channel(channel)
+        if method == "central":
+            dx = np.gradient(x, self.ts) if x.size > 1 else np.zeros_like(x)
+        elif method == "backward":
+            dx = np.empty_like(x)
+            dx[1:] = np.diff(x) / self.ts
+            dx[0] = dx[1] if x.size > 1 else 0.0
+        else:
+            raise ValueError(f"method must be 'central' or 'backward'; got {method!r}")
+        if kind is None:
+            kind = "input" if channel in self.input_names else "output"
+        unit = self.unit(channel)
+        return self.with_channel(
+            name or f"d({channel})/dt", dx, unit=f"{unit}/s" if unit else "1/s", kind=kind
+        )
+
+    # ------------------------------------------------------------------ slicing
+    def __getitem__(self, index: slice) -> IOData:
+        """Slice by sample index (a ``slice`` with step 1 or a positive step)."""
+        if not isinstance(index, slice):
+            raise TypeError(
+                f"IOData is sliced by sample with a slice, e.g. data[100:200]; got {index!r}"
+            )
+        start, stop, step = index.indices(self.n_samples)
+        if step <= 0:
+            raise ValueError(f"slice step must be positive; got {step}")
+        if stop <= start:
+            raise ValueError(f"slice {index} selects no sample of {self.n_samples}")
+        return self._replace(
+            u=self._u[start:stop:step],
+            y=self._y[start:stop:step],
+            ts=self.ts * step,
+            t0=self.t0 + start * self.ts,
+        )
+
+    def time_slice(self, start: float | None = None, stop: float | None = None) -> IOData:
+        """Keep the samples with ``start <= t < stop`` (seconds, on this log's clock)."""
+        t = self.time
+        lo = 0 if start is None else int(np.searchsorted(t, start - 1e-9 * self.ts, side="left"))
+        hi = (
+            self.n_samples
+            if stop is None
+            else int(np.searchsorted(t, stop - 1e-9 * self.ts, side="left"))
+        )
+        if hi <= lo:
+            raise ValueError(
+                f"time_slice({start}, {stop}) selects no sample; the log covers"
+                f" t = {t[0]:g} .. {t[-1]:g} s"
+            )
+        return self[lo:hi]
+
+    def split(self, fraction: float = 0.5) -> tuple[IOData, IOData]:
+        """Split into a first part holding ``fraction`` of the samples and the rest.
+
+        Examples
+        --------
+        >>> d = IOData(u=np.arange(10.0), y=np.arange(10.0), ts=1.0)
+        >>> a, b = d.split(0.7)
+        >>> a.n_samples, b.n_samples, b.t0
+        (7, 3, 7.0)
+        """
+        if not 0.0 < float(fraction) < 1.0:
+            raise ValueError(f"fraction must be in (0, 1); got {fraction!r}")
+        k = round(self.n_samples * float(fraction))
+        if k < 1 or k >= self.n_samples:
+            raise ValueError(
+                f"fraction={fraction!r} of {self.n_samples} samples leaves an empty part"
+            )
+        return self[:k], self[k:]
+
+    # ------------------------------------------------------------------ tables and files
+    def to_frame(self, time: str | None = "time") -> pd.DataFrame:
+        """Return a DataFrame with a time column (seconds) and one column per channel.
+
+        Units are kept in ``DataFrame.attrs["units"]``.
+        """
+        columns: dict[str, FloatArray] = {}
+        if time is not None:
+            columns[time] = self.time
+        for i, n in enumerate(self.input_names):
+            columns[n] = self._u[:, i].copy()
+        for i, n in enumerate(self.output_names):
+            columns[n] = self._y[:, i].copy()
+        frame = pd.DataFrame(columns)
+        frame.attrs["units"] = dict(
+            zip(
+                self.input_names + self.output_names,
+                self.input_units + self.output_units,
+                strict=True,
+            )
+        )
+        frame.attrs["inputs"] = list(self.input_names)
+        frame.attrs["outputs"] = list(self.output_names)
+        frame.attrs["ts"] = self.ts
+        return frame
+
+    @classmethod
+    def from_frame(
+        cls,
+        frame: pd.DataFrame,
+        inputs: Sequence[str],
+        outputs: Sequence[str] = (),
+        *,
+        time: str | None = None,
+        ts: float | None = None,
+        units: Mapping[str, str] | None = None,
+        name: str | None = None,
+    ) -> IOData:
+        """Build from a DataFrame, naming the input, output and (optionally) time columns.
+
+        Parameters
+        ----------
+        frame : pandas.DataFrame
+            One row per sample.
+        inputs, outputs : sequence of str
+            Column names.
+        time : str, optional
+            Column of time stamps in seconds; they must be sorted, distinct and uniform (5 %).
+        ts : float, optional
+            Sampling period in seconds, when there is no time column. Exactly one of ``time``
+            and ``ts`` must be given.
+        units : mapping of str to str, optional
+            Unit of each channel by name; ``frame.attrs["units"]`` is used when absent.
+        """
+        if not isinstance(frame, pd.DataFrame):
+            raise TypeError(f"frame must be a pandas DataFrame; got {type(frame).__name__}")
+        if isinstance(inputs, str):
+            inputs = [inputs]
+        if isinstance(outputs, str):
+            outputs = [outputs]
+        wanted = [*inputs, *outputs, *([time] if time is not None else [])]
+        missing = [c for c in wanted if c not in frame.columns]
+        if missing:
+            raise KeyError(
+                f"columns {missing} are not in the table; it has {list(map(str, frame.columns))}"
+            )
+        if (time is None) == (ts is None):
+            raise ValueError(
+                "give exactly one of time= (a time column) and ts= (the sampling period)"
+            )
+        t0 = 0.0
+        if time is not None:
+            ts_value, t0 = ts_from_time(frame[time].to_numpy(dtype=np.float64), column=time)
+        else:
+            assert ts is not None  # for the type checker; guarded just above
+            ts_value = ts
+        units = dict(units) if units is not None else dict(frame.attrs.get("units", {}))
+
+        def columns(names: Sequence[str]) -> FloatArray:
+            if not names:
+                return np.zeros((len(frame), 0))
+            out = np.empty((len(frame), len(names)))
+            for j, c in enumerate(names):
+                try:
+                    out[:, j] = pd.to_numeric(frame[c], errors="raise").to_numpy(dtype=np.float64)
+                except (TypeError, ValueError):
+                    values = pd.to_numeric(frame[c], errors="coerce")
+                    row = int(np.flatnonzero(values.isna() & frame[c].notna())[0])
+                    raise ValueError(
+                        f"column {c!r} is not numeric: row {row} holds {frame[c].iloc[row]!r}"
+                    ) from None
+            return out
+
+        return cls(
+            u=columns(inputs),
+            y=columns(outputs),
+            ts=ts_value,
+            input_names=list(inputs),
+            output_names=list(outputs),
+            input_units=[units.get(c, "") for c in inputs],
+            output_units=[units.get(c, "") for c in outputs],
+            t0=t0,
+            name=name,
+        )
+
+    @classmethod
+    def from_csv(
+        cls,
+        path: str | Path,
+        inputs: Sequence[str],
+        outputs: Sequence[str] = (),
+        *,
+        time: str | None = "time",
+        ts: float | None = None,
+        units: Mapping[str, str] | None = None,
+        **read_csv: Any,
+    ) -> IOData:
+        r"""Read a CSV log (one row per sample, a header row of column names).
+
+        ``time="time"`` reads time stamps from that column; pass ``time=None, ts=...`` for a
+        log without one. Extra keyword arguments go to :func:`pandas.read_csv`.
+
+        Examples
+        --------
+        >>> import tempfile, os
+        >>> path = os.path.join(tempfile.mkdtemp(), "log.csv")
+        >>> _ = open(path, "w").write("time,cmd,incl\n0,1,0\n0.02,1,0.1\n0.04,1,0.3\n")
+        >>> IOData.from_csv(path, inputs=["cmd"], outputs=["incl"])
+        IOData(n_samples=3, ts=0.02, inputs=['cmd'], outputs=['incl'], name='log.csv')
+        """
+        path = Path(path)
+        if ts is not None and time == "time":
+            time = None
+        frame = pd.read_csv(path, **read_csv)
+        return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
+
+    @classmethod
+    def from_parquet(
+        cls,
+        path: str | Path,
+        inputs: Sequence[str],
+        outputs: Sequence[str] = (),
+        *,
+        time: str | None = "time",
+        ts: float | None = None,
+        units: Mapping[str, str] | None = None,
+    ) -> IOData:
+        """Read a Parquet log (needs the ``parquet`` extra: ``pip install neckid[parquet]``)."""
+        path = Path(path)
+        if ts is not None and time == "time":
+            time = None
+        frame = pd.read_parquet(path)
+        return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
+
+    def to_parquet(self, path: str | Path) -> None:
+        """Write a Parquet file with a ``time`` column; units go in the file's metadata."""
+        frame = self.to_frame()
+        frame.attrs = {"units": frame.attrs["units"]}
+        frame.to_parquet(Path(path), index=False)
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write a CSV file with a header row and a ``time`` column (seconds)."""
+        self.to_frame().to_csv(Path(path), index=False)
+
+    @classmethod
+    def from_mat(
+        cls,
+        path: str | Path,
+        inputs: Sequence[str],
+        outputs: Sequence[str] = (),
+        *,
+        time: str | None = None,
+        ts: float | None = None,
+        units: Mapping[str, str] | None = None,
+    ) -> IOData:
+        """Read a MATLAB ``.mat`` file (v4 to v7.2) whose variables are vectors or 1-column matrices.
+
+        Parameters
+        ----------
+        inputs, outputs : sequence of str
+            Variable names in the file.
+        time : str, optional
+            Variable of time stamps; otherwise give ``ts``. A scalar variable named by ``ts``
+            (a string) is read as the period.
+        """
+        from scipy.io import loadmat
+
+        path = Path(path)
+        content = loadmat(path, squeeze_me=True)
+        variables = {k: v for k, v in content.items() if not k.startswith("__")}
+        if isinstance(ts, str):
+            if ts not in variables:
+                raise KeyError(
+                    f"variable {ts!r} (ts) is not in {path.name}; it has {sorted(variables)}"
+                )
+            ts = float(np.asarray(variables[ts]).ravel()[0])
+        names = [*inputs, *outputs, *([time] if time else [])]
+        missing = [n for n in names if n not in variables]
+        if missing:
+            raise KeyError(
+                f"variables {missing} are not in {path.name}; it has {sorted(variables)}"
+            )
+        frame = pd.DataFrame({n: np.asarray(variables[n], dtype=np.float64).ravel() for n in names})
+        return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the metadata (everything but the arrays) as a JSON-serialisable dict."""
+        return {
+            "ts": self.ts,
+            "t0": self.t0,
+            "input_names": list(self.input_names),
+            "output_names": list(self.output_names),
+            "input_units": list(self.input_units),
+            "output_units": list(self.output_units),
+            "name": self.name,
+        }
+
+    def describe(self) -> str:
+        """A one-paragraph human-readable summary (channels, units, ranges)."""
+        lines = [repr(self)]
+        for kind, names, units, arr in (
+            ("input", self.input_names, self.input_units, self._u),
+            ("output", self.output_names, self.output_units, self._y),
+        ):
+            for j, (n, unit) in enumerate(zip(names, units, strict=True)):
+                col = arr[:, j]
+                lines.append(f"  {kind} {n} [{unit}]: min {col.min():.4g}, max {col.max():.4g}")
+        return "\n".join(lines)
+
+
+def as_experiments(data: IOData | Sequence[IOData], argument: str = "data") -> list[IOData]:
+    """Return ``data`` as a list of experiments, checking that they share channels and ``ts``.
+
+    Parameters
+    ----------
+    data : IOData or sequence of IOData
+        One experiment or several; regressors are never built across two experiments.
+
+    Raises
+    ------
+    TypeError
+        If an element is not an IOData.
+    ValueError
+        If the list is empty, or the experiments differ in channel names or sampling period.
+    """
+    if isinstance(data, IOData):
+        return [data]
+    if isinstance(data, str | bytes) or not isinstance(data, Sequence):
+        raise TypeError(
+            f"{argument} must be an IOData or a list of them; got {type(data).__name__}"
+        )
+    items = list(data)
+    if not items:
+        raise ValueError(f"{argument} is an empty list; give at least one IOData")
+    for i, d in enumerate(items):
+        if not isinstance(d, IOData):
+            raise TypeError(f"{argument}[{i}] must be an IOData; got {type(d).__name__}")
+    first = items[0]
+    for i, d in enumerate(items[1:], start=1):
+        if d.input_names != first.input_names or d.output_names != first.output_names:
+            raise ValueError(
+                f"{argument}[{i}] has channels {list(d.input_names)} -> {list(d.output_names)},"
+                f" but {argument}[0] has {list(first.input_names)} -> {list(first.output_names)}"
+            )
+        if not math.isclose(d.ts, first.ts, rel_tol=1e-6):
+            raise ValueError(
+                f"{argument}[{i}] has ts={d.ts!r} but {argument}[0] has ts={first.ts!r}"
+            )
+    return items

@@ -1,0 +1,244 @@
+"""Figures of merit: NRMSE fit, RMSE, MAE, maximum error, and residual correlation tests.
+
+Every function takes measured and model outputs with time down the rows, returns one value per
+output channel, and skips the first ``skip`` samples (the initial conditions of a free run).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import stats
+
+__all__ = [
+    "CorrelationTest",
+    "fit_percent",
+    "mae",
+    "max_abs_error",
+    "residual_autocorrelation",
+    "residual_input_correlation",
+    "rmse",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def _pair(y_true: ArrayLike, y_pred: ArrayLike, skip: int) -> tuple[FloatArray, FloatArray]:
+    a = np.asarray(y_true, dtype=np.float64)
+    b = np.asarray(y_pred, dtype=np.float64)
+    if a.ndim == 1:
+        a = a[:, None]
+    if b.ndim == 1:
+        b = b[:, None]
+    if a.ndim != 2 or b.ndim != 2:
+        raise ValueError(
+            f"y_true and y_pred must be 1-D or 2-D; got shapes {np.shape(y_true)}, {np.shape(y_pred)}"
+        )
+    if a.shape != b.shape:
+        raise ValueError(f"y_true and y_pred must have the same shape; got {a.shape} and {b.shape}")
+    if isinstance(skip, bool) or not isinstance(skip, int | np.integer) or skip < 0:
+        raise ValueError(f"skip must be a whole number >= 0; got {skip!r}")
+    if skip >= a.shape[0]:
+        raise ValueError(f"skip={skip} leaves no sample of {a.shape[0]}")
+    a, b = a[skip:], b[skip:]
+    for arr, argument in ((a, "y_true"), (b, "y_pred")):
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            row, col = (int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(
+                f"{argument} has a non-finite value {arr[row, col]!r} at row {row + skip}, output {col}"
+            )
+    return a, b
+
+
+def fit_percent(y_true: ArrayLike, y_pred: ArrayLike, skip: int = 0) -> FloatArray:
+    """NRMSE fit in percent, as MATLAB's ``compare``: ``100 (1 - ||y - ŷ|| / ||y - mean(y)||)``.
+
+    Parameters
+    ----------
+    y_true, y_pred : array_like, shape (n_samples,) or (n_samples, n_outputs)
+        Measured and model outputs.
+    skip : int, default 0
+        Samples at the start left out of both norms and of the mean (initial conditions).
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        100 for a perfect model, 0 for one no better than the mean, negative for worse.
+
+    Raises
+    ------
+    ValueError
+        If a measured output is constant over the samples used: the fit is then undefined
+        (division by zero), and a NaN is not returned in its place.
+
+    Examples
+    --------
+    >>> fit_percent([0.0, 1.0, 2.0, 3.0], [0.0, 1.0, 2.0, 2.0])
+    array([55.27864045])
+    """
+    a, b = _pair(y_true, y_pred, skip)
+    spread = np.linalg.norm(a - a.mean(axis=0), axis=0)
+    constant = np.flatnonzero(spread == 0)
+    if constant.size:
+        j = int(constant[0])
+        raise ValueError(
+            f"fit_percent is undefined for output {j}: the measured output is constant"
+            f" ({a[0, j]!r}) over the {a.shape[0]} samples used, so ||y - mean(y)|| = 0;"
+            " use rmse or mae instead"
+        )
+    return np.asarray(100.0 * (1.0 - np.linalg.norm(a - b, axis=0) / spread), dtype=np.float64)
+
+
+def rmse(y_true: ArrayLike, y_pred: ArrayLike, skip: int = 0) -> FloatArray:
+    """Root-mean-square error per output: ``sqrt(mean((y - ŷ)^2))``, in the outputs' units.
+
+    Examples
+    --------
+    >>> rmse([0.0, 1.0], [0.0, 3.0])
+    array([1.41421356])
+    """
+    a, b = _pair(y_true, y_pred, skip)
+    return np.asarray(np.sqrt(np.mean((a - b) ** 2, axis=0)), dtype=np.float64)
+
+
+def mae(y_true: ArrayLike, y_pred: ArrayLike, skip: int = 0) -> FloatArray:
+    """Mean absolute error per output: ``mean(|y - ŷ|)``, in the outputs' units.
+
+    Examples
+    --------
+    >>> mae([0.0, 1.0], [0.0, 3.0])
+    array([1.])
+    """
+    a, b = _pair(y_true, y_pred, skip)
+    return np.asarray(np.mean(np.abs(a - b), axis=0), dtype=np.float64)
+
+
+def max_abs_error(y_true: ArrayLike, y_pred: ArrayLike, skip: int = 0) -> FloatArray:
+    """Largest absolute error per output: ``max(|y - ŷ|)``, in the outputs' units.
+
+    Examples
+    --------
+    >>> max_abs_error([0.0, 1.0], [0.5, 3.0])
+    array([2.])
+    """
+    a, b = _pair(y_true, y_pred, skip)
+    return np.asarray(np.max(np.abs(a - b), axis=0), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class CorrelationTest:
+    """A residual correlation test.
+
+    Attributes
+    ----------
+    lags : ndarray of int, shape (n_lags,)
+        Lags at which the normalised correlation was computed.
+    correlation : ndarray, shape (n_lags,)
+        Normalised correlation (1 at lag 0 for an autocorrelation).
+    bound : float
+        Half-width of the confidence band, ``z_{(1+confidence)/2} / sqrt(N)``.
+    confidence : float
+        Confidence level of the band (e.g. 0.99).
+    passed : bool
+        True when every correlation except the autocorrelation at lag 0 lies inside the band.
+    """
+
+    lags: NDArray[np.int64]
+    correlation: FloatArray
+    bound: float
+    confidence: float
+    passed: bool
+
+
+def _xcorr(a: FloatArray, b: FloatArray, lags: NDArray[np.int64]) -> FloatArray:
+    """Normalised cross-correlation r_ab(k) = sum_t a(t+k) b(t) / (N sigma_a sigma_b)."""
+    n = a.size
+    a = a - a.mean()
+    b = b - b.mean()
+    scale = n * a.std() * b.std()
+    if scale == 0:
+        raise ValueError("a residual or input is constant; its correlation is undefined")
+    out = np.empty(lags.size)
+    for i, k in enumerate(lags):
+        if k >= 0:
+            out[i] = np.dot(a[k:], b[: n - k]) / scale
+        else:
+            out[i] = np.dot(a[: n + k], b[-k:]) / scale
+    return out
+
+
+def _band(n: int, confidence: float) -> float:
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1); got {confidence!r}")
+    return float(stats.norm.ppf(0.5 + confidence / 2.0) / np.sqrt(n))
+
+
+def residual_autocorrelation(
+    residuals: ArrayLike, max_lag: int = 25, confidence: float = 0.99
+) -> CorrelationTest:
+    """Whiteness test of prediction residuals (Ljung, *System Identification*, 2nd ed., 16.6).
+
+    The normalised autocorrelation at lags ``0..max_lag`` is compared with the band
+    ``±z/sqrt(N)`` that white noise stays inside with probability ``confidence``.
+
+    Parameters
+    ----------
+    residuals : array_like, shape (n_samples,)
+        One output's residuals, ``y - ŷ`` of a one-step-ahead prediction.
+    max_lag : int, default 25
+    confidence : float, default 0.99
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> e = np.random.default_rng(1).normal(size=2000)
+    >>> test = residual_autocorrelation(e, max_lag=10)
+    >>> round(test.bound, 4)  # 2.5758 / sqrt(2000)
+    0.0576
+    >>> float(test.correlation[0])
+    1.0
+    """
+    e = _residual_vector(residuals, "residuals")
+    if not 1 <= max_lag < e.size:
+        raise ValueError(f"max_lag must be in [1, {e.size - 1}]; got {max_lag}")
+    lags = np.arange(0, max_lag + 1, dtype=np.int64)
+    r = _xcorr(e, e, lags)
+    bound = _band(e.size, confidence)
+    return CorrelationTest(lags, r, bound, confidence, bool(np.all(np.abs(r[1:]) <= bound)))
+
+
+def residual_input_correlation(
+    residuals: ArrayLike, u: ArrayLike, max_lag: int = 25, confidence: float = 0.99
+) -> CorrelationTest:
+    """Independence test of residuals and a past input (Ljung 16.6): r_eu(k), k = -max_lag..max_lag.
+
+    A correlation outside the band at ``k > 0`` means the residual at ``t + k`` still depends on the
+    input at ``t``: input dynamics the model missed.
+    """
+    e = _residual_vector(residuals, "residuals")
+    x = _residual_vector(u, "u")
+    if x.size != e.size:
+        raise ValueError(f"residuals and u must have the same length; got {e.size} and {x.size}")
+    if not 1 <= max_lag < e.size:
+        raise ValueError(f"max_lag must be in [1, {e.size - 1}]; got {max_lag}")
+    lags = np.arange(-max_lag, max_lag + 1, dtype=np.int64)
+    r = _xcorr(e, x, lags)
+    bound = _band(e.size, confidence)
+    return CorrelationTest(lags, r, bound, confidence, bool(np.all(np.abs(r) <= bound)))
+
+
+def _residual_vector(values: ArrayLike, argument: str) -> FloatArray:
+    v = np.asarray(values, dtype=np.float64)
+    if v.ndim == 2 and 1 in v.shape:
+        v = v.ravel()
+    if v.ndim != 1:
+        raise ValueError(f"{argument} must be one channel (1-D); got shape {np.shape(values)}")
+    bad = np.flatnonzero(~np.isfinite(v))
+    if bad.size:
+        raise ValueError(f"{argument} has a non-finite value {v[bad[0]]!r} at row {bad[0]}")
+    if v.size < 3:
+        raise ValueError(f"{argument} needs at least 3 samples; got {v.size}")
+    return v

@@ -1,0 +1,272 @@
+"""What every identified model shares: the fitted check, results, the NARX loop, simulators.
+
+Contracts (see DESIGN.md):
+
+- ``fit(data)`` takes an :class:`~neckid.IOData` or a list of them and returns ``self``; learned
+  values end in ``_``.
+- ``predict(data)`` is one-step-ahead: the regressor uses the *measured* past outputs.
+- ``simulate(data)`` is a free run: the regressor uses the model's *own* past outputs.
+- Both return a :class:`ModelResult` of the same length as ``data``; its first ``n_initial``
+  samples (``n_initial = max_lag``) are the measured outputs, used as initial conditions and
+  skipped by :meth:`ModelResult.fit_percent`.
+- ``simulator()`` gives an object with ``reset(...)`` and ``step(u) -> y`` for closed loops.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+
+from neckid.data import IOData, as_experiments, check_finite
+from neckid.metrics import fit_percent, mae, rmse
+from neckid.regressors import Lags, ResolvedLags
+
+__all__ = ["ModelResult", "NarxModel", "NarxSimulator", "NotFittedError", "check_is_fitted"]
+
+FloatArray = NDArray[np.float64]
+
+
+class NotFittedError(ValueError, AttributeError):
+    """Raised when a model is used before ``fit``."""
+
+
+def check_is_fitted(model: object, attribute: str) -> None:
+    """Raise :class:`NotFittedError` unless ``model`` has the learned ``attribute``."""
+    if not hasattr(model, attribute):
+        raise NotFittedError(
+            f"this {type(model).__name__} is not fitted yet; call fit(data) before using it"
+        )
+
+
+@dataclass(frozen=True)
+class ModelResult:
+    """The output of ``predict`` or ``simulate``.
+
+    Attributes
+    ----------
+    kind : {"prediction", "simulation"}
+        One-step-ahead prediction (measured past outputs) or free-run simulation (own outputs).
+    time : ndarray, shape (n_samples,)
+        Seconds.
+    y : ndarray, shape (n_samples, n_outputs)
+        The model's output (the central estimate for Set Membership).
+    output_names : tuple of str
+        Names of the output channels.
+    n_initial : int
+        The first ``n_initial`` samples are the measured outputs (initial conditions), not model
+        output; figures of merit skip them.
+    lower, upper : ndarray, shape (n_samples, n_outputs), optional
+        Guaranteed bounds beside the central estimate (Set Membership), ``None`` otherwise.
+    """
+
+    kind: Literal["prediction", "simulation"]
+    time: FloatArray
+    y: FloatArray
+    output_names: tuple[str, ...]
+    n_initial: int
+    lower: FloatArray | None = None
+    upper: FloatArray | None = None
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self.y.shape[0])
+
+    def fit_percent(self, data: IOData | ArrayLike) -> FloatArray:
+        """MATLAB ``compare`` fit per output against the measured outputs, skipping ``n_initial``."""
+        y_true = data.y if isinstance(data, IOData) else np.asarray(data, dtype=np.float64)
+        return fit_percent(y_true, self.y, skip=self.n_initial)
+
+    def rmse(self, data: IOData | ArrayLike) -> FloatArray:
+        """Root-mean-square error per output, skipping ``n_initial``."""
+        y_true = data.y if isinstance(data, IOData) else np.asarray(data, dtype=np.float64)
+        return rmse(y_true, self.y, skip=self.n_initial)
+
+    def mae(self, data: IOData | ArrayLike) -> FloatArray:
+        """Mean absolute error per output, skipping ``n_initial``."""
+        y_true = data.y if isinstance(data, IOData) else np.asarray(data, dtype=np.float64)
+        return mae(y_true, self.y, skip=self.n_initial)
+
+    def to_frame(self) -> pd.DataFrame:
+        """A DataFrame: time, each output, and ``<name>_lower`` / ``<name>_upper`` where there are bounds."""
+        columns: dict[str, FloatArray] = {"time": self.time}
+        for j, n in enumerate(self.output_names):
+            columns[n] = self.y[:, j]
+            if self.lower is not None and self.upper is not None:
+                columns[f"{n}_lower"] = self.lower[:, j]
+                columns[f"{n}_upper"] = self.upper[:, j]
+        frame = pd.DataFrame(columns)
+        frame.attrs["kind"] = self.kind
+        frame.attrs["n_initial"] = self.n_initial
+        return frame
+
+
+def as_input_matrix(u: ArrayLike, n_inputs: int, argument: str = "u") -> FloatArray:
+    """Validate an input sequence for a model with ``n_inputs`` channels; return it 2-D."""
+    array = np.asarray(u, dtype=np.float64)
+    if array.ndim == 1:
+        array = array[:, None] if n_inputs == 1 else array[None, :]
+    if array.ndim != 2 or array.shape[1] != n_inputs:
+        raise ValueError(
+            f"{argument} must have {n_inputs} columns (one per input); got shape {np.shape(u)}"
+        )
+    check_finite(array, argument)
+    return np.ascontiguousarray(array)
+
+
+class NarxModel:
+    """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
+
+    Subclasses implement ``_fit_regression(x, y)`` (set learned attributes) and
+    ``_predict_rows(x) -> y`` (the map on a regressor matrix). ``fit``, ``predict``, ``simulate``
+    and ``simulator`` come from here; a subclass may replace ``simulate`` with a compiled loop.
+    """
+
+    lags: Lags | None
+
+    # ------------------------------------------------------------------ to implement
+    def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _predict_rows(self, x: FloatArray) -> FloatArray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ shared
+    def _lags(self) -> Lags:
+        if self.lags is None:
+            raise ValueError(f"{type(self).__name__} needs lags=Lags(...); got None")
+        if not isinstance(self.lags, Lags):
+            raise TypeError(f"lags must be a neckid.Lags; got {type(self.lags).__name__}")
+        return self.lags
+
+    def _prepare_fit(self, data: IOData | Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
+        experiments = as_experiments(data)
+        lags = self._lags()
+        resolved = lags.resolve(experiments)
+        if experiments[0].n_outputs == 0:
+            raise ValueError("data has no output channel to identify")
+        parts = [resolved.build_one(d) for d in experiments]
+        x = np.vstack([p[0] for p in parts])
+        y = np.vstack([p[1] for p in parts])
+        self.lags_ = resolved
+        self.n_inputs_ = experiments[0].n_inputs
+        self.n_outputs_ = experiments[0].n_outputs
+        self.ts_ = experiments[0].ts
+        self.n_samples_ = int(x.shape[0])
+        return x, y
+
+    def fit(self, data: IOData | Sequence[IOData]) -> NarxModel:
+        """Fit the model on one experiment or a list of them (regressors never straddle two)."""
+        x, y = self._prepare_fit(data)
+        self._fit_regression(x, y)
+        return self
+
+    def predict(self, data: IOData) -> ModelResult:
+        """One-step-ahead prediction: the regressor holds the measured past outputs."""
+        check_is_fitted(self, "lags_")
+        x, _ = self.lags_.build_one(data)
+        y = np.array(data.y, dtype=np.float64)
+        y[self.lags_.max_lag :] = self._predict_rows(x)
+        return ModelResult("prediction", data.time, y, data.output_names, self.lags_.max_lag)
+
+    def simulate(self, data: IOData) -> ModelResult:
+        """Free-run simulation: the regressor holds the model's own past outputs.
+
+        The first ``max_lag`` measured outputs of ``data`` are the initial conditions; from then on
+        only ``data.u`` is used.
+        """
+        check_is_fitted(self, "lags_")
+        self.lags_.check_compatible(data)
+        y = _free_run(self.lags_, self._predict_rows, data.u, data.y)
+        return ModelResult("simulation", data.time, y, data.output_names, self.lags_.max_lag)
+
+    def simulator(self) -> NarxSimulator:
+        """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""
+        check_is_fitted(self, "lags_")
+        return NarxSimulator(self.lags_, self._predict_rows)
+
+
+def _free_run(
+    resolved: ResolvedLags, predict_rows: Any, u: FloatArray, y_measured: FloatArray
+) -> FloatArray:
+    """Plain free-run loop; ``predict_rows`` maps ``(1, n_terms) -> (1, n_outputs)``."""
+    n = u.shape[0]
+    m = resolved.max_lag
+    if n <= m:
+        raise ValueError(
+            f"data has {n} samples, too few for lags up to {m}: it needs at least {m + 1}"
+        )
+    y = np.array(y_measured, dtype=np.float64)
+    for t in range(m, n):
+        w = resolved.regressor_from_history(y, u, t)
+        y[t] = predict_rows(w[None, :])[0]
+    return y
+
+
+class NarxSimulator:
+    """Step-by-step free run of a NARX map, for use in a closed loop next to a controller.
+
+    ``reset(y0, u0)`` fills the history with the initial outputs (and inputs); ``step(u)`` takes the
+    input at the current time ``t`` and returns the model output ``y(t)``.
+    """
+
+    def __init__(self, resolved: ResolvedLags, predict_rows: Any) -> None:
+        self._resolved = resolved
+        self._predict_rows = predict_rows
+        self.n_inputs = len(resolved.input_names)
+        self.n_outputs = len(resolved.output_names)
+        self.reset()
+
+    def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
+        """Start again from a constant history.
+
+        Parameters
+        ----------
+        y0 : array_like, shape (n_outputs,) or (max_lag, n_outputs), optional
+            Past outputs (oldest first); a single row is repeated. Default zeros.
+        u0 : array_like, shape (n_inputs,) or (max_lag, n_inputs), optional
+            Past inputs (oldest first); a single row is repeated. Default zeros.
+        """
+        m = max(self._resolved.max_lag, 1)
+        self._y = self._history(y0, m, self.n_outputs, "y0")
+        self._u = self._history(u0, m, self.n_inputs, "u0")
+
+    @staticmethod
+    def _history(value: ArrayLike | None, m: int, width: int, argument: str) -> FloatArray:
+        if value is None:
+            return np.zeros((m, width))
+        array = np.asarray(value, dtype=np.float64)
+        if array.ndim <= 1:
+            array = np.broadcast_to(
+                array.reshape(1, -1) if array.ndim else array.reshape(1, 1), (m, width)
+            )
+        if array.shape != (m, width):
+            raise ValueError(
+                f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
+            )
+        check_finite(np.asarray(array), argument)
+        return np.array(array, dtype=np.float64)
+
+    def step(self, u: ArrayLike) -> FloatArray:
+        """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y`` (``(n_outputs,)``)."""
+        u_now = np.asarray(u, dtype=np.float64).reshape(-1)
+        if u_now.shape[0] != self.n_inputs:
+            raise ValueError(
+                f"u must have {self.n_inputs} values (one per input); got {u_now.shape[0]}"
+            )
+        check_finite(u_now[None, :], "u")
+        u_hist = np.vstack([self._u, u_now[None, :]])
+        y_hist = np.vstack([self._y, np.zeros((1, self.n_outputs))])
+        t = u_hist.shape[0] - 1
+        w = self._resolved.regressor_from_history(y_hist, u_hist, t)
+        y_now = np.asarray(self._predict_rows(w[None, :])[0], dtype=np.float64)
+        self._u = u_hist[1:]
+        y_hist[-1] = y_now
+        self._y = y_hist[1:]
+        return y_now.copy()

@@ -1,0 +1,127 @@
+"""Model files: NumPy ``.npz`` archives of plain arrays plus one JSON document, never pickle.
+
+Format (version 1)
+------------------
+An uncompressed or compressed ``.npz`` (a zip of ``.npy`` files) holding
+
+- ``__neckid__``: a 0-d unicode array with a JSON object
+  ``{"format": "neckid-model", "version": 1, "class": "<ClassName>", "neckid_version": "...",
+  "meta": {...}}``; ``meta`` holds hyper-parameters and scalar results;
+- one numeric array per learned array (names chosen by the model class).
+
+It is read with ``numpy.load(path, allow_pickle=False)``, so opening a file from someone else cannot
+run code. Any tool that reads ``.npz`` and JSON (NumPy, MATLAB via a zip reader, Julia's NPZ) can
+read it.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from neckid._version import __version__
+
+__all__ = ["FORMAT_VERSION", "load_model", "read_model_file", "register_model", "write_model_file"]
+
+FORMAT_VERSION = 1
+_META_KEY = "__neckid__"
+
+
+class SavableModel(Protocol):
+    """What a model class provides to be saved and loaded."""
+
+    def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]: ...
+
+    @classmethod
+    def _from_state(cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]) -> Any: ...
+
+
+_REGISTRY: dict[str, Callable[[Mapping[str, NDArray[Any]], Mapping[str, Any]], Any]] = {}
+
+
+def register_model(cls: type) -> type:
+    """Class decorator: make ``load_model`` able to rebuild instances of ``cls``."""
+    _REGISTRY[cls.__name__] = cls._from_state  # type: ignore[attr-defined]
+    return cls
+
+
+def write_model_file(
+    path: str | Path, class_name: str, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]
+) -> Path:
+    """Write a model file; returns the path written (``.npz`` is appended if missing)."""
+    path = Path(path)
+    if path.suffix != ".npz":
+        path = path.with_name(path.name + ".npz")
+    header = {
+        "format": "neckid-model",
+        "version": FORMAT_VERSION,
+        "class": class_name,
+        "neckid_version": __version__,
+        "meta": meta,
+    }
+    payload: dict[str, NDArray[Any]] = {}
+    for key, value in arrays.items():
+        if key == _META_KEY:
+            raise ValueError(f"array name {key!r} is reserved")
+        array = np.asarray(value)
+        if array.dtype == object:
+            raise TypeError(
+                f"array {key!r} has dtype object, which cannot be stored without pickle"
+            )
+        payload[key] = array
+    payload[_META_KEY] = np.array(json.dumps(header, allow_nan=True))
+    np.savez_compressed(path, **payload)  # type: ignore[arg-type]
+    return path
+
+
+def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dict[str, Any]]:
+    """Read a model file; returns ``(class_name, arrays, meta)``.
+
+    Raises
+    ------
+    ValueError
+        If the file is not a neckid model file or its format version is newer than this neckid.
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            arrays = {k: archive[k] for k in archive.files}
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path} is not a readable neckid model file (.npz): {exc}") from exc
+    if _META_KEY not in arrays:
+        raise ValueError(
+            f"{path} is an .npz file but not a neckid model file (no {_META_KEY!r} entry)"
+        )
+    header = json.loads(str(arrays.pop(_META_KEY)))
+    if header.get("format") != "neckid-model":
+        raise ValueError(f"{path} is not a neckid model file (format={header.get('format')!r})")
+    if int(header.get("version", 0)) > FORMAT_VERSION:
+        raise ValueError(
+            f"{path} has model-file version {header['version']}, newer than this neckid reads"
+            f" ({FORMAT_VERSION}); upgrade neckid"
+        )
+    return str(header["class"]), arrays, dict(header.get("meta", {}))
+
+
+def load_model(path: str | Path) -> Any:
+    """Load any model saved with ``model.save(path)``.
+
+    Raises
+    ------
+    ValueError
+        If the file names a model class this neckid does not know.
+    """
+    class_name, arrays, meta = read_model_file(path)
+    # Importing the package registers every model class.
+    import neckid  # noqa: F401
+
+    if class_name not in _REGISTRY:
+        raise ValueError(
+            f"{path} holds a {class_name!r}, which this neckid cannot load; known: {sorted(_REGISTRY)}"
+        )
+    return _REGISTRY[class_name](arrays, meta)
