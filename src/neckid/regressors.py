@@ -118,6 +118,17 @@ class ResolvedLags:
             out[j] = signal[t - self.lag[j], self.channel[j]]
         return out
 
+    def to_lags(self) -> Lags:
+        """The :class:`Lags` (per channel, by name) that resolve to these terms."""
+        outputs: dict[str, list[int]] = {n: [] for n in self.output_names}
+        inputs: dict[str, list[int]] = {n: [] for n in self.input_names}
+        for s, c, lag in zip(self.source, self.channel, self.lag, strict=True):
+            if s == 0:
+                outputs[self.output_names[c]].append(int(lag))
+            else:
+                inputs[self.input_names[c]].append(int(lag))
+        return Lags(outputs=outputs, inputs=inputs)
+
     def to_dict(self) -> dict[str, object]:
         """JSON-serialisable description (for model files)."""
         return {

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments, check_finite
 from neckid.metrics import fit_percent, mae, rmse
+from neckid.models.io import ModelFile
 from neckid.regressors import Lags, ResolvedLags
 
 __all__ = ["ModelResult", "NarxModel", "NarxSimulator", "NotFittedError", "check_is_fitted"]
@@ -120,7 +121,7 @@ def as_input_matrix(u: ArrayLike, n_inputs: int, argument: str = "u") -> FloatAr
     return np.ascontiguousarray(array)
 
 
-class NarxModel:
+class NarxModel(ModelFile):
     """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
 
     Subclasses implement ``_fit_regression(x, y)`` (set learned attributes) and
@@ -138,6 +139,23 @@ class NarxModel:
         raise NotImplementedError
 
     # ------------------------------------------------------------------ shared
+    def _narx_meta(self) -> dict[str, Any]:
+        """What every NARX model file stores besides its own arrays."""
+        check_is_fitted(self, "lags_")
+        return {
+            "lags": self.lags_.to_dict(),
+            "ts": self.ts_,
+            "n_samples": self.n_samples_,
+        }
+
+    def _restore_narx_meta(self, meta: Any) -> None:
+        self.lags_ = ResolvedLags.from_dict(meta["lags"])
+        self.lags = self.lags_.to_lags()
+        self.n_inputs_ = len(self.lags_.input_names)
+        self.n_outputs_ = len(self.lags_.output_names)
+        self.ts_ = float(meta["ts"])
+        self.n_samples_ = int(meta["n_samples"])
+
     def _lags(self) -> Lags:
         if self.lags is None:
             raise ValueError(f"{type(self).__name__} needs lags=Lags(...); got None")

@@ -26,7 +26,14 @@ from numpy.typing import NDArray
 
 from neckid._version import __version__
 
-__all__ = ["FORMAT_VERSION", "load_model", "read_model_file", "register_model", "write_model_file"]
+__all__ = [
+    "FORMAT_VERSION",
+    "ModelFile",
+    "load_model",
+    "read_model_file",
+    "register_model",
+    "write_model_file",
+]
 
 FORMAT_VERSION = 1
 _META_KEY = "__neckid__"
@@ -125,3 +132,31 @@ def load_model(path: str | Path) -> Any:
             f"{path} holds a {class_name!r}, which this neckid cannot load; known: {sorted(_REGISTRY)}"
         )
     return _REGISTRY[class_name](arrays, meta)
+
+
+class ModelFile:
+    """Mixin giving a model ``save(path)`` and ``Class.load(path)``.
+
+    The class implements ``_get_state() -> (arrays, meta)`` (raising ``NotFittedError`` when not
+    fitted) and the classmethod ``_from_state(arrays, meta)``, and is decorated with
+    :func:`register_model`.
+    """
+
+    def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:  # pragma: no cover
+        raise NotImplementedError
+
+    def save(self, path: str | Path) -> Path:
+        """Save the fitted model to ``path`` (``.npz`` of arrays + JSON metadata, no pickle).
+
+        Returns the path written (``.npz`` is appended when missing).
+        """
+        arrays, meta = self._get_state()
+        return write_model_file(path, type(self).__name__, arrays, meta)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Any:
+        """Load a model saved by :meth:`save`; raises ``TypeError`` if the file holds another class."""
+        model = load_model(path)
+        if not isinstance(model, cls):
+            raise TypeError(f"{path} holds a {type(model).__name__}, not a {cls.__name__}")
+        return model

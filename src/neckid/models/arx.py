@@ -1,0 +1,119 @@
+"""LinearARX: the batch least-squares ARX baseline over any :class:`~neckid.Lags` regressor."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from neckid.models.base import NarxModel, check_is_fitted
+from neckid.models.io import register_model
+from neckid.regressors import Lags
+
+__all__ = ["LinearARX", "least_squares"]
+
+FloatArray = NDArray[np.float64]
+
+
+def least_squares(
+    x: FloatArray, y: FloatArray, fit_intercept: bool = True, ridge: float = 0.0
+) -> tuple[FloatArray, FloatArray]:
+    """Least-squares ``y ≈ x @ coef + intercept``; returns ``(coef (n_terms, n_outputs), intercept)``.
+
+    Columns are centred (when fitting an intercept) and scaled before solving so that regressors
+    in very different units do not spoil the conditioning. ``ridge`` adds ``ridge * ||coef_scaled||^2``.
+    """
+    if x.shape[0] < x.shape[1] + int(fit_intercept):
+        raise ValueError(
+            f"least squares needs at least as many rows as unknowns: {x.shape[0]} rows for"
+            f" {x.shape[1] + int(fit_intercept)} parameters; use a longer record or fewer lags"
+        )
+    x_mean = x.mean(axis=0) if fit_intercept else np.zeros(x.shape[1])
+    y_mean = y.mean(axis=0) if fit_intercept else np.zeros(y.shape[1])
+    xc = x - x_mean
+    scale = np.sqrt(np.mean(xc**2, axis=0))
+    scale[scale == 0] = 1.0
+    xs = xc / scale
+    yc = y - y_mean
+    if ridge > 0:
+        k = xs.shape[1]
+        xs = np.vstack([xs, np.sqrt(ridge * xs.shape[0]) * np.eye(k)])
+        yc = np.vstack([yc, np.zeros((k, y.shape[1]))])
+    solution, *_ = np.linalg.lstsq(xs, yc, rcond=None)
+    coef = solution / scale[:, None]
+    intercept = y_mean - x_mean @ coef
+    return np.ascontiguousarray(coef), np.asarray(intercept, dtype=np.float64)
+
+
+@register_model
+class LinearARX(NarxModel):
+    """Linear ARX (or any linear-in-the-regressor) model fitted by batch least squares.
+
+    ``y(t) = intercept + coef.T @ w(t)``, with ``w(t)`` the regressor of ``lags``.
+
+    Parameters
+    ----------
+    lags : Lags
+        The regressor, e.g. ``Lags.arx(na=2, nb=2, delay=1)``.
+    fit_intercept : bool, default True
+        Estimate a constant term (an offset of the operating point).
+    ridge : float, default 0.0
+        Tikhonov regularisation on standardised regressors (0 = ordinary least squares).
+
+    Attributes
+    ----------
+    coef_ : ndarray, shape (n_terms, n_outputs)
+    intercept_ : ndarray, shape (n_outputs,)
+    lags_ : ResolvedLags
+    n_inputs_, n_outputs_, n_samples_ : int
+    ts_ : float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=500)
+    >>> y = np.zeros(500)
+    >>> for t in range(1, 500):
+    ...     y[t] = 0.9 * y[t - 1] + 0.5 * u[t - 1]
+    >>> model = LinearARX(Lags.arx(na=1, nb=1), fit_intercept=False).fit(IOData(u, y, ts=0.02))
+    >>> np.round(model.coef_.ravel(), 6)
+    array([0.9, 0.5])
+    """
+
+    def __init__(
+        self, lags: Lags | None = None, fit_intercept: bool = True, ridge: float = 0.0
+    ) -> None:
+        self.lags = lags
+        self.fit_intercept = fit_intercept
+        self.ridge = ridge
+
+    def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
+        ridge = float(self.ridge)
+        if not np.isfinite(ridge) or ridge < 0:
+            raise ValueError(f"ridge must be a finite number >= 0; got {self.ridge!r}")
+        self.coef_, self.intercept_ = least_squares(x, y, bool(self.fit_intercept), ridge)
+
+    def _predict_rows(self, x: FloatArray) -> FloatArray:
+        return np.asarray(x @ self.coef_ + self.intercept_, dtype=np.float64)
+
+    # ------------------------------------------------------------------ files
+    def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+        check_is_fitted(self, "coef_")
+        arrays = {"coef": self.coef_, "intercept": self.intercept_}
+        meta = {
+            "params": {"fit_intercept": bool(self.fit_intercept), "ridge": float(self.ridge)},
+            **self._narx_meta(),
+        }
+        return arrays, meta
+
+    @classmethod
+    def _from_state(cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]) -> LinearARX:
+        model = cls(lags=None, **meta["params"])
+        model._restore_narx_meta(meta)
+        model.coef_ = np.asarray(arrays["coef"], dtype=np.float64)
+        model.intercept_ = np.asarray(arrays["intercept"], dtype=np.float64)
+        return model
