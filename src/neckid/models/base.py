@@ -21,6 +21,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
+from sklearn.base import BaseEstimator
 
 from neckid.data import IOData, as_experiments, check_finite
 from neckid.metrics import fit_percent, mae, rmse
@@ -121,7 +122,7 @@ def as_input_matrix(u: ArrayLike, n_inputs: int, argument: str = "u") -> FloatAr
     return np.ascontiguousarray(array)
 
 
-class NarxModel(ModelFile):
+class NarxModel(BaseEstimator, ModelFile):  # type: ignore[misc]
     """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
 
     Subclasses implement ``_fit_regression(x, y)`` (set learned attributes) and
