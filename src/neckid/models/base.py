@@ -122,7 +122,7 @@ def as_input_matrix(u: ArrayLike, n_inputs: int, argument: str = "u") -> FloatAr
     return np.ascontiguousarray(array)
 
 
-class NarxModel(BaseEstimator, ModelFile):  # type: ignore[misc]
+class NarxModel(BaseEstimator, ModelFile):
     """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
 
     Subclasses implement ``_fit_regression(x, y)`` (set learned attributes) and
