@@ -1,0 +1,1 @@
+"""Reports: figures (matplotlib) and a self-contained HTML page."""
