@@ -1,17 +1,26 @@
-"""The ``neckid`` command line."""
+"""The ``neckid`` command line: demo, identify, validate, simulate, bandwidth, benchmark."""
 
 from __future__ import annotations
 
+import json
 import logging
+from pathlib import Path
+from typing import Any
 
+import numpy as np
 import typer
 from rich.console import Console
+from rich.table import Table
 
 from neckid._version import __version__
 
 app = typer.Typer(
     name="neckid",
-    help="Identify dynamic models of a tendon-driven soft robotic neck from input/output logs.",
+    help=(
+        "Identify dynamic models of a tendon-driven soft robotic neck from input/output logs. "
+        "Angles are in degrees, motor positions in rad and velocities in rad/s at the gearbox "
+        "output, time in seconds, unless a log's own units say otherwise."
+    ),
     no_args_is_help=True,
     add_completion=False,
 )
@@ -41,14 +50,210 @@ def main(
     )
 
 
+def _split(text: str | None) -> list[str] | None:
+    if text is None:
+        return None
+    return [p.strip() for p in text.split(",") if p.strip()]
+
+
+def _fail(message: str) -> None:
+    console.print(f"[red]error:[/red] {message}")
+    raise typer.Exit(code=2)
+
+
+def _model_channels(model: Any) -> tuple[list[str], list[str]]:
+    if hasattr(model, "lags_"):
+        return list(model.lags_.input_names), list(model.lags_.output_names)
+    return list(model.input_names_), list(model.output_names_)
+
+
+def _metrics_table(title: str, rows: list[dict[str, Any]]) -> Table:
+    table = Table(title=title)
+    for key in rows[0]:
+        table.add_column(key, justify="right" if key != "output" else "left")
+    for row in rows:
+        table.add_row(*(f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.values()))
+    return table
+
+
+LOG_HELP = "Log file: CSV with a header row (or .parquet / .mat), or a headerless soft-neck log with --layout softneck."
+INPUTS_HELP = "Comma-separated input channel names (e.g. velocity_command)."
+OUTPUTS_HELP = "Comma-separated output channel names (e.g. inclination, in degrees)."
+TIME_HELP = "Name of the time column (seconds). Ignored when --ts is given."
+TS_HELP = "Sampling period in seconds, for a log without a time column."
+LAYOUT_HELP = "'csv' (header row, named columns) or 'softneck' (the UC3M bench's headerless 3/6/7-column logs)."
+
+
+@app.command()
+def identify(
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
+    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
+    method: str = typer.Option("sm", "--method", help="sm | sm-linear | nn | arx | rls."),
+    lags: str = typer.Option(
+        "1-3/8-10",
+        "--lags",
+        help="OUTPUT_LAGS/INPUT_LAGS in samples, e.g. 1-3/8-10 (the paper's regressor).",
+    ),
+    save: Path = typer.Option(
+        Path("model.npz"), "--save", help="Where to write the model (.npz, no pickle)."
+    ),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    seed: int = typer.Option(0, "--seed", help="Seed of the neural network's initial weights."),
+) -> None:
+    """Identify a model from a log and save it.
+
+    Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --lags 1-3/8-10
+    """
+    from neckid.workflow import make_estimator, parse_lags, read_log
+
+    try:
+        data = read_log(log, _split(inputs), _split(outputs), time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
+        estimator = make_estimator(method, parse_lags(lags), random_state=seed)
+        estimator.fit(data)
+        path = estimator.save(save)
+        result = estimator.simulate(data)
+    except (ValueError, KeyError, TypeError, FileNotFoundError) as exc:
+        _fail(str(exc))
+        return
+    rows = [
+        {"output": name, "fit %": float(f), "RMSE": float(r)}
+        for name, f, r in zip(
+            data.output_names, result.fit_percent(data), result.rmse(data), strict=True
+        )
+    ]
+    console.print(_metrics_table(f"{method} on {log.name} (free-run, training data)", rows))
+    console.print(f"model saved to {path}")
+
+
+def _load_for_model(
+    model_path: Path, log: Path, time: str, ts: float | None, layout: str
+) -> tuple[Any, Any]:
+    from neckid.models.io import load_model
+    from neckid.workflow import read_log
+
+    model = load_model(model_path)
+    ins, outs = _model_channels(model)
+    data = read_log(log, ins, outs, time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
+    return model, data
+
+
+@app.command()
+def validate(
+    model_path: Path = typer.Argument(
+        ..., metavar="MODEL", help="A model file written by identify.", exists=True
+    ),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
+) -> None:
+    """Free-run simulate a saved model on a log and print fit (%), RMSE and MAE per output.
+
+    Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), skipping the initial samples.
+    """
+    try:
+        model, data = _load_for_model(model_path, log, time, ts, layout)
+        result = model.simulate(data)
+        fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
+    except (ValueError, KeyError, TypeError) as exc:
+        _fail(str(exc))
+        return
+    rows = [
+        {"output": n, "fit %": float(f), "RMSE": float(r), "MAE": float(m)}
+        for n, f, r, m in zip(data.output_names, fits, rmses, maes, strict=True)
+    ]
+    console.print(_metrics_table(f"{type(model).__name__} on {log.name} (free-run)", rows))
+    if plot is not None:
+        from neckid.report.plots import plot_simulation
+
+        fig = plot_simulation(data, {type(model).__name__: result})
+        fig.savefig(plot, dpi=120)
+        console.print(f"figure written to {plot}")
+
+
+@app.command()
+def simulate(
+    model_path: Path = typer.Argument(
+        ..., metavar="MODEL", help="A model file written by identify.", exists=True
+    ),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    out: Path = typer.Option(
+        Path("simulation.csv"), "--out", help="CSV to write: time, outputs (and bounds)."
+    ),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+) -> None:
+    """Free-run simulate a saved model with the inputs of a log; write the outputs to CSV.
+
+    The log's first max-lag outputs are the initial conditions; Set Membership models add
+    <output>_lower and <output>_upper columns.
+    """
+    try:
+        model, data = _load_for_model(model_path, log, time, ts, layout)
+        result = model.simulate(data)
+    except (ValueError, KeyError, TypeError) as exc:
+        _fail(str(exc))
+        return
+    result.to_frame().to_csv(out, index=False)
+    console.print(f"{result.n_samples} samples written to {out}")
+
+
+@app.command()
+def bandwidth(
+    log: Path = typer.Argument(
+        ..., help="CSV of a chirp run with a header row.", exists=True, dir_okay=False
+    ),
+    command: str = typer.Option(
+        ..., "--command", help="Column of the chirp command (e.g. reference, degrees)."
+    ),
+    response: str = typer.Option(
+        ..., "--response", help="Column of the measured response (same units)."
+    ),
+    time: str = typer.Option("time", "--time", help="Time column (seconds)."),
+    threshold: float = typer.Option(
+        0.9, "--threshold", help="Amplitude ratio that defines the bandwidth."
+    ),
+    plot: Path = typer.Option(
+        None, "--plot", help="Write a PNG of the envelopes (like the paper's Fig. 3)."
+    ),
+) -> None:
+    """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's."""
+    import pandas as pd
+
+    from neckid.signals import bandwidth_from_chirp
+
+    try:
+        frame = pd.read_csv(log)
+        missing = [c for c in (time, command, response) if c not in frame.columns]
+        if missing:
+            raise KeyError(f"columns {missing} are not in {log.name}; it has {list(frame.columns)}")
+        result = bandwidth_from_chirp(
+            frame[time].to_numpy(float),
+            frame[command].to_numpy(float),
+            frame[response].to_numpy(float),
+            threshold=threshold,
+        )
+    except (ValueError, KeyError) as exc:
+        _fail(str(exc))
+        return
+    console.print(
+        f"bandwidth: {result.omega:.3f} rad/s ({result.omega / (2 * np.pi):.3f} Hz) at ratio {threshold}"
+    )
+    if plot is not None:
+        from neckid.signals import plot_bandwidth
+
+        plot_bandwidth(result).savefig(plot, dpi=120)
+        console.print(f"figure written to {plot}")
+
+
 @app.command()
 def info() -> None:
     """Print the versions of neckid and of the libraries it uses."""
-    import numpy
-    import scipy
-    import sklearn
+    from neckid.report.html import library_versions
 
-    console.print(
-        f"neckid {__version__}, numpy {numpy.__version__}, scipy {scipy.__version__},"
-        f" scikit-learn {sklearn.__version__}"
-    )
+    console.print_json(json.dumps(library_versions()))
