@@ -1,0 +1,514 @@
+"""NeuralNARX: a multilayer-perceptron NARX model, the seed paper's comparison network.
+
+The network maps the standardised regressor ``w(t)`` (see :class:`~neckid.Lags`) to the
+standardised output ``y(t)``. scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` trains
+it on one-step-ahead targets; prediction, free-run simulation and model files use a plain NumPy
+forward pass over the learned weight matrices, so a loaded model needs no scikit-learn object and
+the free-run loop costs a few small matrix-vector products per sample.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from sklearn.neural_network import MLPRegressor
+from sklearn.utils import check_random_state
+
+from neckid.data import IOData, as_experiments
+from neckid.metrics import fit_percent
+from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.io import register_model
+from neckid.regressors import Lags, ResolvedLags
+
+__all__ = ["NeuralNARX", "forward_pass"]
+
+FloatArray = NDArray[np.float64]
+Activation = Literal["tanh", "relu", "logistic", "identity"]
+
+logger = logging.getLogger(__name__)
+
+_ACTIVATIONS = ("tanh", "relu", "logistic", "identity")
+
+#: Fewest samples of a held-out tail beyond its initial conditions for free-run selection.
+_MIN_TAIL_SAMPLES = 20
+
+
+def _activate(z: FloatArray, activation: str) -> FloatArray:
+    """Apply a hidden-layer activation in place and return ``z``."""
+    if activation == "tanh":
+        np.tanh(z, out=z)
+    elif activation == "relu":
+        np.maximum(z, 0.0, out=z)
+    elif activation == "logistic":
+        # 1 / (1 + exp(-z)) written as 0.5 (1 + tanh(z / 2)): no overflow for large |z|.
+        np.multiply(z, 0.5, out=z)
+        np.tanh(z, out=z)
+        np.add(z, 1.0, out=z)
+        np.multiply(z, 0.5, out=z)
+    # "identity": nothing to do
+    return z
+
+
+def forward_pass(
+    x: FloatArray,
+    coefs: Sequence[FloatArray],
+    intercepts: Sequence[FloatArray],
+    activation: str,
+) -> FloatArray:
+    """Forward pass of a multilayer perceptron with an identity output layer.
+
+    ``h_0 = x``, ``h_k = g(h_{k-1} W_k + b_k)`` for the hidden layers, ``out = h_{L-1} W_L + b_L``,
+    with ``g`` the activation, as :class:`~sklearn.neural_network.MLPRegressor` computes it.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_rows, n_features)
+        Inputs of the network (already standardised).
+    coefs, intercepts : sequence of ndarray
+        Weight matrices ``W_k`` of shape ``(n_in, n_out)`` and bias vectors ``b_k`` of shape
+        ``(n_out,)``, one per layer (``MLPRegressor.coefs_`` / ``intercepts_``).
+    activation : {"tanh", "relu", "logistic", "identity"}
+        Hidden-layer activation.
+
+    Returns
+    -------
+    ndarray, shape (n_rows, n_outputs)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> w = [np.array([[1.0, -1.0]]), np.array([[2.0], [3.0]])]
+    >>> b = [np.zeros(2), np.array([0.5])]
+    >>> forward_pass(np.array([[0.0], [1.0]]), w, b, "relu")
+    array([[0.5],
+           [2.5]])
+    """
+    h = np.asarray(x, dtype=np.float64)
+    last = len(coefs) - 1
+    for k, (weights, bias) in enumerate(zip(coefs, intercepts, strict=True)):
+        h = h @ weights
+        h += bias
+        if k < last:
+            h = _activate(h, activation)
+    return h
+
+
+@register_model
+class NeuralNARX(NarxModel):
+    """Neural-network NARX model: ``y(t) = f(w(t))`` with ``f`` a multilayer perceptron.
+
+    The seed paper's comparison network has two hidden layers of 25 neurons. Regressors and outputs
+    are standardised with means and standard deviations learned in ``fit``; the network is trained
+    on one-step-ahead targets by scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` (Adam),
+    with early stopping on a random validation split of the regressor rows.
+
+    Parameters
+    ----------
+    lags : Lags
+        The regressor, e.g. ``Lags(outputs=3, inputs=[8, 9, 10])`` (the seed paper's).
+    hidden_layer_sizes : tuple of int, default (25, 25)
+        Neurons per hidden layer.
+    activation : {"tanh", "relu", "logistic", "identity"}, default "tanh"
+        Hidden-layer activation.
+    alpha : float, default 1e-4
+        L2 penalty on the weights (MLPRegressor's ``alpha``).
+    learning_rate_init : float, default 1e-3
+        Adam step size.
+    max_iter : int, default 500
+        Most training epochs.
+    tol : float, default 1e-5
+        Improvement of the validation score (R², early stopping) or of the loss below which an
+        epoch counts as no progress.
+    n_iter_no_change : int, default 20
+        Epochs without progress before training stops.
+    early_stopping : bool, default True
+        Hold out ``validation_fraction`` of the regressor rows (at random) and keep the weights
+        with the best validation score.
+    validation_fraction : float, default 0.15
+        Share of the rows held out for early stopping, in (0, 1). With ``simulation_tuning > 0``
+        the same share of every experiment's *end* is also held out, contiguous, to rank the
+        candidate networks by free-run fit.
+    simulation_tuning : int, default 0
+        Extra random restarts ranked by free-run simulation fit. 0 trains one network and selects
+        it by one-step error only. ``k > 0`` trains ``k + 1`` networks (seeds drawn from
+        ``random_state``) on all but the last ``validation_fraction`` of every experiment and keeps
+        the network whose free run on those held-out ends fits best (mean NRMSE fit).
+    random_state : int, numpy.random.RandomState or None, default None
+        Seed of the weight initialisation, the mini-batch order and the validation split.
+
+    Attributes
+    ----------
+    coefs_ : list of ndarray
+        Weight matrices, ``coefs_[k]`` of shape ``(n_in_k, n_out_k)``, acting on standardised values.
+    intercepts_ : list of ndarray
+        Bias vectors, one per layer.
+    x_mean_, x_scale_ : ndarray, shape (n_terms,)
+        Regressor standardisation: ``(w - x_mean_) / x_scale_``.
+    y_mean_, y_scale_ : ndarray, shape (n_outputs,)
+        Output standardisation: ``y = y_mean_ + y_scale_ * network output``.
+    n_iter_ : int
+        Epochs run by the chosen network.
+    simulation_fits_ : ndarray, shape (simulation_tuning + 1,)
+        Free-run fit (%) of every candidate on the held-out ends (only when ``simulation_tuning > 0``).
+    network_ : MLPRegressor
+        The trained scikit-learn network (not restored by ``load``; the arrays above are enough).
+    lags_ : ResolvedLags
+    n_inputs_, n_outputs_, n_samples_ : int
+    ts_ : float
+
+    Notes
+    -----
+    Free-run simulation folds the regressor standardisation into the first layer,
+    ``W_1' = W_1 / x_scale``, ``b_1' = b_1 - (x_mean / x_scale) W_1``, computes the input part of the
+    first layer for all samples in one product, and then needs per sample only the output-lag terms
+    times their rows of ``W_1'``, the remaining layers, and the de-standardisation.
+
+    References
+    ----------
+    .. [1] Model Identification of a Soft Robotic Neck, Robotics Lab, Universidad Carlos III de
+       Madrid (humanoid TEO): NARX neural network with two hidden layers of 25 neurons, compared
+       with Set Membership identification.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags
+    >>> from neckid.models.neural import NeuralNARX
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.uniform(-2, 2, size=600)
+    >>> y = np.zeros(600)
+    >>> for t in range(2, 600):
+    ...     y[t] = 0.7 * y[t - 1] + np.tanh(u[t - 2])
+    >>> data = IOData(u, y, ts=0.02)
+    >>> model = NeuralNARX(Lags(outputs=[1], inputs=[2]), hidden_layer_sizes=(10,),
+    ...                    random_state=0).fit(data[:400])
+    >>> bool(model.simulate(data[400:]).fit_percent(data[400:])[0] > 90)
+    True
+    """
+
+    def __init__(
+        self,
+        lags: Lags | None = None,
+        hidden_layer_sizes: tuple[int, ...] = (25, 25),
+        activation: Activation = "tanh",
+        alpha: float = 1e-4,
+        learning_rate_init: float = 1e-3,
+        max_iter: int = 500,
+        tol: float = 1e-5,
+        n_iter_no_change: int = 20,
+        early_stopping: bool = True,
+        validation_fraction: float = 0.15,
+        simulation_tuning: int = 0,
+        random_state: int | np.random.RandomState | None = None,
+    ) -> None:
+        self.lags = lags
+        self.hidden_layer_sizes = hidden_layer_sizes
+        self.activation = activation
+        self.alpha = alpha
+        self.learning_rate_init = learning_rate_init
+        self.max_iter = max_iter
+        self.tol = tol
+        self.n_iter_no_change = n_iter_no_change
+        self.early_stopping = early_stopping
+        self.validation_fraction = validation_fraction
+        self.simulation_tuning = simulation_tuning
+        self.random_state = random_state
+
+    # ------------------------------------------------------------------ validation
+    def _check_params(self) -> tuple[tuple[int, ...], int]:
+        sizes = self.hidden_layer_sizes
+        if isinstance(sizes, int | np.integer) and not isinstance(sizes, bool):
+            sizes = (int(sizes),)
+        try:
+            layers = tuple(sizes)
+        except TypeError:
+            raise TypeError(
+                f"hidden_layer_sizes must be a tuple of ints; got {self.hidden_layer_sizes!r}"
+            ) from None
+        if not layers or any(
+            isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1 for n in layers
+        ):
+            raise ValueError(
+                "hidden_layer_sizes must be a non-empty tuple of ints >= 1;"
+                f" got {self.hidden_layer_sizes!r}"
+            )
+        if self.activation not in _ACTIVATIONS:
+            raise ValueError(
+                f"activation must be one of {list(_ACTIVATIONS)}; got {self.activation!r}"
+            )
+        for name in ("alpha", "learning_rate_init", "tol"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+                raise TypeError(f"{name} must be a number; got {value!r}")
+            lower_ok = value >= 0 if name in ("alpha", "tol") else value > 0
+            if not np.isfinite(value) or not lower_ok:
+                rule = ">= 0" if name in ("alpha", "tol") else "> 0"
+                raise ValueError(f"{name} must be a finite number {rule}; got {value!r}")
+        for name in ("max_iter", "n_iter_no_change"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ValueError(f"{name} must be an int >= 1; got {value!r}")
+        fraction = self.validation_fraction
+        if isinstance(fraction, bool) or not isinstance(fraction, int | float | np.number):
+            raise TypeError(f"validation_fraction must be a number; got {fraction!r}")
+        if not 0.0 < float(fraction) < 1.0:
+            raise ValueError(f"validation_fraction must be in (0, 1); got {fraction!r}")
+        tuning = self.simulation_tuning
+        if isinstance(tuning, bool) or not isinstance(tuning, int | np.integer) or tuning < 0:
+            raise ValueError(
+                f"simulation_tuning must be an int >= 0 (extra restarts); got {tuning!r}"
+            )
+        return tuple(int(n) for n in layers), int(tuning)
+
+    # ------------------------------------------------------------------ fitting
+    def fit(self, data: IOData | Sequence[IOData]) -> NeuralNARX:
+        """Train the network on one experiment or a list of them.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            Training records; regressors never straddle two of them.
+
+        Returns
+        -------
+        NeuralNARX
+            ``self``, fitted.
+
+        Raises
+        ------
+        ValueError
+            If a hyper-parameter is out of range (the message names it and its value), or a record
+            is too short for the lags (or, with ``simulation_tuning``, for a held-out end).
+        TypeError
+            If ``lags`` is not a :class:`~neckid.Lags` or a hyper-parameter has the wrong type.
+        """
+        layers, tuning = self._check_params()
+        experiments = as_experiments(data)
+        if tuning == 0:
+            x, y = self._prepare_fit(experiments)
+            self._train_one(x, y, layers, self.random_state)
+            return self
+        resolved = self._lags().resolve(experiments)
+        heads: list[IOData] = []
+        tails: list[IOData] = []
+        for i, record in enumerate(experiments):
+            n_tail = int(np.ceil(float(self.validation_fraction) * record.n_samples))
+            if n_tail < resolved.max_lag + _MIN_TAIL_SAMPLES:
+                raise ValueError(
+                    f"simulation_tuning needs a held-out end of at least max_lag + {_MIN_TAIL_SAMPLES}"
+                    f" = {resolved.max_lag + _MIN_TAIL_SAMPLES} samples per record, but"
+                    f" validation_fraction={self.validation_fraction!r} of data[{i}]"
+                    f" ({record.n_samples} samples) gives {n_tail}; use a longer record, a larger"
+                    " validation_fraction or simulation_tuning=0"
+                )
+            heads.append(record[: record.n_samples - n_tail])
+            # The tail keeps max_lag samples of overlap as its initial conditions.
+            tails.append(record[record.n_samples - n_tail :])
+        x, y = self._prepare_fit(heads)
+        rng = check_random_state(self.random_state)
+        seeds = rng.randint(0, np.iinfo(np.int32).max, size=tuning + 1)
+        best: dict[str, Any] | None = None
+        scores = np.empty(tuning + 1)
+        for k, seed in enumerate(seeds):
+            self._train_one(x, y, layers, int(seed))
+            scores[k] = self._free_run_score(tails)
+            logger.debug("candidate network %d: free-run fit %.3f %%", k, scores[k])
+            if best is None or scores[k] > scores[:k].max(initial=-np.inf):
+                best = {
+                    "coefs_": self.coefs_,
+                    "intercepts_": self.intercepts_,
+                    "network_": self.network_,
+                    "n_iter_": self.n_iter_,
+                }
+        if best is None:  # pragma: no cover - tuning + 1 >= 1 candidates always run
+            raise RuntimeError("no candidate network was trained")
+        for name, value in best.items():
+            setattr(self, name, value)
+        self.simulation_fits_ = scores
+        return self
+
+    def _train_one(
+        self,
+        x: FloatArray,
+        y: FloatArray,
+        layers: tuple[int, ...],
+        random_state: int | np.random.RandomState | None,
+    ) -> None:
+        n_rows = x.shape[0]
+        min_rows = 10 if self.early_stopping else 2
+        if n_rows < min_rows:
+            raise ValueError(
+                f"NeuralNARX needs at least {min_rows} regressor rows to train; got {n_rows}:"
+                " use a longer record or fewer lags"
+            )
+        self.x_mean_ = x.mean(axis=0)
+        x_scale = x.std(axis=0)
+        x_scale[x_scale == 0] = 1.0
+        self.x_scale_ = x_scale
+        self.y_mean_ = y.mean(axis=0)
+        y_scale = y.std(axis=0)
+        y_scale[y_scale == 0] = 1.0
+        self.y_scale_ = y_scale
+        xs = (x - self.x_mean_) / self.x_scale_
+        ys = (y - self.y_mean_) / self.y_scale_
+        network = MLPRegressor(
+            hidden_layer_sizes=layers,
+            activation=self.activation,
+            solver="adam",
+            alpha=float(self.alpha),
+            learning_rate_init=float(self.learning_rate_init),
+            max_iter=int(self.max_iter),
+            tol=float(self.tol),
+            n_iter_no_change=int(self.n_iter_no_change),
+            early_stopping=bool(self.early_stopping),
+            validation_fraction=float(self.validation_fraction),
+            random_state=random_state,
+        )
+        network.fit(xs, ys[:, 0] if ys.shape[1] == 1 else ys)
+        self.network_ = network
+        self.coefs_ = [np.ascontiguousarray(w, dtype=np.float64) for w in network.coefs_]
+        self.intercepts_ = [np.ascontiguousarray(b, dtype=np.float64) for b in network.intercepts_]
+        self.n_iter_ = int(network.n_iter_)
+
+    def _free_run_score(self, tails: Sequence[IOData]) -> float:
+        """Mean free-run fit (%) over held-out records; -inf when a run diverges."""
+        fits = []
+        for record in tails:
+            with np.errstate(over="ignore", invalid="ignore"):
+                y_sim = self._simulate_array(record.u, record.y)
+            if not np.all(np.isfinite(y_sim)):
+                return -np.inf
+            fits.append(fit_percent(record.y, y_sim, skip=self.lags_.max_lag).mean())
+        return float(np.mean(fits))
+
+    def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
+        layers, _ = self._check_params()
+        self._train_one(x, y, layers, self.random_state)
+
+    # ------------------------------------------------------------------ the map
+    def _predict_rows(self, x: FloatArray) -> FloatArray:
+        xs = (np.asarray(x, dtype=np.float64) - self.x_mean_) / self.x_scale_
+        out = forward_pass(xs, self.coefs_, self.intercepts_, self.activation)
+        return np.asarray(out * self.y_scale_ + self.y_mean_, dtype=np.float64)
+
+    def simulate(self, data: IOData) -> ModelResult:
+        """Free-run simulation: the regressor holds the model's own past outputs.
+
+        The first ``max_lag`` measured outputs of ``data`` are the initial conditions; from then on
+        only ``data.u`` is used. Same result as the generic loop of :class:`NarxModel`, computed with
+        a NumPy forward pass specialised for one row per step.
+
+        Parameters
+        ----------
+        data : IOData
+            Inputs, and initial outputs in its first ``max_lag`` rows.
+
+        Returns
+        -------
+        ModelResult
+            ``kind="simulation"``, ``n_initial=max_lag``.
+        """
+        check_is_fitted(self, "lags_")
+        self.lags_.check_compatible(data)
+        y = self._simulate_array(data.u, data.y)
+        return ModelResult("simulation", data.time, y, data.output_names, self.lags_.max_lag)
+
+    def _simulate_array(self, u: FloatArray, y_measured: FloatArray) -> FloatArray:
+        resolved: ResolvedLags = self.lags_
+        n = u.shape[0]
+        m = resolved.max_lag
+        if n <= m:
+            raise ValueError(
+                f"data has {n} samples, too few for lags up to {m}: it needs at least {m + 1}"
+            )
+        is_out = resolved.source == 0
+        out_lag = resolved.lag[is_out]
+        out_channel = resolved.channel[is_out]
+        in_lag = resolved.lag[~is_out]
+        in_channel = resolved.channel[~is_out]
+        # Fold the standardisation of the regressor into the first layer.
+        w1 = self.coefs_[0] / self.x_scale_[:, None]
+        b1 = self.intercepts_[0] - (self.x_mean_ / self.x_scale_) @ self.coefs_[0]
+        steps = np.arange(m, n)
+        pre = np.broadcast_to(b1, (steps.size, b1.size)).copy()
+        if in_lag.size:
+            x_in = u[steps[:, None] - in_lag[None, :], in_channel[None, :]]
+            pre += x_in @ w1[~is_out]
+        w1_out = np.ascontiguousarray(w1[is_out])
+        rest_w = self.coefs_[1:]
+        rest_b = self.intercepts_[1:]
+        last = len(rest_w) - 1
+        single_layer = not rest_w
+        activation = self.activation
+        y_scale = self.y_scale_
+        y_mean = self.y_mean_
+        y = np.array(y_measured, dtype=np.float64)
+        has_out = bool(out_lag.size)
+        for i, t in enumerate(steps):
+            z = pre[i]
+            if has_out:
+                z = z + y[t - out_lag, out_channel] @ w1_out
+            if single_layer:
+                # A network without hidden layer is linear: identity output.
+                h = z
+            else:
+                h = _activate(z.copy() if not has_out else z, activation)
+                for k, (weights, bias) in enumerate(zip(rest_w, rest_b, strict=True)):
+                    h = h @ weights + bias
+                    if k < last:
+                        h = _activate(h, activation)
+            y[t] = h * y_scale + y_mean
+        return y
+
+    # ------------------------------------------------------------------ files
+    def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+        check_is_fitted(self, "coefs_")
+        arrays: dict[str, NDArray[Any]] = {
+            "x_mean": self.x_mean_,
+            "x_scale": self.x_scale_,
+            "y_mean": self.y_mean_,
+            "y_scale": self.y_scale_,
+        }
+        for k, (weights, bias) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):
+            arrays[f"coef_{k}"] = weights
+            arrays[f"intercept_{k}"] = bias
+        meta = {
+            "params": {
+                "hidden_layer_sizes": [int(n) for n in self.hidden_layer_sizes],
+                "activation": str(self.activation),
+                "alpha": float(self.alpha),
+                "learning_rate_init": float(self.learning_rate_init),
+                "max_iter": int(self.max_iter),
+                "tol": float(self.tol),
+                "n_iter_no_change": int(self.n_iter_no_change),
+                "early_stopping": bool(self.early_stopping),
+                "validation_fraction": float(self.validation_fraction),
+                "simulation_tuning": int(self.simulation_tuning),
+            },
+            "n_layers": len(self.coefs_),
+            "n_iter": int(self.n_iter_),
+            **self._narx_meta(),
+        }
+        return arrays, meta
+
+    @classmethod
+    def _from_state(cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]) -> NeuralNARX:
+        params = dict(meta["params"])
+        params["hidden_layer_sizes"] = tuple(params["hidden_layer_sizes"])
+        model = cls(lags=None, **params)
+        model._restore_narx_meta(meta)
+        n_layers = int(meta["n_layers"])
+        model.coefs_ = [np.asarray(arrays[f"coef_{k}"], dtype=np.float64) for k in range(n_layers)]
+        model.intercepts_ = [
+            np.asarray(arrays[f"intercept_{k}"], dtype=np.float64) for k in range(n_layers)
+        ]
+        model.x_mean_ = np.asarray(arrays["x_mean"], dtype=np.float64)
+        model.x_scale_ = np.asarray(arrays["x_scale"], dtype=np.float64)
+        model.y_mean_ = np.asarray(arrays["y_mean"], dtype=np.float64)
+        model.y_scale_ = np.asarray(arrays["y_scale"], dtype=np.float64)
+        model.n_iter_ = int(meta["n_iter"])
+        return model
