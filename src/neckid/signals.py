@@ -8,8 +8,8 @@ inclination commands are in degrees).
 Contents
 --------
 - :func:`paper_chirp`, :func:`paper_chirp_frequency`: the up-chirp of the paper's eq. 14-15.
-- :func:`chirp`: a general linear chirp.
-- :func:`multisine`: sum of sinusoids at the DFT frequencies of a band, Schroeder or random phases.
+- :func:`chirp`, :func:`chirp_frequency`: a general linear chirp.
+- :func:`multisine`, :func:`multisine_frequencies`: sum of sinusoids at the DFT frequencies of a band, Schroeder or random phases.
 - :func:`prbs`: a maximum-length pseudo-random binary sequence held for a clock period.
 - :func:`staircase`, :func:`step`, :func:`sine`.
 - :func:`bandwidth_from_chirp` and :class:`BandwidthResult`: the frequency at which the response
@@ -34,8 +34,16 @@ from neckid.data import ts_from_time
 __all__ = [
     "BandwidthResult",
     "bandwidth_from_chirp",
+    "chirp",
+    "chirp_frequency",
+    "multisine",
+    "multisine_frequencies",
     "paper_chirp",
     "paper_chirp_frequency",
+    "prbs",
+    "sine",
+    "staircase",
+    "step",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -162,6 +170,498 @@ def paper_chirp_frequency(t: ArrayLike, rate: float = 0.1) -> FloatArray:
     """
     time = _time_vector(t)
     return 2.0 * _finite_float(rate, "rate") * time
+
+
+# ------------------------------------------------------------------------------- simple signals
+def sine(
+    t: ArrayLike, amplitude: float, omega: float, offset: float = 0.0, phase: float = 0.0
+) -> FloatArray:
+    """A sinusoid, ``offset + amplitude * sin(omega * t + phase)``.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,)
+        Time stamps in seconds.
+    amplitude : float
+        Amplitude (unit of the command).
+    omega : float
+        Angular frequency in rad/s (``2 pi`` times the frequency in Hz).
+    offset : float, default 0.0
+        Mean value.
+    phase : float, default 0.0
+        Phase at ``t = 0`` in radians.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+
+    Examples
+    --------
+    >>> sine([0.0, 0.25, 0.5], amplitude=2.0, omega=2 * np.pi, offset=1.0).round(12)
+    array([1., 3., 1.])
+    """
+    time = _time_vector(t)
+    return _finite_float(offset, "offset") + _finite_float(amplitude, "amplitude") * np.sin(
+        _finite_float(omega, "omega") * time + _finite_float(phase, "phase")
+    )
+
+
+def step(
+    t: ArrayLike, amplitude: float, step_time: float = 0.0, initial: float = 0.0
+) -> FloatArray:
+    """A step: ``initial`` before ``step_time``, ``initial + amplitude`` from ``step_time`` on.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,)
+        Time stamps in seconds.
+    amplitude : float
+        Size of the step (unit of the command).
+    step_time : float, default 0.0
+        When the step happens, in seconds (the value at ``t == step_time`` is the new one).
+    initial : float, default 0.0
+        Value before the step.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+
+    Examples
+    --------
+    >>> step([0.0, 0.5, 1.0, 1.5], amplitude=10.0, step_time=1.0, initial=2.0)
+    array([ 2.,  2., 12., 12.])
+    """
+    time = _time_vector(t)
+    initial_value = _finite_float(initial, "initial")
+    amplitude_value = _finite_float(amplitude, "amplitude")
+    return np.where(
+        time >= _finite_float(step_time, "step_time"),
+        initial_value + amplitude_value,
+        initial_value,
+    ).astype(np.float64)
+
+
+def staircase(
+    t: ArrayLike,
+    step: float = 5.0,
+    step_duration: float = 3.0,
+    start_time: float = 0.0,
+    initial: float = 0.0,
+    maximum: float | None = None,
+) -> FloatArray:
+    """A staircase: the command climbs by ``step`` every ``step_duration`` seconds.
+
+    The paper's inclination staircase is 5° every 3 s (the defaults).
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,)
+        Time stamps in seconds.
+    step : float, default 5.0
+        Size of each step (degrees in the paper); negative for a descending staircase.
+    step_duration : float, default 3.0
+        How long each level is held, in seconds, > 0.
+    start_time : float, default 0.0
+        Time of the first step; before it the value is ``initial``.
+    initial : float, default 0.0
+        Value before the first step.
+    maximum : float, optional
+        Where the staircase stops: the value never goes past ``maximum`` in the direction of the
+        steps (for a negative ``step`` it is the lowest value). It must lie on that side of
+        ``initial``.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+        ``initial + step * (floor((t - start_time) / step_duration) + 1)`` for
+        ``t >= start_time``, then clipped at ``maximum``.
+
+    Examples
+    --------
+    >>> staircase(np.arange(0.0, 15.0, 1.5), maximum=10.0)
+    array([ 5.,  5., 10., 10., 10., 10., 10., 10., 10., 10.])
+    >>> staircase([0.0, 1.0, 2.0, 3.0], step=-1.0, step_duration=1.0, start_time=1.0)
+    array([ 0., -1., -2., -3.])
+    """
+    time = _time_vector(t)
+    step_value = _finite_float(step, "step")
+    duration = _positive_float(step_duration, "step_duration")
+    start = _finite_float(start_time, "start_time")
+    initial_value = _finite_float(initial, "initial")
+    # A relative tolerance keeps t = k * step_duration computed in floating point on level k.
+    count = np.floor((time - start) / duration + 1e-9) + 1.0
+    values = initial_value + step_value * np.where(time >= start - 1e-9 * duration, count, 0.0)
+    if maximum is not None:
+        limit = _finite_float(maximum, "maximum")
+        if (step_value >= 0 and limit < initial_value) or (
+            step_value < 0 and limit > initial_value
+        ):
+            raise ValueError(
+                f"maximum must lie beyond initial={initial_value!r} in the direction of"
+                f" step={step_value!r}; got {maximum!r}"
+            )
+        values = np.minimum(values, limit) if step_value >= 0 else np.maximum(values, limit)
+    return np.asarray(values, dtype=np.float64)
+
+
+# ---------------------------------------------------------------------------------------- chirp
+def _chirp_duration(time: FloatArray, duration: float | None) -> float:
+    if duration is None:
+        end = float(time.max())
+        if end <= 0:
+            raise ValueError(
+                "duration is None, so it is taken as the last time stamp, which must be > 0;"
+                f" got {end!r}; give duration explicitly"
+            )
+        return end
+    return _positive_float(duration, "duration")
+
+
+def chirp_frequency(
+    t: ArrayLike, omega_start: float, omega_end: float, duration: float | None = None
+) -> FloatArray:
+    """Instantaneous angular frequency of :func:`chirp`, in rad/s.
+
+    ``omega_start + (omega_end - omega_start) * t / duration``, with ``t`` measured from 0.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,)
+        Time stamps in seconds.
+    omega_start, omega_end : float
+        Angular frequency at ``t = 0`` and at ``t = duration``, in rad/s, >= 0.
+    duration : float, optional
+        Seconds to sweep from ``omega_start`` to ``omega_end``; default the largest time stamp.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+
+    Examples
+    --------
+    >>> chirp_frequency([0.0, 5.0, 10.0], omega_start=1.0, omega_end=3.0)
+    array([1., 2., 3.])
+    """
+    time = _time_vector(t)
+    start = _finite_float(omega_start, "omega_start")
+    end = _finite_float(omega_end, "omega_end")
+    for argument, value in (("omega_start", start), ("omega_end", end)):
+        if value < 0:
+            raise ValueError(f"{argument} must be >= 0 rad/s; got {value!r}")
+    length = _chirp_duration(time, duration)
+    return start + (end - start) * time / length
+
+
+def chirp(
+    t: ArrayLike,
+    omega_start: float,
+    omega_end: float,
+    duration: float | None = None,
+    amplitude: float = 1.0,
+    offset: float = 0.0,
+) -> FloatArray:
+    r"""A linear chirp: ``offset + amplitude * sin(phi(t))``, sweeping ``omega_start .. omega_end``.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,)
+        Time stamps in seconds; the sweep starts at ``t = 0``.
+    omega_start, omega_end : float
+        Angular frequency at ``t = 0`` and at ``t = duration``, in rad/s, >= 0 (``omega_end`` may
+        be the smaller one: a down-chirp). The sweep continues linearly outside ``[0, duration]``.
+    duration : float, optional
+        Seconds to sweep from ``omega_start`` to ``omega_end``, > 0; default the largest time
+        stamp.
+    amplitude : float, default 1.0
+        Amplitude of the oscillation.
+    offset : float, default 0.0
+        Mean value.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+
+    Notes
+    -----
+    :math:`\phi(t) = \omega_0 t + \frac{\omega_1 - \omega_0}{2 T} t^2`, whose derivative is the
+    instantaneous frequency :math:`\omega_0 + (\omega_1 - \omega_0) t / T`
+    (:func:`chirp_frequency`). The paper's chirp (:func:`paper_chirp`) is the case
+    :math:`\omega_0 = 0`, :math:`(\omega_1 - \omega_0) / T = 0.2` rad/s².
+
+    Examples
+    --------
+    >>> t = np.linspace(0.0, 60.0, 601)
+    >>> np.allclose(chirp(t, 0.0, 12.0, amplitude=4.0, offset=5.0), paper_chirp(t))
+    True
+    """
+    time = _time_vector(t)
+    start = _finite_float(omega_start, "omega_start")
+    end = _finite_float(omega_end, "omega_end")
+    for argument, value in (("omega_start", start), ("omega_end", end)):
+        if value < 0:
+            raise ValueError(f"{argument} must be >= 0 rad/s; got {value!r}")
+    length = _chirp_duration(time, duration)
+    phase = start * time + 0.5 * (end - start) / length * time**2
+    return _finite_float(offset, "offset") + _finite_float(amplitude, "amplitude") * np.sin(phase)
+
+
+# ------------------------------------------------------------------------------------ multisine
+def multisine_frequencies(
+    period: int, ts: float, band: tuple[float, float]
+) -> tuple[NDArray[np.int64], FloatArray]:
+    """DFT lines of a period of ``period`` samples that fall inside ``band``.
+
+    Parameters
+    ----------
+    period : int
+        Samples per period, >= 2.
+    ts : float
+        Sampling period in seconds.
+    band : (float, float)
+        ``(omega_low, omega_high)`` in rad/s, ``0 <= omega_low < omega_high <= pi / ts``.
+
+    Returns
+    -------
+    lines : ndarray of int
+        DFT indices ``k`` (``1 <= k < period / 2``) with ``omega_low <= 2 pi k / (period ts) <=
+        omega_high``.
+    omegas : ndarray of float
+        Their angular frequencies in rad/s.
+
+    Examples
+    --------
+    >>> lines, omegas = multisine_frequencies(100, 0.01, (10.0, 30.0))
+    >>> lines
+    array([2, 3, 4])
+    >>> omegas.round(3)
+    array([12.566, 18.85 , 25.133])
+    """
+    n = _positive_int(period, "period", minimum=2)
+    sample_time = _positive_float(ts, "ts")
+    low, high = _band(band, sample_time)
+    resolution = 2.0 * math.pi / (n * sample_time)
+    k = np.arange(1, (n + 1) // 2, dtype=np.int64)  # excludes DC and Nyquist
+    omegas = np.asarray(resolution * k, dtype=np.float64)
+    inside = (omegas >= low * (1 - 1e-12)) & (omegas <= high * (1 + 1e-12))
+    if not inside.any():
+        raise ValueError(
+            f"band=({low!r}, {high!r}) rad/s holds no DFT line of a {n}-sample period: lines are"
+            f" {resolution:.4g} rad/s apart, up to {omegas[-1] if omegas.size else 0.0:.4g} rad/s;"
+            " widen the band or lengthen the period"
+        )
+    return k[inside], omegas[inside]
+
+
+def _band(band: tuple[float, float], ts: float) -> tuple[float, float]:
+    try:
+        low_raw, high_raw = band
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            f"band must be a pair (omega_low, omega_high) in rad/s; got {band!r}"
+        ) from exc
+    low = _finite_float(low_raw, "band[0]")
+    high = _finite_float(high_raw, "band[1]")
+    nyquist = math.pi / ts
+    if not 0.0 <= low < high:
+        raise ValueError(f"band must satisfy 0 <= omega_low < omega_high (rad/s); got {band!r}")
+    if high > nyquist * (1 + 1e-12):
+        raise ValueError(
+            f"band[1]={high!r} rad/s is above the Nyquist frequency pi/ts={nyquist:.6g} rad/s"
+        )
+    return low, high
+
+
+def multisine(
+    n_samples: int,
+    ts: float,
+    band: tuple[float, float],
+    amplitude: float = 1.0,
+    n_periods: int = 1,
+    period: int | None = None,
+    seed: int | np.random.Generator | None = None,
+    phases: Literal["schroeder", "random"] = "schroeder",
+) -> FloatArray:
+    r"""A periodic multisine: equal-amplitude cosines at every DFT line of a band.
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the signal in samples.
+    ts : float
+        Sampling period in seconds.
+    band : (float, float)
+        ``(omega_low, omega_high)``, the excited band in rad/s (both edges included),
+        ``0 <= omega_low < omega_high <= pi / ts``. DC and the Nyquist line are never excited.
+    amplitude : float, default 1.0
+        Peak value of the signal (``max |x| == amplitude``), > 0.
+    n_periods : int, default 1
+        Number of periods in ``n_samples``; when ``period`` is None, ``n_samples`` must be a
+        multiple of it and ``period = n_samples // n_periods``.
+    period : int, optional
+        Samples per period. The signal is that period repeated and cut at ``n_samples`` (any
+        number of periods, not necessarily whole). If given with ``n_periods`` other than 1, they
+        must satisfy ``n_periods * period == n_samples``.
+    seed : int or numpy.random.Generator, optional
+        Source of the random phases (``phases="random"`` only), passed to
+        :func:`numpy.random.default_rng`.
+    phases : {"schroeder", "random"}, default "schroeder"
+        ``"schroeder"``: :math:`\varphi_k = -\pi k (k - 1) / F`, a low crest factor for a flat
+        amplitude spectrum [1]_. ``"random"``: independent, uniform on :math:`[0, 2\pi)` [2]_.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+        :math:`x(t) = c \sum_{k=1}^{F} \cos(\omega_k t + \varphi_k)`, with :math:`\omega_k` the
+        ``F`` DFT frequencies :math:`2\pi l / (P\,t_s)` of the period ``P`` inside ``band`` (see
+        :func:`multisine_frequencies`), and ``c`` scaling the peak to ``amplitude``.
+
+    Raises
+    ------
+    ValueError
+        If no DFT line lies in the band, or the lengths do not agree.
+
+    Notes
+    -----
+    Over a whole number of periods, the DFT of the signal is zero outside the band: there is no
+    leakage, which is why the frequencies are DFT lines [2]_.
+
+    References
+    ----------
+    .. [1] M. R. Schroeder, "Synthesis of low-peak-factor signals and binary sequences with low
+       autocorrelation", IEEE Trans. Inf. Theory 16(1), 85-89, 1970.
+    .. [2] R. Pintelon and J. Schoukens, *System Identification: A Frequency Domain Approach*,
+       2nd ed., Wiley-IEEE Press, 2012, ch. 2.
+
+    Examples
+    --------
+    >>> x = multisine(400, 0.01, band=(5.0, 40.0), amplitude=2.0, n_periods=2)
+    >>> x.shape, float(np.abs(x).max())
+    ((400,), 2.0)
+    >>> np.allclose(x[:200], x[200:])
+    True
+    """
+    n = _positive_int(n_samples, "n_samples")
+    sample_time = _positive_float(ts, "ts")
+    repeats = _positive_int(n_periods, "n_periods")
+    peak = _positive_float(amplitude, "amplitude")
+    if period is None:
+        if n % repeats:
+            raise ValueError(
+                f"n_samples={n} is not a multiple of n_periods={repeats}; give period (samples per"
+                " period) to cut the signal inside a period"
+            )
+        length = n // repeats
+    else:
+        length = _positive_int(period, "period", minimum=2)
+        if repeats != 1 and repeats * length != n:
+            raise ValueError(
+                f"n_periods={repeats} periods of period={length} samples make {repeats * length}"
+                f" samples, not n_samples={n}"
+            )
+    lines, _ = multisine_frequencies(length, sample_time, band)
+    if phases == "schroeder":
+        count = np.arange(1, lines.size + 1)
+        phase = -math.pi * count * (count - 1) / lines.size
+    elif phases == "random":
+        phase = np.random.default_rng(seed).uniform(0.0, 2.0 * math.pi, size=lines.size)
+    else:
+        raise ValueError(f"phases must be 'schroeder' or 'random'; got {phases!r}")
+    spectrum = np.zeros(length // 2 + 1, dtype=np.complex128)
+    spectrum[lines] = np.exp(1j * phase)
+    one_period = np.fft.irfft(spectrum, n=length)
+    one_period *= peak / np.abs(one_period).max()
+    return np.ascontiguousarray(np.resize(one_period, n), dtype=np.float64)
+
+
+# ----------------------------------------------------------------------------------------- PRBS
+def prbs(
+    n_samples: int,
+    ts: float,
+    clock_period: float,
+    levels: tuple[float, float] = (-1.0, 1.0),
+    order: int | None = None,
+    seed: int | np.random.Generator | None = None,
+) -> FloatArray:
+    """A pseudo-random binary sequence: a maximum-length sequence held for ``clock_period``.
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the signal in samples.
+    ts : float
+        Sampling period in seconds.
+    clock_period : float
+        How long each bit is held, in seconds; a whole multiple of ``ts``. A longer clock period
+        moves the power to lower frequencies (the spectrum's first zero is at
+        ``2 pi / clock_period`` rad/s).
+    levels : (float, float), default (-1.0, 1.0)
+        The values for bit 0 and bit 1.
+    order : int, optional
+        Number of shift-register bits, 2..32: the sequence repeats every ``2**order - 1`` bits.
+        Default: the smallest order whose period covers the whole record (no repetition).
+    seed : int or numpy.random.Generator, optional
+        Picks a random non-zero initial register state (a circular shift of the sequence)
+        through :func:`numpy.random.default_rng`. ``None`` starts from the all-ones state.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+        Each value is ``levels[0]`` or ``levels[1]``.
+
+    Notes
+    -----
+    Over one period of ``N = 2**order - 1`` bits an m-sequence holds ``(N + 1) / 2`` ones, and
+    its periodic autocorrelation with levels ``-1, 1`` is two-valued: ``N`` at lag 0 and ``-1`` at
+    every other lag, so it is nearly white up to the clock frequency [1]_. Bits come from
+    :func:`scipy.signal.max_len_seq`.
+
+    References
+    ----------
+    .. [1] L. Ljung, *System Identification: Theory for the User*, 2nd ed., Prentice Hall, 1999,
+       sec. 13.3.
+
+    Examples
+    --------
+    >>> prbs(10, ts=0.5, clock_period=1.0, levels=(0.0, 5.0), order=3)
+    array([5., 5., 5., 5., 5., 5., 0., 0., 5., 5.])
+    """
+    n = _positive_int(n_samples, "n_samples")
+    sample_time = _positive_float(ts, "ts")
+    clock = _positive_float(clock_period, "clock_period")
+    hold = round(clock / sample_time)
+    if hold < 1 or abs(hold * sample_time - clock) > 1e-6 * clock:
+        raise ValueError(
+            f"clock_period must be a whole multiple of ts={sample_time!r} s; got {clock_period!r} s"
+        )
+    try:
+        low_raw, high_raw = levels
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"levels must be a pair (low, high); got {levels!r}") from exc
+    low = _finite_float(low_raw, "levels[0]")
+    high = _finite_float(high_raw, "levels[1]")
+    if low == high:
+        raise ValueError(f"levels must be two different values; got {levels!r}")
+    n_bits = -(-n // hold)
+    if order is None:
+        bits = max(2, n_bits.bit_length())  # smallest b with 2**b - 1 >= n_bits
+        if bits > 32:
+            raise ValueError(
+                f"n_samples={n} with clock_period={clock!r} s needs {n_bits} bits, more than the"
+                " longest m-sequence (order 32); give order to repeat a shorter one"
+            )
+    else:
+        bits = _positive_int(order, "order", minimum=2)
+        if bits > 32:
+            raise ValueError(f"order must be in 2..32; got {order!r}")
+    state = None
+    if seed is not None:
+        rng = np.random.default_rng(seed)
+        state = rng.integers(0, 2, size=bits)
+        while not state.any():
+            state = rng.integers(0, 2, size=bits)
+    sequence, _ = sps.max_len_seq(bits, state=state, length=n_bits)
+    values = np.where(sequence.astype(bool), high, low)
+    return np.ascontiguousarray(np.repeat(values, hold)[:n], dtype=np.float64)
 
 
 # ------------------------------------------------------------------------------------ bandwidth
