@@ -1,0 +1,636 @@
+"""Choosing the regressor: validation search over lag sets, and the Lipschitz order index.
+
+Two complementary tools:
+
+- :func:`select_lags` trains a copy of any estimator (NeuralNARX, SetMembership, LinearARX, ...)
+  on every candidate lag set and ranks them by one-step or free-run fit on a validation record, as
+  the seed paper chose its network's regressor.
+- :func:`lipschitz_quotients` computes He & Asada's order index from the data alone, no model
+  needed; :func:`plot_lipschitz_index` draws it against the order.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+import pandas as pd
+from joblib import Parallel, delayed
+from numpy.typing import NDArray
+from sklearn.base import clone
+
+from neckid.data import IOData, as_experiments
+from neckid.regressors import Lags
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "LagSelection",
+    "lag_grid",
+    "lipschitz_quotients",
+    "plot_lipschitz_index",
+    "select_lags",
+]
+
+FloatArray = NDArray[np.float64]
+Criterion = Literal["prediction", "simulation"]
+
+
+# ---------------------------------------------------------------------- candidates
+def _orders(values: int | Iterable[int], argument: str, minimum: int) -> list[int]:
+    if isinstance(values, bool):
+        raise TypeError(f"{argument} must be an int or a list of ints; got {values!r}")
+    items = [values] if isinstance(values, int | np.integer) else list(values)
+    if not items:
+        raise ValueError(f"{argument} is empty; give at least one value")
+    out = []
+    for v in items:
+        if isinstance(v, bool) or not isinstance(v, int | np.integer):
+            raise TypeError(f"{argument} must hold ints; got {v!r} in {items!r}")
+        if v < minimum:
+            raise ValueError(f"{argument} must hold values >= {minimum}; got {v} in {items!r}")
+        out.append(int(v))
+    return sorted(set(out))
+
+
+def lag_grid(
+    output_orders: int | Iterable[int],
+    input_orders: int | Iterable[int],
+    input_delays: int | Iterable[int] = 1,
+) -> list[Lags]:
+    """All ARX-type lag sets ``Lags.arx(na, nb, delay)`` over a grid of orders and delays.
+
+    Parameters
+    ----------
+    output_orders : int or iterable of int
+        Output orders ``na`` (lags ``1..na`` of every output), each >= 0.
+    input_orders : int or iterable of int
+        Input orders ``nb`` (lags ``delay..delay+nb-1`` of every input), each >= 0.
+    input_delays : int or iterable of int, default 1
+        Input delays (dead time, in samples), each >= 0.
+
+    Returns
+    -------
+    list of Lags
+        One per combination, in the order output order, input order, delay; combinations with no
+        term (``na = nb = 0``) are left out, and with ``nb = 0`` the delay is irrelevant so only
+        one such candidate per ``na`` is kept.
+
+    Raises
+    ------
+    ValueError
+        If an order or delay is negative or a list is empty.
+
+    Examples
+    --------
+    >>> lag_grid([1, 2], [1], input_delays=[0, 1])
+    [Lags(outputs=[1], inputs=[0]), Lags(outputs=[1], inputs=[1]), Lags(outputs=[1, 2], inputs=[0]), Lags(outputs=[1, 2], inputs=[1])]
+    """
+    nas = _orders(output_orders, "output_orders", 0)
+    nbs = _orders(input_orders, "input_orders", 0)
+    delays = _orders(input_delays, "input_delays", 0)
+    grid: list[Lags] = []
+    for na, nb in itertools.product(nas, nbs):
+        if na == 0 and nb == 0:
+            continue
+        for delay in delays[:1] if nb == 0 else delays:
+            grid.append(Lags.arx(na=na, nb=nb, delay=delay))
+    if not grid:
+        raise ValueError(
+            "lag_grid has no candidate: output_orders and input_orders are both only 0"
+        )
+    return grid
+
+
+# ---------------------------------------------------------------------- select_lags
+@dataclass(frozen=True)
+class LagSelection:
+    """The result of :func:`select_lags`.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per candidate, best first. Columns: ``candidate`` (position in the list given),
+        ``lags`` (repr), ``n_terms``, ``max_lag``, ``fit_prediction`` and ``fit_simulation`` (mean
+        NRMSE fit in % over outputs and validation records; ``-inf`` for a failed candidate),
+        ``fit_prediction[<output>]`` / ``fit_simulation[<output>]`` per output, ``fit_time_s``
+        (seconds to train) and ``error`` (empty, or the error of a failed candidate).
+    candidates : tuple of Lags
+        The candidates, in the order given (``table.candidate`` indexes into it).
+    criterion : {"prediction", "simulation"}
+        The column the table is sorted by (``fit_<criterion>``).
+    """
+
+    table: pd.DataFrame
+    candidates: tuple[Lags, ...]
+    criterion: Criterion
+    column: str = field(init=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "column", f"fit_{self.criterion}")
+
+    @property
+    def best_lags(self) -> Lags:
+        """The lag set with the best validation fit (the first row of :attr:`table`)."""
+        return self.best()
+
+    def best(self, tolerance: float = 0.0) -> Lags:
+        """The most parsimonious lag set whose fit is within ``tolerance`` points of the best.
+
+        Parameters
+        ----------
+        tolerance : float, default 0.0
+            Percentage points of fit given up for fewer regressor terms. 0 returns the top row.
+
+        Returns
+        -------
+        Lags
+
+        Raises
+        ------
+        ValueError
+            If ``tolerance`` is negative, or every candidate failed.
+        """
+        if not math.isfinite(tolerance) or tolerance < 0:
+            raise ValueError(f"tolerance must be a finite number >= 0; got {tolerance!r}")
+        fits = self.table[self.column].to_numpy(dtype=np.float64)
+        if not np.isfinite(fits).any():
+            raise ValueError(
+                "every candidate failed; see the 'error' column of the table:"
+                f" {self.table['error'].iloc[0]}"
+            )
+        top = float(np.nanmax(fits))
+        close = self.table[fits >= top - tolerance]
+        if tolerance == 0.0:
+            row = close.iloc[0]
+        else:
+            row = close.sort_values(
+                ["n_terms", self.column], ascending=[True, False], kind="mergesort"
+            ).iloc[0]
+        return self.candidates[int(row["candidate"])]
+
+
+def _score_candidate(
+    estimator: Any,
+    lags: Lags,
+    train: list[IOData],
+    validation: list[IOData],
+) -> dict[str, Any]:
+    """Fit one clone and score it; never raises (a failure becomes the ``error`` entry)."""
+    output_names = validation[0].output_names
+    row: dict[str, Any] = {"lags": repr(lags), "n_terms": np.nan, "max_lag": lags.max_lag}
+    try:
+        row["n_terms"] = lags.resolve(train).n_terms
+    except (KeyError, ValueError) as exc:
+        row["error"] = f"{type(exc).__name__}: {exc}"
+        return row
+    start = time.perf_counter()
+    try:
+        model = clone(estimator).set_params(lags=lags)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model.fit(train if len(train) > 1 else train[0])
+        row["fit_time_s"] = time.perf_counter() - start
+        with np.errstate(all="ignore"):
+            for kind in ("prediction", "simulation"):
+                fits = []
+                for record in validation:
+                    result = (
+                        model.predict(record) if kind == "prediction" else model.simulate(record)
+                    )
+                    fits.append(result.fit_percent(record))
+                per_output = np.mean(fits, axis=0)
+                for name, value in zip(output_names, per_output, strict=True):
+                    row[f"fit_{kind}[{name}]"] = float(value)
+                row[f"fit_{kind}"] = float(np.mean(per_output))
+    except Exception as exc:  # a failing candidate must not stop the search
+        row.setdefault("fit_time_s", time.perf_counter() - start)
+        row["error"] = f"{type(exc).__name__}: {exc}"
+    return row
+
+
+def select_lags(
+    train: IOData | Sequence[IOData],
+    validation: IOData | Sequence[IOData],
+    candidates: Sequence[Lags],
+    estimator: Any,
+    criterion: Criterion = "simulation",
+    n_jobs: int | None = None,
+    progress: bool = True,
+) -> LagSelection:
+    """Train a copy of ``estimator`` on every candidate lag set and rank them on validation data.
+
+    For each candidate, ``sklearn.base.clone(estimator).set_params(lags=candidate)`` is fitted on
+    ``train``; its one-step-ahead prediction and free-run simulation on ``validation`` are scored by
+    the NRMSE fit ``100 (1 - ||y - ŷ|| / ||y - mean(y)||)`` per output (skipping the candidate's
+    ``max_lag`` initial samples), averaged over validation records and then over outputs.
+
+    Parameters
+    ----------
+    train : IOData or list of IOData
+        Training records.
+    validation : IOData or list of IOData
+        Validation records, with the channels of ``train``.
+    candidates : sequence of Lags
+        Lag sets to try, e.g. from :func:`lag_grid`.
+    estimator : estimator with a ``lags`` parameter
+        A NARX model (``NeuralNARX``, ``SetMembership``, ``LinearARX``, ...); not changed.
+    criterion : {"simulation", "prediction"}, default "simulation"
+        Rank by free-run (``"simulation"``) or one-step (``"prediction"``) fit; ties are broken by
+        fewer regressor terms.
+    n_jobs : int or None, default None
+        Parallel workers (joblib); ``None`` means 1 unless inside a ``joblib.parallel_config``
+        context, -1 means all cores.
+    progress : bool, default True
+        Show a rich progress bar (on standard error).
+
+    Returns
+    -------
+    LagSelection
+        ``result.table`` (DataFrame, best first), ``result.best_lags``, ``result.best(tolerance)``.
+
+    Raises
+    ------
+    TypeError
+        If ``estimator`` has no ``lags`` parameter or a candidate is not a :class:`~neckid.Lags`.
+    ValueError
+        If ``criterion`` is unknown, ``candidates`` is empty, or the records do not share channels.
+
+    Notes
+    -----
+    A candidate that fails (too few samples for its lags, an unstable free run that overflows, a
+    training error) gets a row with its error text and fit ``-inf`` instead of stopping the search.
+    Warnings raised while fitting candidates (e.g. convergence warnings) are silenced.
+
+    References
+    ----------
+    .. [1] Model Identification of a Soft Robotic Neck, Robotics Lab, Universidad Carlos III de
+       Madrid: the network's regressor was chosen by training networks on candidate lag sets and
+       keeping the best validation fit.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=400)
+    >>> y = np.zeros(400)
+    >>> for t in range(2, 400):
+    ...     y[t] = 0.8 * y[t - 1] + u[t - 2]
+    >>> data = IOData(u, y, ts=0.02)
+    >>> result = select_lags(data[:300], data[300:], lag_grid([1, 2], [1, 2], [1, 2]),
+    ...                      LinearARX(), progress=False)
+    >>> result.best(tolerance=0.01)
+    Lags(outputs=[1], inputs=[2])
+    >>> list(result.table.columns[:4])
+    ['candidate', 'lags', 'n_terms', 'max_lag']
+    """
+    if criterion not in ("prediction", "simulation"):
+        raise ValueError(f"criterion must be 'simulation' or 'prediction'; got {criterion!r}")
+    try:
+        params = estimator.get_params(deep=False)
+    except AttributeError:
+        raise TypeError(
+            f"estimator must be a neckid model with a 'lags' parameter; got {type(estimator).__name__}"
+        ) from None
+    if "lags" not in params:
+        raise TypeError(
+            f"estimator must have a 'lags' parameter; {type(estimator).__name__} has {sorted(params)}"
+        )
+    if isinstance(candidates, Lags):
+        candidates = [candidates]
+    lag_list = list(candidates)
+    if not lag_list:
+        raise ValueError("candidates is empty; give at least one Lags (see lag_grid)")
+    for i, lags in enumerate(lag_list):
+        if not isinstance(lags, Lags):
+            raise TypeError(f"candidates[{i}] must be a neckid.Lags; got {type(lags).__name__}")
+    train_list = as_experiments(train, "train")
+    validation_list = as_experiments(validation, "validation")
+    as_experiments([train_list[0], validation_list[0]], "[train[0], validation[0]]")
+
+    jobs = (
+        delayed(_score_candidate)(estimator, lags, train_list, validation_list) for lags in lag_list
+    )
+    runner = Parallel(n_jobs=n_jobs, return_as="generator")
+    rows: list[dict[str, Any]] = []
+    if progress:
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        with Progress(
+            TextColumn("select_lags"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        ) as bar:
+            task = bar.add_task("candidates", total=len(lag_list))
+            for row in runner(jobs):
+                rows.append(row)
+                bar.advance(task)
+    else:
+        rows = list(runner(jobs))
+
+    output_names = validation_list[0].output_names
+    columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]
+    columns += [f"fit_{k}[{n}]" for k in ("prediction", "simulation") for n in output_names]
+    columns += ["fit_time_s", "error"]
+    for i, row in enumerate(rows):
+        row["candidate"] = i
+        row.setdefault("error", "")
+        for name in columns:
+            if name.startswith("fit_") and name != "fit_time_s":
+                row.setdefault(name, -np.inf)
+        row.setdefault("fit_time_s", np.nan)
+    table = pd.DataFrame(rows, columns=columns)
+    table["n_terms"] = table["n_terms"].astype("Int64")
+    column = f"fit_{criterion}"
+    table = table.sort_values(
+        [column, "n_terms"], ascending=[False, True], kind="mergesort", na_position="last"
+    ).reset_index(drop=True)
+    table.attrs["criterion"] = criterion
+    return LagSelection(table=table, candidates=tuple(lag_list), criterion=criterion)
+
+
+# ---------------------------------------------------------------------- Lipschitz index
+def _top_quotients(
+    x: FloatArray, target: FloatArray, p: int, block_size: int
+) -> tuple[FloatArray, int]:
+    """The ``p`` largest ``|y_i - y_j| / ||x_i - x_j||`` over pairs ``i < j`` with ``x_i != x_j``.
+
+    Returns the quotients (descending) and the number of pairs skipped because ``x_i == x_j``.
+    """
+    n = x.shape[0]
+    best = np.empty(0)
+    skipped = 0
+    for start in range(0, n - 1, block_size):
+        stop = min(start + block_size, n - 1)
+        # Pairs (i, j) with i in [start, stop) and j > i: take j in [start + 1, n) and mask.
+        dx = x[start:stop, None, :] - x[None, start + 1 :, :]
+        dist = np.sqrt(np.einsum("ijk,ijk->ij", dx, dx))
+        dy = np.abs(target[start:stop, None] - target[None, start + 1 :])
+        i_idx = np.arange(start, stop)[:, None]
+        j_idx = np.arange(start + 1, n)[None, :]
+        upper = j_idx > i_idx
+        same = upper & (dist == 0)
+        skipped += int(same.sum())
+        valid = upper & (dist > 0)
+        q = dy[valid] / dist[valid]
+        pool = np.concatenate([best, q])
+        if pool.size > p:
+            pool = np.partition(pool, pool.size - p)[pool.size - p :]
+        best = pool
+    return np.sort(best)[::-1], skipped
+
+
+def lipschitz_quotients(
+    data: IOData | Sequence[IOData],
+    max_output_lag: int,
+    max_input_lag: int,
+    input_delay: int = 1,
+    fraction: float = 0.015,
+    max_samples: int | None = 1000,
+    seed: int | np.random.Generator | None = 0,
+    standardize: bool = True,
+) -> pd.DataFrame:
+    """He & Asada's Lipschitz order index for every output and input order up to the maxima.
+
+    For output order ``na`` and input order ``nb`` the regressor is
+    ``x(t) = [y(t-1..t-na) of every output, u(t-d..t-d-nb+1) of every input]`` (``d`` the input
+    delay), with ``n = na n_outputs + nb n_inputs`` components. For each output channel the index is
+
+    ``q(n) = (prod_{k=1..p} sqrt(n) q_(k))^(1/p)``, ``q_ij = |y_i - y_j| / ||x_i - x_j||``,
+
+    the geometric mean of the ``p`` largest Lipschitz quotients ``q_(k)`` scaled by ``sqrt(n)``,
+    with ``p = max(1, round(fraction * N))`` over ``N`` regressor rows. A missing regressor term
+    leaves pairs that are close in ``x`` but far apart in ``y``, so the index falls steeply while
+    the order is too small and levels off once it reaches the true order: the order to choose is
+    the knee of the curve.
+
+    Parameters
+    ----------
+    data : IOData or list of IOData
+        Records (rows never straddle two experiments).
+    max_output_lag : int
+        Largest output order tried (>= 0).
+    max_input_lag : int
+        Largest input order tried (>= 0).
+    input_delay : int, default 1
+        Input lags start at this delay (0 includes ``u(t)``).
+    fraction : float, default 0.015
+        ``p / N``; He & Asada recommend 0.01 to 0.02.
+    max_samples : int or None, default 1000
+        If there are more regressor rows, a random subset of this many rows (the same for every
+        order, drawn with ``seed``) is used: the cost grows as ``N^2``. ``None`` uses all rows.
+    seed : int, numpy.random.Generator or None, default 0
+        Seed of the subsample.
+    standardize : bool, default True
+        Divide every channel by its standard deviation first, so that inputs and outputs in
+        different units weigh alike in ``||x_i - x_j||`` (the index then has the unit 1).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per output channel and order pair ``(na, nb) != (0, 0)``: columns ``output``,
+        ``output_order``, ``input_order``, ``n_terms``, ``index``, ``n_rows`` (``N``) and ``p``.
+
+    Raises
+    ------
+    ValueError
+        If an order is negative, both are 0, ``fraction`` is not in (0, 1), or the data are too
+        short for the largest lag.
+
+    Notes
+    -----
+    All pairs are formed in blocks of rows (memory ``O(block N n)``), keeping only the running
+    ``p`` largest quotients. Pairs with identical regressors are skipped (their quotient is
+    undefined). Noise raises the floor of the index; the knee stays where it is as long as the
+    noise is small compared with the signal.
+
+    References
+    ----------
+    .. [1] X. He and H. Asada, "A new method for identifying orders of input-output models for
+       nonlinear dynamic systems," in Proc. American Control Conference, San Francisco, 1993,
+       pp. 2520-2523.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.uniform(-1, 1, size=600)
+    >>> y = np.zeros(600)
+    >>> for t in range(1, 600):
+    ...     y[t] = 0.5 * y[t - 1] + np.sin(2 * u[t - 1])
+    >>> table = lipschitz_quotients(IOData(u, y, ts=0.1), max_output_lag=2, max_input_lag=2)
+    >>> index = table.set_index(["output_order", "input_order"])["index"]
+    >>> bool(index[1, 1] < index[0, 1] / 3 and index[1, 1] < index[1, 0] / 3)
+    True
+    >>> bool(index[2, 2] > 0.5 * index[1, 1])
+    True
+    """
+    for name, value in (("max_output_lag", max_output_lag), ("max_input_lag", max_input_lag)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+            raise ValueError(f"{name} must be an int >= 0; got {value!r}")
+    if max_output_lag == 0 and max_input_lag == 0:
+        raise ValueError("max_output_lag and max_input_lag are both 0; there is no order to try")
+    if (
+        isinstance(input_delay, bool)
+        or not isinstance(input_delay, int | np.integer)
+        or input_delay < 0
+    ):
+        raise ValueError(f"input_delay must be an int >= 0; got {input_delay!r}")
+    if not 0.0 < fraction < 1.0:
+        raise ValueError(f"fraction must be in (0, 1); He & Asada use 0.01-0.02; got {fraction!r}")
+    if max_samples is not None and (
+        isinstance(max_samples, bool)
+        or not isinstance(max_samples, int | np.integer)
+        or max_samples < 10
+    ):
+        raise ValueError(f"max_samples must be an int >= 10 or None; got {max_samples!r}")
+    experiments = as_experiments(data)
+    first = experiments[0]
+    if first.n_outputs == 0:
+        raise ValueError("data has no output channel; the Lipschitz index needs outputs")
+
+    # The largest regressor: every candidate is a subset of its columns, and all use the same rows.
+    full = Lags(
+        outputs=list(range(1, max_output_lag + 1)),
+        inputs=list(range(input_delay, input_delay + max_input_lag)),
+    )
+    x_all, y_all = full.build(experiments)
+    resolved = full.resolve(experiments)
+    if standardize:
+        y_std = np.concatenate([d.y for d in experiments]).std(axis=0)
+        u_std = np.concatenate([d.u for d in experiments]).std(axis=0)
+        y_std[y_std == 0] = 1.0
+        u_std[u_std == 0] = 1.0
+        column_scale = np.where(
+            resolved.source == 0, y_std[resolved.channel], u_std[resolved.channel]
+        )
+        x_all = x_all / column_scale
+        y_all = y_all / y_std
+    n_rows = x_all.shape[0]
+    if max_samples is not None and n_rows > max_samples:
+        rng = np.random.default_rng(seed)
+        keep = np.sort(rng.choice(n_rows, size=int(max_samples), replace=False))
+        x_all, y_all = x_all[keep], y_all[keep]
+        n_rows = int(max_samples)
+    if n_rows < 2:
+        raise ValueError(f"the Lipschitz index needs at least 2 regressor rows; got {n_rows}")
+    p = max(1, round(fraction * n_rows))
+    block = max(1, int(2_000_000 // max(1, n_rows * max(1, resolved.n_terms))))
+
+    records = []
+    for na in range(max_output_lag + 1):
+        for nb in range(max_input_lag + 1):
+            if na == 0 and nb == 0:
+                continue
+            columns = ((resolved.source == 0) & (resolved.lag <= na)) | (
+                (resolved.source == 1) & (resolved.lag < input_delay + nb)
+            )
+            x = np.ascontiguousarray(x_all[:, columns])
+            n_terms = int(columns.sum())
+            for j, name in enumerate(first.output_names):
+                top, _ = _top_quotients(x, y_all[:, j], p, block)
+                if top.size == 0 or np.any(top == 0):
+                    index = 0.0 if top.size else np.nan
+                else:
+                    index = float(np.exp(np.mean(np.log(np.sqrt(n_terms) * top))))
+                records.append(
+                    {
+                        "output": name,
+                        "output_order": na,
+                        "input_order": nb,
+                        "n_terms": n_terms,
+                        "index": index,
+                        "n_rows": n_rows,
+                        "p": p,
+                    }
+                )
+    table = pd.DataFrame.from_records(records)
+    table.attrs["input_delay"] = int(input_delay)
+    table.attrs["reference"] = "He & Asada, ACC 1993"
+    return table
+
+
+def plot_lipschitz_index(
+    table: pd.DataFrame, output: str | None = None, ax: Axes | None = None
+) -> Figure:
+    """Plot the Lipschitz order index against the input order, one line per output order.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The result of :func:`lipschitz_quotients`.
+    output : str, optional
+        Which output channel; default the first in the table.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; default a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure holding ``ax`` (not shown: call ``plt.show()`` or ``fig.savefig`` yourself).
+
+    Raises
+    ------
+    ValueError
+        If the table lacks the columns of :func:`lipschitz_quotients` or does not hold ``output``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData
+    >>> u = np.random.default_rng(0).normal(size=200)
+    >>> table = lipschitz_quotients(IOData(u, np.cumsum(u), ts=0.1), 1, 2)
+    >>> fig = plot_lipschitz_index(table)
+    >>> fig.axes[0].get_ylabel()
+    'Lipschitz index'
+    """
+    needed = {"output", "output_order", "input_order", "index"}
+    missing = needed - set(table.columns)
+    if missing:
+        raise ValueError(
+            f"table must come from lipschitz_quotients; it lacks the columns {sorted(missing)}"
+        )
+    outputs = list(dict.fromkeys(table["output"]))
+    name = outputs[0] if output is None else output
+    if name not in outputs:
+        raise ValueError(f"output {name!r} is not in the table; it holds {outputs}")
+    if ax is None:
+        from matplotlib.figure import Figure as _Figure
+
+        fig = _Figure(figsize=(6.0, 4.0))
+        ax = fig.add_subplot()
+    else:
+        fig = ax.get_figure()  # type: ignore[assignment]
+    part = table[table["output"] == name]
+    for na, rows in part.groupby("output_order", sort=True):
+        rows = rows.sort_values("input_order")
+        ax.plot(rows["input_order"], rows["index"], marker="o", label=f"output order {na}")
+    ax.set_yscale("log")
+    ax.set_xlabel("input order (number of input lags)")
+    ax.set_ylabel("Lipschitz index")
+    ax.set_title(f"He & Asada order index, output {name}")
+    ax.legend()
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
