@@ -13,7 +13,8 @@ Contents
 - :func:`prbs`: a maximum-length pseudo-random binary sequence held for a clock period.
 - :func:`staircase`, :func:`step`, :func:`sine`.
 - :func:`bandwidth_from_chirp` and :class:`BandwidthResult`: the frequency at which the response
-  amplitude first stays below a fraction of the command's (the paper's 90 % rule).
+  amplitude first stays below a fraction of the command's (the paper's 90 % rule);
+  :func:`plot_bandwidth` draws its envelopes (matplotlib is imported only there).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -40,6 +41,7 @@ __all__ = [
     "multisine_frequencies",
     "paper_chirp",
     "paper_chirp_frequency",
+    "plot_bandwidth",
     "prbs",
     "sine",
     "staircase",
@@ -712,6 +714,11 @@ class BandwidthResult:
     crossing_index: int
 
     @property
+    def omega(self) -> float:
+        """The bandwidth in rad/s (the same as :attr:`bandwidth`)."""
+        return self.bandwidth
+
+    @property
     def bandwidth_hz(self) -> float:
         """The bandwidth in Hz, ``bandwidth / (2 pi)``."""
         return self.bandwidth / (2.0 * math.pi)
@@ -955,3 +962,64 @@ def bandwidth_from_chirp(
         ratio=ratio,
         crossing_index=crossing,
     )
+
+
+def plot_bandwidth(result: BandwidthResult, ax: Any = None) -> Any:
+    """Draw the amplitude envelopes of a chirp run against frequency, like the paper's Fig. 3.
+
+    The command's amplitude, ``threshold`` times it (dashed), the response's amplitude, and a
+    vertical line at the bandwidth where the response falls below the dashed line for good.
+
+    Parameters
+    ----------
+    result : BandwidthResult
+        What :func:`bandwidth_from_chirp` returned.
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; a new figure is made when ``None``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure holding ``ax`` (never shown; call ``savefig`` or ``plt.show`` yourself).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(0.0, 60.0, 0.01)
+    >>> command = paper_chirp(t)
+    >>> response = 5.0 + 4.0 / np.sqrt(1 + (0.1 * paper_chirp_frequency(t)) ** 2) * np.sin(0.1 * t**2)
+    >>> result = bandwidth_from_chirp(t, command, response, frequency=paper_chirp_frequency)
+    >>> fig = plot_bandwidth(result)
+    >>> fig.axes[0].get_xlabel()
+    'frequency (rad/s)'
+    """
+    if not isinstance(result, BandwidthResult):
+        raise TypeError(f"result must be a BandwidthResult; got {type(result).__name__}")
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(8, 3.6), layout="constrained")
+    else:
+        fig = ax.figure
+    ax.plot(result.frequency, result.command_amplitude, color="black", lw=1.2, label="command")
+    ax.plot(
+        result.frequency,
+        result.threshold * result.command_amplitude,
+        color="black",
+        lw=1.0,
+        ls="--",
+        label=f"{result.threshold:g} x command",
+    )
+    ax.plot(result.frequency, result.response_amplitude, color="C0", lw=1.2, label="response")
+    if result.status == "found":
+        ax.axvline(
+            result.bandwidth,
+            color="C3",
+            lw=1.0,
+            label=f"bandwidth {result.bandwidth:.3g} rad/s",
+        )
+    ax.set_xlabel("frequency (rad/s)")
+    ax.set_ylabel("amplitude")
+    ax.set_title(f"chirp amplitude envelopes ({result.status})")
+    ax.legend(loc="best", fontsize="small")
+    return fig
