@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator
+from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
 
 from neckid.data import IOData, as_experiments, check_finite
 from neckid.metrics import fit_percent, mae, rmse
@@ -33,8 +34,12 @@ __all__ = ["ModelResult", "NarxModel", "NarxSimulator", "NotFittedError", "check
 FloatArray = NDArray[np.float64]
 
 
-class NotFittedError(ValueError, AttributeError):
-    """Raised when a model is used before ``fit``."""
+class NotFittedError(_SklearnNotFittedError):
+    """Raised when a model is used before ``fit``.
+
+    A subclass of scikit-learn's ``NotFittedError`` (itself a ``ValueError`` and an
+    ``AttributeError``), so scikit-learn's tools recognise it.
+    """
 
 
 def check_is_fitted(model: object, attribute: str) -> None:
