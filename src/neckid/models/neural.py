@@ -120,7 +120,7 @@ class NeuralNARX(NarxModel):
         Adam step size.
     max_iter : int, default 500
         Most training epochs.
-    tol : float, default 1e-5
+    tol : float, default 1e-4
         Improvement of the validation score (R², early stopping) or of the loss below which an
         epoch counts as no progress.
     n_iter_no_change : int, default 20
@@ -198,7 +198,7 @@ class NeuralNARX(NarxModel):
         alpha: float = 1e-4,
         learning_rate_init: float = 1e-3,
         max_iter: int = 500,
-        tol: float = 1e-5,
+        tol: float = 1e-4,
         n_iter_no_change: int = 20,
         early_stopping: bool = True,
         validation_fraction: float = 0.15,

@@ -1,0 +1,191 @@
+"""NeuralNARX: recovery of a known nonlinear NARX system, the NumPy forward pass, files, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from neckid import IOData, Lags, NotFittedError
+from neckid.models.base import _free_run
+from neckid.models.io import load_model
+from neckid.models.neural import NeuralNARX, forward_pass
+
+
+def true_system(n: int, seed: int, noise: float = 0.02) -> IOData:
+    """y(t) = 0.7 y(t-1) + tanh(u(t-2)) + e(t), u uniform in [-2, 2], e white output noise."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-2.0, 2.0, size=n)
+    y = np.zeros(n)
+    for t in range(2, n):
+        y[t] = 0.7 * y[t - 1] + np.tanh(u[t - 2])
+    return IOData(u, y + noise * rng.normal(size=n), ts=0.02, input_names=["u"], output_names=["y"])
+
+
+LAGS = Lags(outputs=[1], inputs=[1, 2])
+
+
+@pytest.fixture(scope="module")
+def fitted() -> NeuralNARX:
+    return NeuralNARX(LAGS, hidden_layer_sizes=(25, 25), random_state=0).fit(true_system(1500, 1))
+
+
+@pytest.fixture(scope="module")
+def validation() -> IOData:
+    return true_system(600, 2)
+
+
+def test_recovers_known_narx_system_in_free_run(fitted: NeuralNARX, validation: IOData) -> None:
+    sim = fitted.simulate(validation)
+    assert sim.kind == "simulation"
+    assert sim.n_initial == 2
+    assert sim.fit_percent(validation)[0] >= 90.0
+    pred = fitted.predict(validation)
+    assert pred.kind == "prediction"
+    assert pred.fit_percent(validation)[0] >= 90.0
+
+
+def test_fast_free_run_equals_generic_loop(fitted: NeuralNARX, validation: IOData) -> None:
+    fast = fitted.simulate(validation).y
+    generic = _free_run(fitted.lags_, fitted._predict_rows, validation.u, validation.y)
+    np.testing.assert_allclose(fast, generic, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(fast[:2], validation.y[:2])
+
+
+def test_numpy_forward_pass_equals_mlpregressor(fitted: NeuralNARX, validation: IOData) -> None:
+    x, _ = LAGS.build(validation)
+    xs = (x - fitted.x_mean_) / fitted.x_scale_
+    ours = forward_pass(xs, fitted.coefs_, fitted.intercepts_, fitted.activation)[:, 0]
+    np.testing.assert_allclose(ours, fitted.network_.predict(xs), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("activation", ["tanh", "relu", "logistic", "identity"])
+def test_forward_pass_all_activations_equal_mlpregressor(activation: str) -> None:
+    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.neural_network import MLPRegressor
+
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(60, 3))
+    y = rng.normal(size=(60, 2))
+    net = MLPRegressor(hidden_layer_sizes=(4, 3), activation=activation, max_iter=5, random_state=0)
+    with pytest.warns(ConvergenceWarning):
+        net.fit(x, y)
+    ours = forward_pass(x, net.coefs_, net.intercepts_, activation)
+    np.testing.assert_allclose(ours, net.predict(x), rtol=1e-12, atol=1e-12)
+
+
+def test_simulator_steps_like_simulate(fitted: NeuralNARX, validation: IOData) -> None:
+    sim = fitted.simulator()
+    sim.reset(y0=validation.y[:2], u0=validation.u[:2])
+    stepped = np.array([sim.step(validation.u[t]) for t in range(2, 50)])
+    np.testing.assert_allclose(stepped, fitted.simulate(validation[:50]).y[2:], rtol=1e-12)
+
+
+def test_save_load_round_trip_identical(fitted: NeuralNARX, validation: IOData, tmp_path) -> None:
+    path = fitted.save(tmp_path / "net")
+    assert path.suffix == ".npz"
+    with np.load(path, allow_pickle=False) as archive:  # plain arrays, no pickle
+        assert {"coef_0", "coef_1", "coef_2", "x_mean", "y_scale"} <= set(archive.files)
+    loaded = NeuralNARX.load(path)
+    assert isinstance(load_model(path), NeuralNARX)
+    assert not hasattr(loaded, "network_")
+    assert loaded.get_params()["hidden_layer_sizes"] == (25, 25)
+    assert loaded.lags_.names == fitted.lags_.names == ("y(t-1)", "u(t-1)", "u(t-2)")
+    np.testing.assert_array_equal(loaded.predict(validation).y, fitted.predict(validation).y)
+    np.testing.assert_array_equal(loaded.simulate(validation).y, fitted.simulate(validation).y)
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_simulation_tuning_keeps_best_free_run_candidate() -> None:
+    data = true_system(800, 3)
+    model = NeuralNARX(
+        LAGS, hidden_layer_sizes=(8,), simulation_tuning=2, random_state=1, max_iter=200
+    ).fit(data)
+    assert model.simulation_fits_.shape == (3,)
+    # The kept network is the best candidate: re-score it on the same held-out end.
+    n_tail = int(np.ceil(0.15 * data.n_samples))
+    tail = data[data.n_samples - n_tail :]
+    assert model._free_run_score([tail]) == pytest.approx(model.simulation_fits_.max())
+    # Trained on the head only.
+    assert model.n_samples_ == data.n_samples - n_tail - LAGS.max_lag
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_multi_output_and_multi_experiment_fit() -> None:
+    rng = np.random.default_rng(4)
+    records = []
+    for _ in range(2):
+        u = rng.uniform(-1, 1, size=(300, 2))
+        y = np.zeros((300, 2))
+        for t in range(1, 300):
+            y[t, 0] = 0.5 * y[t - 1, 0] + np.tanh(u[t - 1, 0])
+            y[t, 1] = 0.3 * y[t - 1, 1] + 0.5 * u[t - 1, 1] * u[t - 1, 0]
+        records.append(IOData(u, y, ts=0.1))
+    model = NeuralNARX(Lags(outputs=1, inputs=1), hidden_layer_sizes=(10,), random_state=0)
+    model.fit(records)
+    result = model.simulate(records[0])
+    assert result.y.shape == (300, 2)
+    np.testing.assert_allclose(
+        result.y, _free_run(model.lags_, model._predict_rows, records[0].u, records[0].y)
+    )
+
+
+def test_not_fitted_refused(validation: IOData) -> None:
+    model = NeuralNARX(LAGS)
+    for call in (model.predict, model.simulate):
+        with pytest.raises(NotFittedError, match="not fitted"):
+            call(validation)
+    with pytest.raises(NotFittedError):
+        model.save("unused.npz")
+
+
+def test_init_stores_parameters_unchanged() -> None:
+    sizes = [3, 4]
+    model = NeuralNARX(hidden_layer_sizes=sizes, activation="bogus")  # type: ignore[arg-type]
+    assert model.hidden_layer_sizes is sizes
+    assert model.activation == "bogus"
+    assert not [k for k in vars(model) if k.endswith("_")]
+
+
+@pytest.mark.parametrize(
+    ("params", "error", "match"),
+    [
+        ({"hidden_layer_sizes": ()}, ValueError, r"hidden_layer_sizes .* got \(\)"),
+        ({"hidden_layer_sizes": (5, 0)}, ValueError, r"hidden_layer_sizes .* got \(5, 0\)"),
+        ({"hidden_layer_sizes": "ab"}, ValueError, r"hidden_layer_sizes .* got 'ab'"),
+        ({"activation": "softmax"}, ValueError, r"activation must be one of .* got 'softmax'"),
+        ({"alpha": -1.0}, ValueError, r"alpha must be a finite number >= 0; got -1.0"),
+        ({"alpha": "big"}, TypeError, r"alpha must be a number; got 'big'"),
+        ({"learning_rate_init": 0.0}, ValueError, r"learning_rate_init must be .*> 0; got 0.0"),
+        ({"max_iter": 0}, ValueError, r"max_iter must be an int >= 1; got 0"),
+        ({"n_iter_no_change": 2.5}, ValueError, r"n_iter_no_change must be an int >= 1; got 2.5"),
+        (
+            {"validation_fraction": 1.0},
+            ValueError,
+            r"validation_fraction must be in \(0, 1\); got 1.0",
+        ),
+        ({"simulation_tuning": -1}, ValueError, r"simulation_tuning must be an int >= 0.*got -1"),
+        ({"lags": None}, ValueError, r"needs lags=Lags\(\.\.\.\); got None"),
+        ({"lags": 3}, TypeError, r"lags must be a neckid.Lags; got int"),
+    ],
+)
+def test_bad_parameters_refused_in_fit(params: dict, error: type, match: str) -> None:
+    settings = {"lags": LAGS, **params}
+    with pytest.raises(error, match=match):
+        NeuralNARX(**settings).fit(true_system(100, 0))
+
+
+def test_bad_data_refused() -> None:
+    with pytest.raises(ValueError, match="too few for lags up to 2"):
+        NeuralNARX(LAGS).fit(true_system(2, 0))
+    with pytest.raises(ValueError, match="needs at least 10 regressor rows to train; got 5"):
+        NeuralNARX(LAGS).fit(true_system(7, 0))
+    with pytest.raises(ValueError, match=r"simulation_tuning needs a held-out end .* gives 8"):
+        NeuralNARX(LAGS, simulation_tuning=1).fit(true_system(50, 0))
+    with pytest.raises(TypeError, match="data must be an IOData or a list of them; got ndarray"):
+        NeuralNARX(LAGS).fit(np.zeros((10, 2)))  # type: ignore[arg-type]
+
+
+def test_wrong_channels_refused(fitted: NeuralNARX) -> None:
+    other = IOData(np.zeros(20), np.zeros(20), ts=0.02, input_names=["cmd"], output_names=["y"])
+    with pytest.raises(ValueError, match=r"has channels \['cmd'\] -> \['y'\]"):
+        fitted.simulate(other)
