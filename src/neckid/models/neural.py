@@ -118,9 +118,9 @@ class NeuralNARX(NarxModel):
         L2 penalty on the weights (MLPRegressor's ``alpha``).
     learning_rate_init : float, default 1e-3
         Adam step size.
-    max_iter : int, default 500
+    max_iter : int, default 1000
         Most training epochs.
-    tol : float, default 1e-4
+    tol : float, default 1e-5
         Improvement of the validation score (R², early stopping) or of the loss below which an
         epoch counts as no progress.
     n_iter_no_change : int, default 20
@@ -185,7 +185,7 @@ class NeuralNARX(NarxModel):
     ...     y[t] = 0.7 * y[t - 1] + np.tanh(u[t - 2])
     >>> data = IOData(u, y, ts=0.02)
     >>> model = NeuralNARX(Lags(outputs=[1], inputs=[2]), hidden_layer_sizes=(10,),
-    ...                    random_state=0).fit(data[:400])
+    ...                    learning_rate_init=3e-3, random_state=0).fit(data[:400])
     >>> bool(model.simulate(data[400:]).fit_percent(data[400:])[0] > 90)
     True
     """
@@ -197,8 +197,8 @@ class NeuralNARX(NarxModel):
         activation: Activation = "tanh",
         alpha: float = 1e-4,
         learning_rate_init: float = 1e-3,
-        max_iter: int = 500,
-        tol: float = 1e-4,
+        max_iter: int = 1000,
+        tol: float = 1e-5,
         n_iter_no_change: int = 20,
         early_stopping: bool = True,
         validation_fraction: float = 0.15,
