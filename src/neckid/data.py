@@ -63,7 +63,7 @@ def check_finite(array: FloatArray, argument: str, names: Sequence[str] | None =
         channel = names[col] if names is not None and col < len(names) else f"column {col}"
         count = int(bad.sum())
         raise ValueError(
-            f"{argument} channel {channel!r} has a non-finite value {array[row, col]!r} at row {row}"
+            f"{argument} channel {channel!r} has a non-finite value {float(array[row, col])!r} at row {row}"
             f" ({count} non-finite value{'s' if count > 1 else ''} in {argument} in all);"
             " clean or interpolate the log before identification"
         )
@@ -103,7 +103,7 @@ def check_ts(ts: float) -> float:
     except (TypeError, ValueError) as exc:
         raise TypeError(f"ts must be a number of seconds; got {ts!r}") from exc
     if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"ts must be a positive number of seconds; got {ts!r}")
+        raise ValueError(f"ts must be a positive number of seconds; got {value!r}")
     return value
 
 
@@ -121,21 +121,21 @@ def ts_from_time(time: ArrayLike, column: str = "time") -> tuple[float, float]:
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise ValueError(
-            f"time column {column!r} has a non-finite value {t[bad[0]]!r} at row {bad[0]}"
+            f"time column {column!r} has a non-finite value {float(t[bad[0]])!r} at row {bad[0]}"
         )
     dt = np.diff(t)
     back = np.flatnonzero(dt < 0)
     if back.size:
         r = int(back[0]) + 1
         raise ValueError(
-            f"time column {column!r} is not sorted: row {r} has t={t[r]!r} after t={t[r - 1]!r};"
+            f"time column {column!r} is not sorted: row {r} has t={float(t[r])!r} after t={float(t[r - 1])!r};"
             " sort the log by time first"
         )
     same = np.flatnonzero(dt == 0)
     if same.size:
         r = int(same[0]) + 1
         raise ValueError(
-            f"time column {column!r} repeats the time stamp {t[r]!r} at rows {r - 1} and {r};"
+            f"time column {column!r} repeats the time stamp {float(t[r])!r} at rows {r - 1} and {r};"
             " drop duplicated samples first"
         )
     ts = float(np.median(dt))
@@ -144,7 +144,7 @@ def ts_from_time(time: ArrayLike, column: str = "time") -> tuple[float, float]:
         r = int(off[0]) + 1
         raise ValueError(
             f"time column {column!r} is not uniformly sampled: the step before row {r} is"
-            f" {dt[r - 1]!r} s, the median step is {ts!r} s; resample the log onto a uniform grid"
+            f" {float(dt[r - 1])!r} s, the median step is {ts!r} s; resample the log onto a uniform grid"
         )
     # The mean step is the least-squares estimate of ts from a uniform grid.
     ts = float((t[-1] - t[0]) / (t.size - 1))

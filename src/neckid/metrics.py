@@ -48,7 +48,7 @@ def _pair(y_true: ArrayLike, y_pred: ArrayLike, skip: int) -> tuple[FloatArray, 
         if bad.any():
             row, col = (int(i) for i in np.argwhere(bad)[0])
             raise ValueError(
-                f"{argument} has a non-finite value {arr[row, col]!r} at row {row + skip}, output {col}"
+                f"{argument} has a non-finite value {float(arr[row, col])!r} at row {row + skip}, output {col}"
             )
     return a, b
 
@@ -86,7 +86,7 @@ def fit_percent(y_true: ArrayLike, y_pred: ArrayLike, skip: int = 0) -> FloatArr
         j = int(constant[0])
         raise ValueError(
             f"fit_percent is undefined for output {j}: the measured output is constant"
-            f" ({a[0, j]!r}) over the {a.shape[0]} samples used, so ||y - mean(y)|| = 0;"
+            f" ({float(a[0, j])!r}) over the {a.shape[0]} samples used, so ||y - mean(y)|| = 0;"
             " use rmse or mae instead"
         )
     return np.asarray(100.0 * (1.0 - np.linalg.norm(a - b, axis=0) / spread), dtype=np.float64)
@@ -238,7 +238,7 @@ def _residual_vector(values: ArrayLike, argument: str) -> FloatArray:
         raise ValueError(f"{argument} must be one channel (1-D); got shape {np.shape(values)}")
     bad = np.flatnonzero(~np.isfinite(v))
     if bad.size:
-        raise ValueError(f"{argument} has a non-finite value {v[bad[0]]!r} at row {bad[0]}")
+        raise ValueError(f"{argument} has a non-finite value {float(v[bad[0]])!r} at row {bad[0]}")
     if v.size < 3:
         raise ValueError(f"{argument} needs at least 3 samples; got {v.size}")
     return v

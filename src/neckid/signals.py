@@ -94,7 +94,9 @@ def _time_vector(t: ArrayLike, argument: str = "t") -> FloatArray:
         )
     bad = np.flatnonzero(~np.isfinite(array))
     if bad.size:
-        raise ValueError(f"{argument} has a non-finite value {array[bad[0]]!r} at row {bad[0]}")
+        raise ValueError(
+            f"{argument} has a non-finite value {float(array[bad[0]])!r} at row {bad[0]}"
+        )
     return np.ascontiguousarray(array)
 
 
@@ -728,18 +730,52 @@ def _phase_from_frequency(time: FloatArray, omega: FloatArray) -> FloatArray:
     return np.asarray(integrate.cumulative_trapezoid(omega, time, initial=0.0), dtype=np.float64)
 
 
-def _phase_from_command(command: FloatArray) -> FloatArray:
-    """Unwrapped phase of the analytic signal of the mean-removed command, made non-decreasing."""
-    analytic = sps.hilbert(command - command.mean())
-    phase = np.unwrap(np.angle(analytic))
+def _cycle_bounds(phase: FloatArray) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """For each sample, the first and last index of the cycle centred on it (phase ± pi)."""
+    last = phase.size - 1
+    lo = np.minimum(np.searchsorted(phase, phase - math.pi, side="left"), last)
+    hi = np.minimum(np.searchsorted(phase, phase + math.pi, side="right") - 1, last)
+    return lo, np.maximum(hi, lo)
+
+
+def _hilbert_phase(values: FloatArray) -> FloatArray:
+    phase = np.unwrap(np.angle(sps.hilbert(values)))
     # Noise can make the estimated phase step back a little; the windows need a monotone phase.
-    return np.maximum.accumulate(phase)
+    return np.asarray(np.maximum.accumulate(phase), dtype=np.float64)
+
+
+def _phase_from_command(time: FloatArray, command: FloatArray) -> FloatArray:
+    """Phase of a chirp command estimated from the samples (no frequency given).
+
+    1. Phase of the analytic signal (Hilbert transform) of the mean-removed command.
+    2. The command's local offset, its mean over the cycle centred on each sample, is removed and
+       the analytic-signal phase taken again (a record-wide mean leaves a slowly varying offset
+       that makes the phase wobble once per cycle).
+    3. The instantaneous frequency is averaged over the cycle centred on each sample
+       (phase advance / time) and integrated back into a phase.
+    """
+    phase = _hilbert_phase(command - command.mean())
+    lo, hi = _cycle_bounds(phase)
+    sums = np.concatenate([[0.0], np.cumsum(command)])
+    local_mean = (sums[hi + 1] - sums[lo]) / (hi - lo + 1)
+    phase = _hilbert_phase(command - local_mean)
+    lo, hi = _cycle_bounds(phase)
+    span = time[hi] - time[lo]
+    omega = np.gradient(phase, time)
+    wide = span > 0
+    omega[wide] = (phase[hi[wide]] - phase[lo[wide]]) / span[wide]
+    return _phase_from_frequency(time, omega)
 
 
 def _harmonic_amplitude(time: FloatArray, phase: FloatArray, values: FloatArray) -> float:
-    """Amplitude of ``values ≈ a + b (t - tc) + c cos(phase) + d sin(phase)`` by least squares."""
+    """First-harmonic amplitude at the window centre, by least squares.
+
+    ``values ≈ a + b s + (c + e s) cos(phase) + (d + f s) sin(phase)`` with ``s = t - t_centre``;
+    the amplitude at the centre is ``hypot(c, d)``.
+    """
     centred = time - time.mean()
-    basis = np.column_stack([np.ones_like(time), centred, np.cos(phase), np.sin(phase)])
+    cos, sin = np.cos(phase), np.sin(phase)
+    basis = np.column_stack([np.ones_like(time), centred, cos, sin, centred * cos, centred * sin])
     coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
     return float(math.hypot(coef[2], coef[3]))
 
@@ -773,9 +809,8 @@ def bandwidth_from_chirp(
     frequency : array_like of shape (n_samples,) or callable, optional
         Instantaneous angular frequency of the command (rad/s) at each time stamp, or a function
         of the time vector returning it (e.g. :func:`paper_chirp_frequency`). If omitted it is
-        estimated from the command: the phase of the analytic signal (Hilbert transform) of the
-        mean-removed command. Give it when known: the estimate is poor in the first cycle and
-        when the command is noisy.
+        estimated from the command (see Notes). Give it when known: the estimate is poor in the
+        first cycle, at the very end, and when the command is noisy.
     cycles_per_window : int, default 1
         Length of an analysis window in cycles of the command. More cycles average more noise out
         (the variance of an amplitude falls as one over the samples in the window) but blur the
@@ -806,7 +841,10 @@ def bandwidth_from_chirp(
     Notes
     -----
     *Phase.* The command's phase is :math:`\phi(t) = \int_0^t \omega(s)\,ds` (trapezoidal rule)
-    from ``frequency``, or the unwrapped angle of the analytic signal of the mean-removed command.
+    from ``frequency``; otherwise it is estimated from the command: the unwrapped angle of its
+    analytic signal (Hilbert transform) after removing its local mean over one cycle, with the
+    instantaneous frequency averaged over one cycle and integrated again. The estimate is worst
+    in the first cycle and at the end of the record (Hilbert edge effects).
 
     *Windows.* The record is cut into windows spanning ``cycles_per_window`` cycles of the command
     (:math:`\Delta\phi = 2\pi` each), starting every half cycle. A window's frequency is its mean
@@ -814,11 +852,14 @@ def bandwidth_from_chirp(
     its centre).
 
     *Amplitudes.* In each window, command and response are each fitted by least squares with
-    :math:`a + b\,(t - t_c) + c\cos\phi(t) + d\sin\phi(t)`; the amplitude is
-    :math:`\sqrt{c^2 + d^2}`. This is a local first-harmonic (lock-in) estimate in the spirit of
-    the frequency-domain methods of Pintelon & Schoukens [2]_: the constant and slope terms absorb
-    offsets, drifts and the decaying transient, the harmonic fit averages white noise out
-    (its variance falls as one over the samples per cycle), and the phase lag of the response
+    :math:`a + b s + (c + e s)\cos\phi(t) + (d + f s)\sin\phi(t)`, :math:`s = t - t_c`; the
+    amplitude at the window centre :math:`t_c` is :math:`\sqrt{c^2 + d^2}`. This is a local
+    first-harmonic (lock-in) estimate in the spirit of the frequency-domain methods of Pintelon &
+    Schoukens [2]_: the constant and slope terms absorb offsets, drifts and the decaying transient;
+    the terms in :math:`s` let the amplitude change linearly along the window (without them the
+    slope term and a chirp whose amplitude is falling share variance and bias the amplitude low
+    when a window spans a large change of frequency); the fit averages white noise out (its
+    variance falls as one over the samples in the window); and the phase lag of the response
     does not matter because both cosine and sine are fitted. Harmonics of a nonlinear response
     are left out, as in a describing function.
 
@@ -861,13 +902,13 @@ def bandwidth_from_chirp(
         )
     threshold_value = _positive_float(threshold, "threshold")
     cycles = _positive_int(cycles_per_window, "cycles_per_window")
-    min_samples = _positive_int(min_samples_per_cycle, "min_samples_per_cycle", minimum=4)
+    min_samples = _positive_int(min_samples_per_cycle, "min_samples_per_cycle", minimum=6)
     min_below = _positive_int(min_windows_below, "min_windows_below", minimum=1)
 
     if frequency is None:
         if np.ptp(cmd) == 0:
             raise ValueError("command is constant; a chirp command must oscillate")
-        phase = _phase_from_command(cmd)
+        phase = _phase_from_command(time, cmd)
     else:
         omega_raw = frequency(time) if callable(frequency) else frequency
         omega = _time_vector(omega_raw, "frequency")
@@ -878,7 +919,7 @@ def bandwidth_from_chirp(
         negative = np.flatnonzero(omega < 0)
         if negative.size:
             raise ValueError(
-                f"frequency must be >= 0 rad/s; got {omega[negative[0]]!r} at row {negative[0]}"
+                f"frequency must be >= 0 rad/s; got {float(omega[negative[0]])!r} at row {negative[0]}"
             )
         phase = _phase_from_frequency(time, omega)
 
@@ -921,7 +962,7 @@ def bandwidth_from_chirp(
     if tiny.size:
         raise ValueError(
             f"command has no oscillation in the window around t={centres[tiny[0]]:g} s"
-            f" (amplitude {command_amplitude[tiny[0]]!r}); is it a chirp?"
+            f" (amplitude {float(command_amplitude[tiny[0]])!r}); is it a chirp?"
         )
     ratio = response_amplitude / command_amplitude
     freq_array = np.asarray(freqs)
