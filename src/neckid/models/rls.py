@@ -633,16 +633,18 @@ class RecursiveARX(NarxModel):
         window : int, default 100
             How many samples (at least) the estimates must have stayed inside the band.
         tolerance : float, default 0.02
-            Relative half-width of the band around the final estimate, per parameter.
+            Relative half-width of the band around the settled estimate, per parameter.
         atol : float, default 1e-12
             Absolute floor of the band (for parameters near zero).
 
         Returns
         -------
         Convergence
-            ``(converged, settled_at)``: ``settled_at`` is the first sample from which every estimate
-            ``θ̂_j(t)`` stays within ``atol + tolerance·|θ̂_j(final)|`` of the final value;
-            ``converged`` is ``n_samples − settled_at >= window``.
+            ``(converged, settled_at)``: with ``θ̄`` the mean estimate over the last ``window``
+            samples, ``settled_at`` is the first sample from which every estimate ``θ̂_j(t)`` stays
+            within ``atol + tolerance·|θ̄_j|`` of ``θ̄_j``; ``converged`` is
+            ``n_samples − settled_at >= window``. (The mean, not the last value, is the centre so
+            that a noisy last sample does not decide; on noise-free data both agree.)
 
         Raises
         ------
@@ -658,9 +660,9 @@ class RecursiveARX(NarxModel):
                 f"tolerance and atol must be >= 0; got tolerance={tolerance!r}, atol={atol!r}"
             )
         history = self.theta_history_
-        final = history[-1]
-        band = atol + tolerance * np.abs(final)
-        outside = np.any(np.abs(history - final) > band, axis=1)
+        settled_value = history[-window:].mean(axis=0)
+        band = atol + tolerance * np.abs(settled_value)
+        outside = np.any(np.abs(history - settled_value) > band, axis=1)
         bad_rows = np.flatnonzero(outside)
         settled = 0 if bad_rows.size == 0 else int(bad_rows[-1]) + 1
         stayed = history.shape[0] - settled
