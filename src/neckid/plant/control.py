@@ -38,9 +38,9 @@ class InclinationController:
 
     Parameters
     ----------
-    kp : float, default 0.8
+    kp : float, default 0.35
         Proportional gain, (rad/s) of motor velocity per degree of inclination error.
-    ki : float, default 1.0
+    ki : float, default 0.6
         Integral gain, (rad/s) per degree-second.
     ts : float, default 0.02
         Sampling period, s.
@@ -76,8 +76,8 @@ class InclinationController:
 
     def __init__(
         self,
-        kp: float = 0.8,
-        ki: float = 1.0,
+        kp: float = 0.35,
+        ki: float = 0.6,
         ts: float = 0.02,
         command_limit: float = 4.0,
         configuration: Literal["planar", "three_tendon"] = "planar",

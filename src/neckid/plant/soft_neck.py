@@ -100,21 +100,22 @@ class SoftNeckParameters:
         inclination.
     bending_damping : float, default 0.2
         Damping at rest, :math:`c_0`, N m s/rad (calibrated: return time constant).
-    damping_growth : float, default 3.0
+    damping_growth : float, default 6.0
         Growth of the damping with the bending, :math:`c_1`, 1/rad: friction of the tendon in its
         guides grows with the tension, which grows with the bending. Calibrated on the rise of the
         paper's first-order pole with inclination.
-    hysteresis_stiffness : float, default 0.8
+    hysteresis_stiffness : float, default 1.6
         Stiffness of the Bouc–Wen element at rest, :math:`H_0`, N m/rad (scaled like the tangent
         stiffness, :math:`H_0(1 + 2\beta\theta)`). With ``hysteresis_yield`` it sets the
-        hysteretic moment: :math:`H_0 z_y` = 0.008 N m at rest, about 0.02 rad of motor between
-        going up and coming down at 20°, and a 0.4° residual bending after a release.
+        hysteretic moment: :math:`H_0 z_y` = 0.016 N m at rest, about 0.013 rad of motor between
+        going up and coming down on a closed-loop staircase, and a residual bending of about 0.7°
+        after a release (the real neck starts its logs at 0.1–0.7°).
     hysteresis_yield : float, default 0.01
         Yield bending of the Bouc–Wen element, :math:`z_y = 1/(\beta_{bw} + \gamma_{bw})`, rad.
     hysteresis_shape : float, default 0.5
         :math:`\beta_{bw} / (\beta_{bw} + \gamma_{bw})` in [0, 1]: 0.5 gives the usual symmetric
         loop with a softening branch (Wen 1976).
-    tendon_stiffness : float, default 4000.0
+    tendon_stiffness : float, default 5500.0
         Series stiffness of a tendon, N/m: the tendon, its routing to the winch and the axial
         compression of the soft link, lumped. Calibrated on the static map: the geometry alone
         gives 8.3°/rad, the real neck 7°/rad.
@@ -138,8 +139,9 @@ class SoftNeckParameters:
         Delay of the tilt sensor (IMU filter and serial link), s: two samples at 0.02 s. Rounded to
         whole samples of the simulation's ``ts``.
     integration_step : float, default 0.0025
-        Longest Runge–Kutta sub-step, s (eight per 0.02 s sample). The stiffest mode of the default
-        neck is about -170 1/s, well inside RK4's stability region at this step.
+        Longest Runge–Kutta sub-step, s (eight per 0.02 s sample). A shorter one is used when
+        :meth:`fastest_rate` asks for it (stiff damping or tendons), so any valid parameter set
+        integrates stably.
 
     Raises
     ------
@@ -175,11 +177,11 @@ class SoftNeckParameters:
     bending_stiffness: float = 1.2
     stiffening: float = 1.5
     bending_damping: float = 0.2
-    damping_growth: float = 3.0
-    hysteresis_stiffness: float = 0.8
+    damping_growth: float = 6.0
+    hysteresis_stiffness: float = 1.6
     hysteresis_yield: float = 0.01
     hysteresis_shape: float = 0.5
-    tendon_stiffness: float = 4000.0
+    tendon_stiffness: float = 5500.0
     tendon_damping: float = 20.0
     motor_time_constant: float = 0.015
     tendon_speed_limit: float = 0.03
@@ -295,6 +297,27 @@ class SoftNeckParameters:
         p[k.SENSOR_RESOLUTION] = self.sensor_resolution
         return p
 
+    def fastest_rate(self) -> float:
+        r"""A bound on the fastest rate of the model, 1/s, over the 0–40° range.
+
+        The largest of: the damping over the inertia, the undamped frequency of the link on a
+        taut tendon, the Bouc–Wen rate at the top tendon speed, and the drive's bandwidth. The
+        Runge–Kutta sub-step is chosen so that it times the sub-step stays below 1.5 (RK4 is
+        stable on the negative real axis up to 2.78).
+        """
+        top = math.radians(40.0)
+        inertia = self.inertia
+        damping = self.bending_damping * (1.0 + self.damping_growth * top) / inertia
+        stiffness = (self.bending_stiffness + self.hysteresis_stiffness) * (
+            1.0 + 2.0 * self.stiffening * top
+        ) + 3.0 * self.tendon_stiffness * self.anchor_radius**2
+        spring = math.sqrt(stiffness / inertia) + self.tendon_damping * (
+            3.0 * self.anchor_radius**2 / inertia
+        )
+        bending_speed = self.tendon_speed_limit / self.anchor_radius
+        hysteresis = bending_speed / self.hysteresis_yield
+        return max(damping, spring, hysteresis, 1.0 / self.motor_time_constant)
+
     def to_dict(self) -> dict[str, float]:
         """The parameters as a plain dict (for JSON metadata)."""
         return {k: float(v) for k, v in asdict(self).items()}
@@ -407,7 +430,8 @@ class SoftNeck:
     def _set_ts(self, ts: float) -> None:
         value = check_ts(ts)
         self.ts = value
-        self._n_sub = max(1, math.ceil(value / self.parameters.integration_step - 1e-9))
+        step = min(self.parameters.integration_step, 1.5 / self.parameters.fastest_rate())
+        self._n_sub = max(1, math.ceil(value / step - 1e-9))
         self._dt = value / self._n_sub
         self._delay = round(self.parameters.sensor_delay / value)
 
@@ -485,6 +509,8 @@ class SoftNeck:
         position = np.empty((n, self.n_motors))
         velocity = np.empty((n, self.n_motors))
         kernel = _kernels.simulate_compiled if compiled else _kernels.simulate_reference
+        if not np.all(np.isfinite(self._state)):
+            raise FloatingPointError("the neck's state is not finite; call reset()")
         kernel(
             self._state,
             self._buffer,
@@ -499,6 +525,11 @@ class SoftNeck:
             position,
             velocity,
         )
+        if not np.all(np.isfinite(self._state)):
+            raise FloatingPointError(
+                "the simulation diverged (non-finite state); lower"
+                " SoftNeckParameters.integration_step or check the parameters"
+            )
         return outputs, position, velocity
 
     def step(self, u: ArrayLike) -> FloatArray:
