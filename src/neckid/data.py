@@ -601,8 +601,7 @@ class IOData:
         t0 = 0.0
         if time is not None:
             ts_value, t0 = ts_from_time(frame[time].to_numpy(dtype=np.float64), column=time)
-        else:
-            assert ts is not None  # for the type checker; guarded just above
+        elif ts is not None:  # always true here: exactly one of time and ts was given
             ts_value = ts
         units = dict(units) if units is not None else dict(frame.attrs.get("units", {}))
 

@@ -1033,6 +1033,8 @@ def plot_bandwidth(result: BandwidthResult, ax: Any = None) -> Any:
     >>> fig = plot_bandwidth(result)
     >>> fig.axes[0].get_xlabel()
     'frequency (rad/s)'
+    >>> import matplotlib.pyplot as plt
+    >>> plt.close(fig)
     """
     if not isinstance(result, BandwidthResult):
         raise TypeError(f"result must be a BandwidthResult; got {type(result).__name__}")
