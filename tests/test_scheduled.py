@@ -165,7 +165,7 @@ def test_not_fitted_and_bad_input() -> None:
         GainScheduledModel(degree=-1, ts=0.02).fit([1.0, 2.0], [1.0, 2.0], [1.0, 2.0])
     with pytest.raises(ValueError, match="ts is required"):
         GainScheduledModel().fit([1.0, 2.0], [1.0, 2.0], [1.0, 2.0])
-    with pytest.raises(ValueError, match="ts must be a positive number of seconds; got -0.1"):
+    with pytest.raises(ValueError, match=r"ts must be a positive number of seconds; got -0\.1"):
         GainScheduledModel(ts=-0.1).fit([1.0, 2.0], [1.0, 2.0], [1.0, 2.0])
     with pytest.raises(ValueError, match="gains and poles are required"):
         model.fit([1.0, 2.0])
