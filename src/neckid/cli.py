@@ -218,6 +218,12 @@ def bandwidth(
     threshold: float = typer.Option(
         0.9, "--threshold", help="Amplitude ratio that defines the bandwidth."
     ),
+    rate: float = typer.Option(
+        None,
+        "--rate",
+        help="Chirp rate r of the paper's chirp sin(r t^2) (0.1 in the paper): its instantaneous"
+        " frequency 2 r t [rad/s] is then used instead of being estimated from the command.",
+    ),
     plot: Path = typer.Option(
         None, "--plot", help="Write a PNG of the envelopes (like the paper's Fig. 3)."
     ),
@@ -225,25 +231,35 @@ def bandwidth(
     """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's."""
     import pandas as pd
 
-    from neckid.signals import bandwidth_from_chirp
+    from neckid.signals import bandwidth_from_chirp, paper_chirp_frequency
 
     try:
         frame = pd.read_csv(log)
         missing = [c for c in (time, command, response) if c not in frame.columns]
         if missing:
             raise KeyError(f"columns {missing} are not in {log.name}; it has {list(frame.columns)}")
+        t = frame[time].to_numpy(float)
         result = bandwidth_from_chirp(
-            frame[time].to_numpy(float),
+            t,
             frame[command].to_numpy(float),
             frame[response].to_numpy(float),
             threshold=threshold,
+            frequency=None if rate is None else paper_chirp_frequency(t, rate=rate),
         )
     except (ValueError, KeyError) as exc:
         _fail(str(exc))
         return
-    console.print(
-        f"bandwidth: {result.omega:.3f} rad/s ({result.omega / (2 * np.pi):.3f} Hz) at ratio {threshold}"
-    )
+    if result.status != "found":
+        explanation = {
+            "not_reached": "the response never stays below the threshold: chirp further",
+            "below_at_start": "the response is below the threshold from the start: chirp slower",
+        }.get(result.status, result.status)
+        console.print(f"[yellow]no bandwidth found[/yellow]: {explanation}")
+    else:
+        console.print(
+            f"bandwidth: {result.omega:.3f} rad/s ({result.omega / (2 * np.pi):.3f} Hz)"
+            f" at ratio {threshold}"
+        )
     if plot is not None:
         from neckid.signals import plot_bandwidth
 
