@@ -153,7 +153,7 @@ def chirp_bandwidth(
     """
     _planar(neck)
     ctrl = controller if controller is not None else InclinationController(ts=neck.ts)
-    time = np.arange(round(duration / neck.ts)) * neck.ts
+    time = np.arange(round(duration / neck.ts), dtype=np.float64) * neck.ts
     reference = paper_chirp(time)
     data = closed_loop(neck, ctrl, reference, neck.ts)
     response = data.channel("inclination")
