@@ -267,7 +267,9 @@ def select_lags(
     Notes
     -----
     A candidate that fails (too few samples for its lags, an unstable free run that overflows, a
-    training error) gets a row with its error text and fit ``-inf`` instead of stopping the search.
+    training error) gets a row with its error text in ``error`` and fit ``-inf`` for every fit that
+    could not be computed, instead of stopping the search (an unstable model keeps its one-step
+    fit, which is computed first). Such rows sort last under either criterion.
     Warnings raised while fitting candidates (e.g. convergence warnings) are silenced.
 
     References
