@@ -26,8 +26,6 @@ tested with IOData in the models' own test modules and below.
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pytest
 from sklearn.base import clone
@@ -36,14 +34,9 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 from neckid import IOData, Lags, LinearARX
 from neckid.models.neural import NeuralNARX
 from neckid.models.rls import RecursiveARX
+from neckid.models.set_membership import SetMembership
 
-ESTIMATORS: list = [LinearARX(), NeuralNARX(), RecursiveARX()]
-# SetMembership is written in parallel with this module; use it as soon as its module exists
-# (an import error inside it is not swallowed).
-if importlib.util.find_spec("neckid.models.set_membership") is not None:
-    from neckid.models.set_membership import SetMembership
-
-    ESTIMATORS.append(SetMembership())
+ESTIMATORS: list = [LinearARX(), NeuralNARX(), RecursiveARX(), SetMembership()]
 
 _XY = (
     "calls fit(X, y) with an (n_samples, n_features) array; a NARX model fits an IOData time series"
