@@ -449,10 +449,15 @@ def _gamma_star_rows_kernel(
     twice_eps: FloatArray,
     rows: IntArray,
     out: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
 ) -> None:
     """For each row ``i`` in ``rows``, update ``out[r]`` (E, m) with the pairs ``(i, j > i)``.
 
-    ``out[r]`` comes in holding the running maximum from earlier blocks. For a pair, the ratio
+    ``out[r]`` comes in holding the running maximum from earlier blocks. ``reach2[b, c]`` bounds
+    from above the squared distance below which a pair whose output difference falls in bin
+    ``b - 1`` (``Δ * bins_per_unit[c]``) can still raise that maximum at some ε; other pairs are
+    skipped without a square root or a division. For a pair, the ratio
     ℓ_e = (Δ − 2ε_e)/d is affine in ε and the running maximum G_e is convex in ε (a maximum of
     such lines, sampled on the grid), so ℓ_e − G_e is concave along the grid: once it is <= 0 and
     not increasing it stays <= 0, and the loop over the grid stops. ``twice_eps`` is sorted.
@@ -460,6 +465,7 @@ def _gamma_star_rows_kernel(
     n_dims, n_points = points_t.shape
     n_out = targets.shape[1]
     n_eps = twice_eps.shape[0]
+    n_bins = reach2.shape[0]
     for r in prange(rows.shape[0]):
         i = rows[r]
         count = n_points - i - 1
@@ -484,9 +490,14 @@ def _gamma_star_rows_kernel(
                             break
                         g[e, c] = np.inf
                 continue
-            d = math.sqrt(dd)
             for c in range(n_out):
                 delta = abs(targets[i, c] - targets[j, c])
+                b = int(delta * bins_per_unit[c]) + 1
+                if b >= n_bins:
+                    b = n_bins - 1
+                if dd >= reach2[b, c]:
+                    continue
+                d = math.sqrt(dd)
                 previous = -np.inf
                 for e in range(n_eps):
                     num = delta - twice_eps[e, c]
@@ -499,6 +510,50 @@ def _gamma_star_rows_kernel(
                     elif gap <= previous and previous > -np.inf:
                         break
                     previous = gap
+
+
+#: Bins of the output difference Δ in the table of reachable distances of the γ*(ε) pass.
+_REACH_BINS = 4096
+
+
+def _neighbour_seed(points: FloatArray, targets: FloatArray, twice_eps: FloatArray) -> FloatArray:
+    """γ*(ε) over the pairs of samples up to 8 rows apart: a cheap first lower bound.
+
+    Consecutive regressors of a time series are close, so these pairs give most of γ*(ε) and
+    let the blocked pass skip most other pairs from its first block on.
+    """
+    best = np.zeros(twice_eps.shape)
+    for step in range(1, min(9, points.shape[0])):
+        dist = np.sqrt(np.sum((points[step:] - points[:-step]) ** 2, axis=1))
+        delta = np.abs(targets[step:] - targets[:-step])
+        moving = dist > 0
+        if not moving.any():
+            continue
+        for e in range(twice_eps.shape[0]):
+            num = delta[moving] - twice_eps[e]
+            ratio = np.where(num > 0, num, 0.0) / dist[moving, None]
+            best[e] = np.maximum(best[e], ratio.max(axis=0))
+    return best
+
+
+def _reach_table(best: FloatArray, twice_eps: FloatArray, bins_per_unit: FloatArray) -> FloatArray:
+    """``reach2[b, c]``: squared distance below which a pair with Δ up to bin ``b`` may count.
+
+    A pair (Δ, d) raises γ*(ε_e) only if ``d < (Δ − 2ε_e) / γ*(ε_e)`` for some e; the right side
+    grows with Δ, so its value at the bin's upper edge bounds the whole bin. Slightly inflated
+    so that rounding never skips a pair that counts.
+    """
+    n_out = best.shape[1]
+    edges = np.arange(_REACH_BINS)[:, None] / np.where(bins_per_unit > 0, bins_per_unit, 1.0)
+    reach = np.zeros((_REACH_BINS, n_out))
+    for e in range(best.shape[0]):
+        num = edges - twice_eps[e]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(num > 0, num / best[e], 0.0)
+        reach = np.maximum(reach, ratio)
+    reach2 = reach * reach * (1.0 + 1e-9)
+    reach2[:, bins_per_unit == 0] = np.inf
+    return np.ascontiguousarray(reach2)
 
 
 def gamma_star(
@@ -543,14 +598,19 @@ def gamma_star(
     interleaved[0::2] = half
     interleaved[1::2] = (n_points - 1 - half)[: n_points // 2]
     total = n_points * (n_points - 1) // 2
-    best = np.zeros(twice_eps.shape)
+    best = _neighbour_seed(points, targets, twice_eps)
+    span = np.ptp(targets, axis=0) if n_points else np.zeros(targets.shape[1])
+    bins_per_unit = np.where(span > 0, (_REACH_BINS - 2) / np.where(span > 0, span, 1.0), 0.0)
     blocks = np.array_split(interleaved, max(1, min(int(n_blocks), n_points)))
     done = 0
     for rows in blocks:
         if rows.size == 0:
             continue
         out = np.broadcast_to(best, (rows.size, *best.shape)).copy()
-        _gamma_star_rows_kernel(points_t, targets, twice_eps, np.ascontiguousarray(rows), out)
+        reach2 = _reach_table(best, twice_eps, bins_per_unit)
+        _gamma_star_rows_kernel(
+            points_t, targets, twice_eps, np.ascontiguousarray(rows), out, reach2, bins_per_unit
+        )
         best = np.maximum(best, out.max(axis=0))
         done += int(np.sum(n_points - 1 - rows))
         if callback is not None:
