@@ -1,0 +1,492 @@
+"""The seed paper's whole protocol on the simulated neck: what ``neckid demo`` runs.
+
+Steps (numbers as in the paper, "Model Identification of a Soft Robotic Neck", UC3M):
+
+1. **Bandwidth.** The up-chirp ``5 + 4 sin(0.1 t²)`` [deg] (eq. 14–15) as the inclination
+   reference of the PI loop; the bandwidth is where the inclination's amplitude stays below 90 % of
+   the reference's (the paper: 4.2 rad/s, used as 4 rad/s).
+2. **Identification data.** In open loop, the motor is driven by a velocity command whose integral
+   (the motor position) is a sum of sinusoids over ``[0.05, bandwidth]`` rad/s with random phases,
+   around a pre-tension; one record to identify, a second with other phases to validate.
+   The CFF-RLS runs at 5°, 10°, …, 35° reached in closed loop with a PRBS on the command.
+3. **Regressor.** Chosen the paper's way: neural networks trained over candidate lag sets, the
+   best free-run fit on the validation record wins; or the paper's own ``[y(t−1..3), u(t−8..10)]``.
+4. **Models.** Set Membership (pure, and with a linear part), neural NARX 2×25, linear ARX, all
+   from measured motor position [rad] to inclination [deg]; and the inclination-scheduled
+   first-order model ``G(z, i) = N(i)/(z − P(i))`` from velocity command [rad/s] to inclination
+   rate, integrated.
+5. **Validation** by free-run fit on the validation record.
+6. **Tests 1–3** in closed loop on the neck: a 2 rad/s sine (15° ± 5°), 5° steps every 3 s up to
+   30°, and a 20° step; every model is simulated with the recorded inputs and compared with the
+   measured inclination (fit and mean absolute error in degrees).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from neckid.data import IOData
+from neckid.models.arx import LinearARX
+from neckid.models.base import ModelResult
+from neckid.models.neural import NeuralNARX
+from neckid.models.scheduled import GainScheduledModel
+from neckid.models.set_membership import SetMembership
+from neckid.plant import InclinationController, SoftNeck, closed_loop
+from neckid.plant.calibration import chirp_bandwidth
+from neckid.regressors import Lags
+from neckid.selection import lag_grid, select_lags
+from neckid.signals import multisine, sine, staircase, step
+
+__all__ = ["PAPER_FITS", "DemoResult", "DemoSettings", "run_demo"]
+
+logger = logging.getLogger(__name__)
+
+#: Columns of the results table: the validation record and the three closed-loop tests.
+EXPERIMENTS = ("validation", "test 1: sine 2 rad/s", "test 2: 5° staircase", "test 3: 20° step")
+
+#: The seed paper's NRMSE fits [%] on its own neck, same columns (NaN: not reported).
+PAPER_FITS: dict[str, tuple[float, float, float, float]] = {
+    "Set Membership (paper)": (88.75, 91.0, 84.65, 67.87),
+    "Neural NARX 2x25 (paper)": (93.75, 92.0, 86.25, 75.16),
+    "MATLAB nlarx default (paper)": (58.0, float("nan"), float("nan"), float("nan")),
+}
+
+#: The seed paper's regressor with one motor: [y(t-1..t-3), u(t-8..t-10)].
+PAPER_LAGS = Lags(outputs=3, inputs=[8, 9, 10])
+
+NARX_INPUT = "motor_position"
+SCHEDULED_INPUT = "velocity_command"
+OUTPUT = "inclination"
+
+
+@dataclass(frozen=True)
+class DemoSettings:
+    """Everything that shapes the demo's numbers (written into the report).
+
+    Attributes
+    ----------
+    seed : int
+        Seeds the neck's sensor noise, the multisine phases, the PRBS and the networks.
+    quick : bool
+        Shorter records and fewer lag candidates (for the test suite).
+    paper_regressor : bool
+        Use the paper's ``[y(t-1..3), u(t-8..10)]`` instead of selecting the lags.
+    ts : float
+        Sampling period [s] of the neck and of every record.
+    train_duration, validation_duration, test_duration : float
+        Record lengths [s].
+    chirp_duration : float
+        Length of the bandwidth chirp [s] (its frequency reaches ``0.2 * chirp_duration`` rad/s).
+    position_center, position_amplitude : float
+        Motor-position excitation: centre and peak deviation [rad].
+    band_low : float
+        Lowest excited frequency [rad/s]; the highest is the measured bandwidth.
+    inclinations : tuple of float
+        Operating points of the CFF-RLS protocol [deg].
+    forgetting_factor : float
+        CFF-RLS λ.
+    """
+
+    seed: int = 0
+    quick: bool = False
+    paper_regressor: bool = False
+    ts: float = 0.02
+    train_duration: float = 120.0
+    validation_duration: float = 60.0
+    test_duration: float = 20.0
+    chirp_duration: float = 60.0
+    position_center: float = 2.5
+    position_amplitude: float = 2.5
+    band_low: float = 0.05
+    inclinations: tuple[float, ...] = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0)
+    forgetting_factor: float = 0.98
+
+    @classmethod
+    def make(
+        cls, *, quick: bool = False, seed: int = 0, paper_regressor: bool = False
+    ) -> DemoSettings:
+        """Default settings, or the shorter ``quick`` ones."""
+        if quick:
+            return cls(
+                seed=seed,
+                quick=True,
+                paper_regressor=paper_regressor,
+                train_duration=60.0,
+                validation_duration=30.0,
+                test_duration=12.0,
+                chirp_duration=50.0,
+                inclinations=(10.0, 20.0, 30.0),
+            )
+        return cls(seed=seed, paper_regressor=paper_regressor)
+
+
+@dataclass
+class DemoResult:
+    """What :func:`run_demo` produced.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        Fit [%] per model (rows) and experiment (columns), the paper's rows below ours.
+    mae : pandas.DataFrame
+        Mean absolute error [deg], same layout (our models only).
+    metrics : dict
+        Everything machine-readable (also written to ``metrics.json``).
+    bandwidth : float
+        Measured bandwidth [rad/s].
+    lags : Lags
+        The regressor used by the NARX models.
+    files : dict of str to Path
+        Report, metrics, figures and model files written.
+    wall_time : float
+        Seconds for the whole run.
+    """
+
+    table: pd.DataFrame
+    mae: pd.DataFrame
+    metrics: dict[str, Any]
+    bandwidth: float
+    lags: Lags
+    files: dict[str, Path] = field(default_factory=dict)
+    wall_time: float = 0.0
+
+
+def _open_loop_record(
+    neck: SoftNeck, settings: DemoSettings, duration: float, band_high: float, seed: int
+) -> IOData:
+    """Open-loop run: velocity command = derivative of a motor-position multisine, after a pre-tension."""
+    ts = settings.ts
+    n = round(duration / ts)
+    position = settings.position_center + settings.position_amplitude * multisine(
+        n, ts, band=(settings.band_low, band_high), amplitude=1.0, phases="random", seed=seed
+    )
+    n_ramp = round(3.0 / ts)
+    ramp = np.full(n_ramp, position[0] / (n_ramp * ts))
+    velocity = np.concatenate([ramp, np.diff(position, prepend=position[0]) / ts])
+    neck.reset()
+    return neck.run(velocity)[n_ramp:]
+
+
+def _closed_loop_tests(neck: SoftNeck, settings: DemoSettings) -> dict[str, IOData]:
+    ts = settings.ts
+    t = np.arange(round(settings.test_duration / ts)) * ts
+    references = {
+        EXPERIMENTS[1]: sine(t, amplitude=5.0, omega=2.0, offset=15.0),
+        EXPERIMENTS[2]: staircase(t, step=5.0, step_duration=3.0, start_time=1.0, maximum=30.0),
+        EXPERIMENTS[3]: step(t, amplitude=20.0, step_time=1.0),
+    }
+    logs = {}
+    for name, reference in references.items():
+        neck.reset()
+        logs[name] = closed_loop(neck, InclinationController(ts=ts), reference, ts)
+    return logs
+
+
+def _narx_view(data: IOData) -> IOData:
+    return data.select(inputs=[NARX_INPUT], outputs=[OUTPUT])
+
+
+def run_demo(
+    out_dir: str | Path = "neckid-demo",
+    settings: DemoSettings | None = None,
+    on_step: Callable[[str], None] | None = None,
+) -> DemoResult:
+    """Run the paper's protocol on the simulated neck and write the report.
+
+    Parameters
+    ----------
+    out_dir : path, default "neckid-demo"
+        Folder for ``report.html``, ``metrics.json``, the PNG figures and the model files; created if
+        missing.
+    settings : DemoSettings, optional
+        Default ``DemoSettings.make()``.
+    on_step : callable, optional
+        Called with a short description as each step starts (the CLI's progress bar).
+
+    Returns
+    -------
+    DemoResult
+    """
+    from neckid.experiments.operating_points import identify_operating_points
+
+    started = time.perf_counter()
+    settings = settings if settings is not None else DemoSettings.make()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    notify = on_step if on_step is not None else (lambda _text: None)
+    rng = np.random.default_rng(settings.seed)
+    seeds = rng.integers(0, 2**31 - 1, size=8)
+
+    # 1. bandwidth --------------------------------------------------------------------------
+    notify("bandwidth: the paper's up-chirp in closed loop")
+    neck = SoftNeck(ts=settings.ts, seed=int(seeds[0]))
+    chirp, chirp_time, chirp_reference, chirp_response = chirp_bandwidth(
+        neck, duration=settings.chirp_duration
+    )
+    bandwidth = float(chirp.bandwidth) if np.isfinite(chirp.bandwidth) else 4.0
+    band_high = min(bandwidth, 0.5 * np.pi / settings.ts)
+
+    # 2. identification data -----------------------------------------------------------------
+    notify("identification data: open-loop multisine, validation record, tests 1-3")
+    train = _open_loop_record(neck, settings, settings.train_duration, band_high, int(seeds[1]))
+    validation = _open_loop_record(
+        neck, settings, settings.validation_duration, band_high, int(seeds[2])
+    )
+    tests = _closed_loop_tests(neck, settings)
+    records = {EXPERIMENTS[0]: validation, **tests}
+
+    # 3. regressor -----------------------------------------------------------------------------
+    notify(
+        "regressor: networks over candidate lag sets"
+        if not settings.paper_regressor
+        else "regressor: the paper's"
+    )
+    selection_table = None
+    network = NeuralNARX(PAPER_LAGS, random_state=int(seeds[3]))
+    if settings.paper_regressor:
+        lags = PAPER_LAGS
+    else:
+        if settings.quick:
+            candidates = [*lag_grid([1, 2], [3], input_delays=[1]), PAPER_LAGS]
+        else:
+            candidates = [*lag_grid([1, 2, 3], [2, 3], input_delays=[1]), PAPER_LAGS]
+        selection = select_lags(
+            _narx_view(train), _narx_view(validation), candidates, network, n_jobs=2, progress=False
+        )
+        selection_table = selection.table
+        lags = selection.best_lags
+
+    # 4. models ----------------------------------------------------------------------------------
+    notify("models: Set Membership, neural NARX, ARX")
+    narx_models: dict[str, Any] = {
+        "Set Membership": SetMembership(lags),
+        "Set Membership + linear": SetMembership(lags, linear_part=True),
+        "Neural NARX 2x25": NeuralNARX(lags, random_state=int(seeds[3])),
+        "Linear ARX": LinearARX(lags),
+    }
+    fit_times = {}
+    for name, model in narx_models.items():
+        t0 = time.perf_counter()
+        model.fit(_narx_view(train))
+        fit_times[name] = time.perf_counter() - t0
+
+    notify("CFF-RLS at each inclination, scheduled model")
+    t0 = time.perf_counter()
+    points = identify_operating_points(
+        SoftNeck(ts=settings.ts, seed=int(seeds[4])),
+        inclinations=settings.inclinations,
+        ts=settings.ts,
+        forgetting_factor=settings.forgetting_factor,
+        seed=int(seeds[5]),
+    )
+    scheduled = points.fit_schedule(converged_only=int(points.converged.sum()) >= 2)
+    fit_times["Scheduled CFF-RLS"] = time.perf_counter() - t0
+
+    # 5-6. validation and tests ------------------------------------------------------------------
+    notify("validation and closed-loop tests")
+    results: dict[str, dict[str, ModelResult]] = {e: {} for e in records}
+    for experiment, record in records.items():
+        view = _narx_view(record)
+        for name, model in narx_models.items():
+            results[experiment][name] = model.simulate(view)
+        results[experiment]["Scheduled CFF-RLS"] = scheduled.simulate(
+            record.select(inputs=[SCHEDULED_INPUT], outputs=[OUTPUT])
+        )
+    model_names = [*narx_models, "Scheduled CFF-RLS"]
+    fits = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
+    maes = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
+    rmses = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
+    for experiment, record in records.items():
+        for name in model_names:
+            result = results[experiment][name]
+            fits.loc[name, experiment] = float(
+                result.fit_percent(record.select(outputs=[OUTPUT]).y)[0]
+            )
+            maes.loc[name, experiment] = float(result.mae(record.select(outputs=[OUTPUT]).y)[0])
+            rmses.loc[name, experiment] = float(result.rmse(record.select(outputs=[OUTPUT]).y)[0])
+    paper = pd.DataFrame(PAPER_FITS, index=list(EXPERIMENTS)).T
+    table = pd.concat([fits, paper])
+    table.index.name = "model"
+    maes.index.name = "model"
+
+    # 7-8. files -----------------------------------------------------------------------------------
+    notify("figures, models, report")
+    files = _write_outputs(
+        out,
+        settings,
+        chirp,
+        (chirp_time, chirp_reference, chirp_response),
+        records,
+        results,
+        narx_models,
+        scheduled,
+        points,
+        table,
+        maes,
+        selection_table,
+        lags,
+    )
+    metrics: dict[str, Any] = {
+        "settings": {
+            k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(settings).items()
+        },
+        "bandwidth_rad_s": bandwidth,
+        "bandwidth_status": chirp.status,
+        "paper_bandwidth_rad_s": 4.2,
+        "lags": repr(lags),
+        "fit_percent": _nested(fits),
+        "mae_deg": _nested(maes),
+        "rmse_deg": _nested(rmses),
+        "paper_fit_percent": {
+            k: dict(zip(EXPERIMENTS, v, strict=True)) for k, v in PAPER_FITS.items()
+        },
+        "fit_time_s": fit_times,
+        "set_membership": {
+            name: {"epsilon": float(model.epsilon_[0]), "gamma": float(model.gamma_[0])}
+            for name, model in narx_models.items()
+            if isinstance(model, SetMembership)
+        },
+        "schedule": {
+            "gain_coefficients": scheduled.gain_coefficients_.tolist(),
+            "pole_coefficients": scheduled.pole_coefficients_.tolist(),
+            "points": json.loads(points.table.to_json(orient="records")),
+        },
+        "files": {k: str(v.name) for k, v in files.items()},
+    }
+    wall = time.perf_counter() - started
+    metrics["wall_time_s"] = wall
+    metrics_path = out / "metrics.json"
+    metrics_path.write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
+    files["metrics"] = metrics_path
+    return DemoResult(table, maes, metrics, bandwidth, lags, files, wall)
+
+
+def _nested(frame: pd.DataFrame) -> dict[str, dict[str, float | None]]:
+    return {
+        str(row): {
+            str(col): (None if not np.isfinite(v) else float(v))
+            for col, v in frame.loc[row].items()
+        }
+        for row in frame.index
+    }
+
+
+def _json_ready(value: Any) -> Any:
+    """Plain JSON values: NumPy scalars as Python numbers, NaN and inf as null."""
+    if isinstance(value, dict):
+        return {str(k): _json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_ready(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def _write_outputs(
+    out: Path,
+    settings: DemoSettings,
+    chirp: Any,
+    chirp_run: tuple[Any, Any, Any],
+    records: dict[str, IOData],
+    results: dict[str, dict[str, ModelResult]],
+    narx_models: dict[str, Any],
+    scheduled: GainScheduledModel,
+    points: Any,
+    table: pd.DataFrame,
+    maes: pd.DataFrame,
+    selection_table: pd.DataFrame | None,
+    lags: Lags,
+) -> dict[str, Path]:
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    from neckid.report.html import Figure, Report, library_versions
+    from neckid.report.plots import plot_simulation
+    from neckid.report.scheduled_plots import plot_gain_schedule
+    from neckid.signals import plot_bandwidth
+
+    files: dict[str, Path] = {}
+    figures: list[Figure] = []
+
+    def save(fig: Any, name: str, caption: str) -> None:
+        path = out / f"{name}.png"
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        files[name] = path
+        figures.append(Figure(path, caption))
+
+    save(
+        plot_bandwidth(chirp),
+        "fig3_bandwidth",
+        f"Fig. 3: amplitude of the up-chirp reference and of the inclination; bandwidth"
+        f" {chirp.bandwidth:.2f} rad/s (paper: 4.2 rad/s).",
+    )
+    for k, (experiment, record) in enumerate(records.items()):
+        view = record.select(outputs=[OUTPUT])
+        fig = plot_simulation(view, results[experiment], title=f"{experiment}: free-run simulation")
+        number = ("fig5_validation", "fig7_sine", "fig8_staircase", "fig9_step")[k]
+        save(
+            fig,
+            number,
+            f"{experiment}: measured inclination and each model's free run"
+            " (Set Membership bounds shaded).",
+        )
+    save(
+        plot_gain_schedule(scheduled),
+        "fig6_schedule",
+        "Fig. 6: gain N and pole P of the CFF-RLS first-order models against the inclination,"
+        " with the fitted lines.",
+    )
+    sm = narx_models["Set Membership"]
+    if sm.gamma_curve_ is not None:
+        save(
+            sm.gamma_curve_.plot(),
+            "gamma_curve",
+            "γ*(ε): the smallest Lipschitz constant consistent with the data, per noise bound ε"
+            " (circle: the chosen ε).",
+        )
+
+    for name, model in narx_models.items():
+        slug = name.lower().replace(" + ", "_").replace(" ", "_")
+        files[f"model_{slug}"] = model.save(out / f"model_{slug}.npz")
+    files["model_scheduled_cff_rls"] = scheduled.save(out / "model_scheduled_cff_rls.npz")
+
+    report = Report("neckid demo: the soft-neck paper's protocol on the simulated neck")
+    report.add_text(
+        "What ran",
+        "The simulated tendon-driven neck (neckid.plant.SoftNeck, planar) stands in for the real one."
+        f" Bandwidth from the paper's up-chirp: {chirp.bandwidth:.2f} rad/s (paper: 4.2 rad/s)."
+        f" NARX models map motor position [rad] to inclination [deg] with the regressor {lags!r};"
+        " the scheduled model maps velocity command [rad/s] to inclination rate, integrated."
+        " Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), of the free-run"
+        " simulation, skipping the initial-condition samples.",
+    )
+    report.add_table("Fit [%] (free run), ours and the paper's", table.reset_index())
+    report.add_table("Mean absolute error [deg]", maes.reset_index(), float_format="{:.3f}")
+    report.add_table(
+        f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f})",
+        points.table,
+        float_format="{:.4f}",
+    )
+    if selection_table is not None:
+        report.add_table(
+            "Lag selection (neural NARX, validation fit)", selection_table, float_format="{:.2f}"
+        )
+    report.add_figures("Figures", figures)
+    report.add_mapping("Settings", {k: v for k, v in asdict(settings).items()})
+    report.add_mapping("Versions", library_versions())
+    files["report"] = report.write(out / "report.html")
+    return files
