@@ -47,7 +47,8 @@ MOTOR_SPEED_LIMIT = 16  # [rad/s]
 MOTOR_ACCELERATION_LIMIT = 17  # [rad/s^2]
 SENSOR_NOISE = 18  # [deg]
 SENSOR_RESOLUTION = 19  # [deg]
-N_PACKED = 20
+TENDON_FORCE_LIMIT = 20  # [N]
+N_PACKED = 21
 
 SMALL_ANGLE = 1e-2  # below this bending angle [rad] the series expansions are used
 RAD2DEG = 180.0 / math.pi
@@ -97,14 +98,14 @@ def _derivatives(
         theta2 += x[ib + j] * x[ib + j]
     theta = math.sqrt(theta2)
     s, sp_over, a, sinc = _shape_functions(theta)
-    # motors: first-order velocity loop with command saturation and acceleration limit
+    # motors: first-order velocity loop with command saturation and acceleration limit; a drive
+    # pulling with the force limit stalls (winds no further)
     w_max = p[MOTOR_SPEED_LIMIT]
     a_max = p[MOTOR_ACCELERATION_LIMIT]
     for i in range(m):
         target = min(max(u[i], -w_max), w_max)
-        acc = (target - x[m + i]) / p[MOTOR_TIME_CONSTANT]
         dx[i] = x[m + i]
-        dx[m + i] = min(max(acc, -a_max), a_max)
+        dx[m + i] = target  # finished below, once the tendon force is known
     # generalised forces on the bending vector
     stiff = p[STIFFNESS] * (1.0 + p[STIFFENING] * theta)
     tangent = p[HYSTERESIS_STIFFNESS] * (1.0 + 2.0 * p[STIFFENING] * theta)
@@ -129,9 +130,14 @@ def _derivatives(
         force = p[TENDON_STIFFNESS] * stretch + p[TENDON_DAMPING] * (winch * x[m + i] + length_rate)
         if force <= 0.0:
             continue
+        if force >= p[TENDON_FORCE_LIMIT] and dx[m + i] > 0.0:
+            dx[m + i] = 0.0
         for j in range(d):
             grad = sp_over * lever * x[ib + j] - s * radius * directions[i, j]
             dx[iv + j] -= force * grad
+    for i in range(m):
+        acc = (dx[m + i] - x[m + i]) / p[MOTOR_TIME_CONSTANT]
+        dx[m + i] = min(max(acc, -a_max), a_max)
     inertia = p[INERTIA]
     for j in range(d):
         dx[iv + j] /= inertia
@@ -274,13 +280,14 @@ def derivatives_reference(
     z = x[2 * m + 2 * d :]
     theta = float(np.sqrt(np.sum(b**2)))
     _, _, a, sinc = _shape_functions_reference(theta)
+    _, grad, force = tendon_state_reference(x, p, directions)
     target = np.clip(u, -p[MOTOR_SPEED_LIMIT], p[MOTOR_SPEED_LIMIT])
+    target = np.where((force >= p[TENDON_FORCE_LIMIT]) & (target > 0.0), 0.0, target)
     acc = np.clip(
         (target - w) / p[MOTOR_TIME_CONSTANT],
         -p[MOTOR_ACCELERATION_LIMIT],
         p[MOTOR_ACCELERATION_LIMIT],
     )
-    _, grad, force = tendon_state_reference(x, p, directions)
     moment = (
         -p[STIFFNESS] * (1.0 + p[STIFFENING] * theta) * b
         - p[HYSTERESIS_STIFFNESS] * (1.0 + 2.0 * p[STIFFENING] * theta) * z

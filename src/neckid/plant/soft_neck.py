@@ -131,6 +131,11 @@ class SoftNeckParameters:
     motor_acceleration_limit : float, default 200.0
         Acceleration limit of the drive (torque saturation), rad/s² at the gearbox output.
         Estimate: RE16 stall torque through 24:1 with the winch and link inertia.
+    tendon_force_limit : float, default 40.0
+        Largest tendon force the drive can wind against, N: beyond it the motor stalls (winds no
+        further; it can still unwind). Estimate: RE16 stall torque (about 12 mN m) through 24:1 at
+        about 80 % efficiency on a 0.0075 m winch gives 30–40 N. It also keeps an open-loop run
+        bounded (about 60° at most) whatever the commands.
     sensor_noise : float, default 0.03
         Standard deviation of the tilt sensor's white noise, degrees, per component.
     sensor_resolution : float, default 0.01
@@ -186,6 +191,7 @@ class SoftNeckParameters:
     motor_time_constant: float = 0.015
     tendon_speed_limit: float = 0.03
     motor_acceleration_limit: float = 200.0
+    tendon_force_limit: float = 40.0
     sensor_noise: float = 0.03
     sensor_resolution: float = 0.01
     sensor_delay: float = 0.04
@@ -204,6 +210,7 @@ class SoftNeckParameters:
             ("motor_time_constant", "s"),
             ("tendon_speed_limit", "m/s"),
             ("motor_acceleration_limit", "rad/s^2"),
+            ("tendon_force_limit", "N"),
             ("sensor_resolution", "deg"),
             ("integration_step", "s"),
         )
@@ -295,6 +302,7 @@ class SoftNeckParameters:
         p[k.MOTOR_ACCELERATION_LIMIT] = self.motor_acceleration_limit
         p[k.SENSOR_NOISE] = self.sensor_noise
         p[k.SENSOR_RESOLUTION] = self.sensor_resolution
+        p[k.TENDON_FORCE_LIMIT] = self.tendon_force_limit
         return p
 
     def fastest_rate(self) -> float:
