@@ -334,15 +334,31 @@ def _lag_grid(benchmark: str, quick: bool) -> list[Lags]:
     grids: dict[str, list[Lags]] = {
         "softneck": [Lags.arx(1, 1, 1), Lags.arx(2, 2, 1), Lags.arx(3, 3, 1)],
         "cascaded_tanks": [Lags.arx(2, 2, 1), Lags.arx(3, 3, 1), Lags.arx(4, 4, 1)],
-        "silverbox": [Lags.arx(2, 3, 0), Lags.arx(3, 3, 0), Lags.arx(4, 4, 0)],
-        "bouc_wen": [Lags.arx(3, 3, 0), Lags.arx(5, 5, 0)],
+        # Large records: one regressor, as the O(N^2) gamma*(epsilon) pass of SM costs minutes.
+        "silverbox": [Lags.arx(3, 3, 0)],
+        "bouc_wen": [Lags.arx(5, 5, 0)],
         "robot_arm": [Lags.arx(2, 2, 1), Lags.arx(4, 4, 1)],
     }
     grid = grids[benchmark]
     return grid[1:2] if quick else grid
 
 
-def _candidates(method: str, benchmark: str, quick: bool, seed: int) -> list[_Candidate]:
+#: Candidate noise bounds of Set Membership, as multiples of the one-step residual RMS of a linear
+#: ARX on the same regressor (training record); ``None`` is SetMembership's own knee rule.
+SM_EPSILON_FACTORS: tuple[float | None, ...] = (None, 1.0, 3.0)
+
+
+def _residual_scale(lags: Lags, train: IOData) -> float:
+    """RMS of the one-step residual of a linear ARX with these lags on the training record."""
+    arx = _import("neckid.models.arx", "LinearARX")
+    model = arx(lags).fit(train)
+    prediction = model.predict(train)
+    return float(rmse(train.y, prediction.y, skip=prediction.n_initial)[0])
+
+
+def _candidates(
+    method: str, benchmark: str, quick: bool, seed: int, train: IOData
+) -> list[_Candidate]:
     """The hyper-parameter candidates of a method on a data set."""
     lags_grid = _lag_grid(benchmark, quick)
     if method == "arx":
@@ -351,10 +367,21 @@ def _candidates(method: str, benchmark: str, quick: bool, seed: int) -> list[_Ca
     if method in ("sm", "sm_linear"):
         sm = _import("neckid.models.set_membership", "SetMembership")
         linear = method == "sm_linear"
-        return [
-            _Candidate(f"lags={lags!r}", _bind(sm, lags=lags, linear_part=linear))
-            for lags in lags_grid
-        ]
+        large = benchmark in ("silverbox", "bouc_wen")
+        factors: tuple[float | None, ...] = (None,) if quick or large else SM_EPSILON_FACTORS
+        candidates = []
+        for lags in lags_grid:
+            noise = _residual_scale(lags, train)
+            for factor in factors:
+                epsilon = None if factor is None else factor * noise
+                label = "knee" if epsilon is None else f"{factor:g} x {noise:.3g}"
+                candidates.append(
+                    _Candidate(
+                        f"lags={lags!r}, epsilon={label}",
+                        _bind(sm, lags=lags, linear_part=linear, epsilon=epsilon, progress=False),
+                    )
+                )
+        return candidates
     if method == "neural":
         neural = _import("neckid.models.neural", "NeuralNARX")
         sizes = (10,) if quick else (25, 25)
@@ -488,6 +515,12 @@ def _free_run(model: Any, record: IOData, n_initial: int | None) -> tuple[np.nda
     return y, skip
 
 
+def _first_non_finite(y: np.ndarray, skip: int) -> int | None:
+    """Index of the first non-finite simulated sample after ``skip``, or None."""
+    bad = np.flatnonzero(~np.isfinite(y[skip:]).all(axis=1))
+    return int(bad[0]) + skip if bad.size else None
+
+
 def _split_training(train: IOData) -> tuple[IOData, IOData]:
     return train.split(SELECTION_FRACTION)
 
@@ -501,12 +534,19 @@ def _select(
     fit_part, check_part = _split_training(train)
     scores: list[dict[str, Any]] = []
     for candidate in candidates:
-        model = candidate.build().fit(fit_part)
+        try:
+            model = candidate.build().fit(fit_part)
+        except ValueError as exc:  # e.g. an SM prior that no Lipschitz function satisfies
+            scores.append(
+                {"settings": candidate.settings, "holdout_rmse": math.inf, "error": str(exc)}
+            )
+            continue
         y, skip = _free_run(model, check_part, n_initial)
-        value = float(rmse(check_part.y, y, skip=skip)[0])
-        if not math.isfinite(value):
-            value = math.inf
+        diverged = _first_non_finite(y, skip)
+        value = math.inf if diverged is not None else float(rmse(check_part.y, y, skip=skip)[0])
         scores.append({"settings": candidate.settings, "holdout_rmse": value})
+    if all(math.isinf(float(s["holdout_rmse"])) for s in scores):
+        raise ValueError(f"every candidate failed or diverged on the held-out end: {scores}")
     best = int(np.argmin([float(s["holdout_rmse"]) for s in scores]))
     return candidates[best], scores
 
@@ -560,7 +600,7 @@ def _run_method(
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Select, fit and simulate one method on one data set; return table rows and details."""
     start = time.perf_counter()
-    candidates = _candidates(method, bench.name, quick, seed)
+    candidates = _candidates(method, bench.name, quick, seed, bench.train)
     chosen, scores = _select(candidates, bench.train, bench.n_initial)
     model = chosen.build().fit(bench.train)
     train_time = time.perf_counter() - start
@@ -569,8 +609,14 @@ def _run_method(
         t0 = time.perf_counter()
         y, skip = _free_run(model, record, bench.n_initial)
         sim_time = time.perf_counter() - t0
-        error = float(rmse(record.y, y, skip=skip)[0]) * bench.rmse_scale
-        fit = float(fit_percent(record.y, y, skip=skip)[0])
+        diverged = _first_non_finite(y, skip)
+        note = ""
+        if diverged is None:
+            error = float(rmse(record.y, y, skip=skip)[0]) * bench.rmse_scale
+            fit = float(fit_percent(record.y, y, skip=skip)[0])
+        else:
+            error, fit = math.inf, -math.inf
+            note = f"free run diverged at sample {diverged}"
         rows.append(
             {
                 "benchmark": bench.name,
@@ -583,7 +629,7 @@ def _run_method(
                 "train_time_s": train_time,
                 "simulate_time_s": sim_time,
                 "settings": chosen.settings,
-                "note": "",
+                "note": note,
             }
         )
     details = {"selection": scores, "chosen": chosen.settings}
@@ -773,7 +819,7 @@ def run_benchmark(
             bench_rows.extend(method_rows)
             bench_details["methods"][method] = method_details
         if name == "softneck" and bench_rows:
-            finished = [r for r in bench_rows if math.isfinite(r["fit_percent"])]
+            finished = [r for r in bench_rows if not math.isnan(r["fit_percent"])]
             if finished:
                 summary, margins = _softneck_summary(finished)
                 bench_rows.extend(summary)
