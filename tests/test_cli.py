@@ -1,0 +1,207 @@
+"""The command line on logs the tests write: identify, validate, simulate, bandwidth, demo."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from neckid import load_model
+from neckid.cli import app
+from neckid.experiments.paper import EXPERIMENTS
+from neckid.plant import InclinationController, SoftNeck, closed_loop
+from neckid.signals import multisine, paper_chirp
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def neck_logs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """Two open-loop runs of the simulated neck, written as CSV with a header row."""
+    folder = tmp_path_factory.mktemp("logs")
+    neck = SoftNeck(seed=3)
+    paths = []
+    for seed, name in ((1, "train.csv"), (2, "valid.csv")):
+        position = 2.5 + 2.0 * multisine(
+            1500, neck.ts, band=(0.05, 4.0), phases="random", seed=seed
+        )
+        velocity = np.concatenate(
+            [np.full(150, position[0] / 3.0), np.diff(position, prepend=position[0]) / neck.ts]
+        )
+        neck.reset()
+        data = neck.run(velocity)[150:]
+        data.to_csv(folder / name)
+        paths.append(folder / name)
+    return paths[0], paths[1]
+
+
+def _plain(text: str) -> str:
+    return re.sub(r"\s+", " ", text)
+
+
+@pytest.mark.parametrize("method", ["arx", "sm", "sm-linear", "nn", "rls"])
+def test_identify_validate_simulate_round_trip(
+    neck_logs: tuple[Path, Path], tmp_path: Path, method: str
+) -> None:
+    train, valid = neck_logs
+    model_path = tmp_path / f"{method}.npz"
+    lags = "1-2/1-2" if method == "rls" else "1-2/1-3"
+    inputs = "velocity_command" if method == "rls" else "motor_position"
+    result = runner.invoke(
+        app,
+        [
+            "identify",
+            str(train),
+            "--inputs",
+            inputs,
+            "--outputs",
+            "inclination",
+            "--method",
+            method,
+            "--lags",
+            lags,
+            "--save",
+            str(model_path),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert model_path.exists()
+    assert "fit %" in result.output
+    model = load_model(model_path)
+    assert model.n_inputs_ == 1
+
+    plot = tmp_path / "val.png"
+    result = runner.invoke(app, ["validate", str(model_path), str(valid), "--plot", str(plot)])
+    assert result.exit_code == 0, result.output
+    assert "inclination" in result.output and plot.stat().st_size > 1000
+
+    out = tmp_path / "sim.csv"
+    result = runner.invoke(app, ["simulate", str(model_path), str(valid), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    frame = pd.read_csv(out)
+    assert len(frame) == len(pd.read_csv(valid))
+    assert "inclination" in frame.columns
+    if method.startswith("sm"):
+        assert {"inclination_lower", "inclination_upper"} <= set(frame.columns)
+
+
+def test_identify_reports_unknown_column(neck_logs: tuple[Path, Path], tmp_path: Path) -> None:
+    train, _ = neck_logs
+    result = runner.invoke(
+        app,
+        [
+            "identify",
+            str(train),
+            "--inputs",
+            "nope",
+            "--outputs",
+            "inclination",
+            "--save",
+            str(tmp_path / "m"),
+        ],
+    )
+    assert result.exit_code == 2
+    assert "nope" in _plain(result.output)
+
+
+def test_identify_reports_bad_lags(neck_logs: tuple[Path, Path], tmp_path: Path) -> None:
+    train, _ = neck_logs
+    result = runner.invoke(
+        app,
+        [
+            "identify",
+            str(train),
+            "--inputs",
+            "motor_position",
+            "--outputs",
+            "inclination",
+            "--lags",
+            "3",
+        ],
+    )
+    assert result.exit_code == 2
+    assert "OUTPUT_LAGS/INPUT_LAGS" in _plain(result.output)
+
+
+def test_bandwidth_of_a_chirp_log(tmp_path: Path) -> None:
+    neck = SoftNeck(seed=0)
+    t = np.arange(3000) * neck.ts
+    reference = paper_chirp(t)
+    data = closed_loop(neck, InclinationController(ts=neck.ts), reference, neck.ts)
+    path = tmp_path / "chirp.csv"
+    data.to_csv(path)
+    plot = tmp_path / "bw.png"
+    result = runner.invoke(
+        app,
+        [
+            "bandwidth",
+            str(path),
+            "--command",
+            "reference",
+            "--response",
+            "inclination",
+            "--rate",
+            "0.1",
+            "--plot",
+            str(plot),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    omega = float(re.search(r"bandwidth: ([0-9.]+) rad/s", result.output).group(1))  # type: ignore[union-attr]
+    assert 2.0 < omega < 8.0
+    assert plot.exists()
+
+
+def test_version() -> None:
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0
+    assert result.output.startswith("neckid ")
+
+
+def test_demo_quick_writes_report_metrics_figures_models(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    result = runner.invoke(app, ["demo", "--quick", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "Set Membership" in result.output and "(paper)" in result.output
+
+    metrics = json.loads((out / "metrics.json").read_text())
+    models = [
+        "Set Membership",
+        "Set Membership + linear",
+        "Neural NARX 2x25",
+        "Linear ARX",
+        "Scheduled CFF-RLS",
+    ]
+    for model in models:
+        for experiment in EXPERIMENTS:
+            value = metrics["fit_percent"][model][experiment]
+            assert isinstance(value, float), (model, experiment, value)
+            assert isinstance(metrics["mae_deg"][model][experiment], float)
+    assert 1.0 < metrics["bandwidth_rad_s"] < 10.0
+
+    figures = sorted(p.name for p in out.glob("*.png"))
+    for name in (
+        "fig3_bandwidth",
+        "fig5_validation",
+        "fig6_schedule",
+        "fig7_sine",
+        "fig8_staircase",
+        "fig9_step",
+    ):
+        assert f"{name}.png" in figures
+    model_files = sorted(out.glob("model_*.npz"))
+    assert len(model_files) == 5
+    for path in model_files:
+        load_model(path)  # every model file loads again
+
+    page = (out / "report.html").read_text()
+    assert "<table" in page
+    assert page.count("data:image/png;base64,") == len(figures)
+    for experiment in EXPERIMENTS:
+        assert experiment in page
+    assert "88.75" in page  # the paper's row is in the table
