@@ -321,3 +321,9 @@ def test_bounds_refuses_bad_regressors(model: SetMembership) -> None:
         model.bounds(np.zeros((3, 3)))
     with pytest.raises(ValueError, match="channels"):
         model.predict(IOData(np.zeros((5, 2)), np.zeros(5), ts=0.02))
+
+
+def test_progress_bar_runs(data: IOData) -> None:
+    shown = gamma_curve(data[:200], LAGS, [0.0, 0.02], progress=True)
+    hidden = gamma_curve(data[:200], LAGS, [0.0, 0.02], progress=False)
+    np.testing.assert_array_equal(shown.gamma, hidden.gamma)
