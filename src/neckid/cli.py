@@ -334,6 +334,60 @@ def bandwidth(
 
 
 @app.command()
+def benchmark(
+    data_dir: Path = typer.Option(
+        ...,
+        "--data-dir",
+        help="Folder holding softneck/ and benchmarks/<name>/ (e.g. ../shared/data).",
+        exists=True,
+        file_okay=False,
+    ),
+    methods: str = typer.Option(
+        None,
+        "--methods",
+        help="Comma-separated: arx, sm, sm_linear, neural, scheduled (default all).",
+    ),
+    only: str = typer.Option(
+        None,
+        "--only",
+        help="Comma-separated benchmarks: softneck, silverbox, cascaded_tanks, bouc_wen, robot_arm.",
+    ),
+    out: Path = typer.Option(
+        Path("neckid-benchmark"),
+        "--out",
+        help="Folder for benchmark.csv, published.csv, benchmark.json.",
+    ),
+    quick: bool = typer.Option(
+        False, "--quick", help="Smoke run on short subsets; not for reporting."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Seed of the neural networks."),
+) -> None:
+    """Run the models on real logs and public benchmarks with their official protocols.
+
+    Free-run simulation; RMSE in each benchmark's unit (Silverbox mV, cascaded tanks V, Bouc-Wen m,
+    soft neck deg) next to the published figures; wall time of each method.
+    """
+    from neckid.experiments.benchmark import METHODS, run_benchmark
+
+    try:
+        report = run_benchmark(
+            data_dir,
+            methods=_split(methods) or tuple(METHODS),
+            benchmarks=_split(only),
+            quick=quick,
+            seed=seed,
+            output_dir=out,
+        )
+    except (ValueError, FileNotFoundError) as exc:
+        _fail(str(exc))
+        return
+    console.print(report.rich_table())
+    if report.details.get("missing"):
+        console.print(f"not found under {data_dir}: {', '.join(report.details['missing'])}")
+    console.print(f"written to {out}/")
+
+
+@app.command()
 def info() -> None:
     """Print the versions of neckid and of the libraries it uses."""
     from neckid.report.html import library_versions
