@@ -176,3 +176,50 @@ def test_not_fitted_and_bad_input() -> None:
         fitted.transfer_function(10.0, to="angle")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="non-finite"):
         fitted.simulator().step(np.inf)
+
+
+@pytest.mark.parametrize("delay", [1, 2, 4])
+def test_delay_shifts_the_response_and_matches_the_transfer_function(delay: int) -> None:
+    model = GainScheduledModel(degree=0, ts=0.02, delay=delay).fit(
+        [10.0, 20.0], [1.5, 1.5], [0.6, 0.6]
+    )
+    u = np.zeros(60)
+    u[5:] = 1.0
+    y = model.simulate(u, y0=0.0).y[:, 0]
+    # r(t) = P r(t-1) + N u(t-d): the first sample to move is t = 5 + d
+    assert np.all(y[: 5 + delay] == 0.0)
+    assert y[5 + delay] > 0.0
+    tf = model.transfer_function(15.0, to="inclination")
+    assert len(tf.den[0][0]) == 3 + (delay - 1)
+    _, expected = control.forced_response(tf, T=np.arange(60) * 0.02, U=u)
+    np.testing.assert_allclose(y, expected, atol=1e-12)
+
+
+def test_delay_comes_from_the_operating_points_and_survives_save_load(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from neckid.experiments.operating_points import operating_points_from_logs
+
+    rng = np.random.default_rng(0)
+    logs = []
+    for target in (10.0, 20.0, 30.0):
+        u = rng.choice([-1.0, 1.0], size=800)
+        rate = np.zeros(800)
+        for t in range(3, 800):
+            rate[t] = 0.7 * rate[t - 1] + (2.0 - 0.02 * target) * u[t - 3]
+        incl = target + np.cumsum(rate) * 0.02
+        logs.append(
+            IOData(u, incl, ts=0.02, input_names=["velocity_command"], output_names=["inclination"])
+        )
+    points = operating_points_from_logs(
+        logs, input="velocity_command", output="inclination", delay=3
+    )
+    model = points.fit_schedule(converged_only=False)
+    assert model.delay_ == 3
+    np.testing.assert_allclose(model.gains_, [1.8, 1.6, 1.4], atol=0.02)
+    again = load_model(model.save(tmp_path / "sched.npz"))
+    assert again.delay_ == 3
+
+
+@pytest.mark.parametrize("delay", [0, -1, 1.5, True])
+def test_bad_delay_is_refused(delay: object) -> None:
+    with pytest.raises(ValueError, match="delay must be a whole number"):
+        GainScheduledModel(ts=0.02, delay=delay).fit([1.0, 2.0], [1.0, 1.0], [0.5, 0.5])  # type: ignore[arg-type]

@@ -281,10 +281,14 @@ def run_demo(
 
     notify("CFF-RLS at each inclination, scheduled model")
     t0 = time.perf_counter()
+    rls_neck = SoftNeck(ts=settings.ts, seed=int(seeds[4]))
     points = identify_operating_points(
-        SoftNeck(ts=settings.ts, seed=int(seeds[4])),
+        rls_neck,
         inclinations=settings.inclinations,
         ts=settings.ts,
+        # The tilt sensor's latency (2 samples on the simulated neck, as on the bench) plus the
+        # one sample of the paper's G(z) = N / (z - P).
+        delay=rls_neck.delay_samples + 1,
         forgetting_factor=settings.forgetting_factor,
         seed=int(seeds[5]),
     )

@@ -74,6 +74,12 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         input channel is used whatever its name.
     output : str, default "inclination"
         Name of the inclination channel [deg] (initial condition and name of the result).
+    delay : int, optional
+        Input delay ``d`` >= 1 in samples: ``r(t) = P r(t−1) + N u(t−d)``, i.e.
+        ``G(z, i) = N(i) z^{-(d-1)} / (z − P(i))``. Default: the delay the operating points were
+        identified with (``OperatingPointResult.settings["delay"]``), or 1 (the seed paper's model)
+        when fitting on plain arrays. A sensor with a few samples of latency is better described
+        with ``d`` = latency + 1.
 
     Attributes
     ----------
@@ -88,6 +94,8 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         Root-mean-square residual of each fit.
     ts_ : float
         Sampling period in seconds.
+    delay_ : int
+        Input delay used, in samples.
 
     Notes
     -----
@@ -123,11 +131,13 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         ts: float | None = None,
         input: str = "velocity_command",
         output: str = "inclination",
+        delay: int | None = None,
     ) -> None:
         self.degree = degree
         self.ts = ts
         self.input = input
         self.output = output
+        self.delay = delay
 
     # ------------------------------------------------------------------ fit
     def fit(
@@ -164,7 +174,10 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         from neckid.experiments.operating_points import OperatingPointResult
 
         ts = self.ts
+        delay = self.delay
         if isinstance(inclinations, OperatingPointResult):
+            if delay is None:
+                delay = int(inclinations.settings.get("delay", 1))
             if gains is not None or poles is not None:
                 raise ValueError(
                     "give either an OperatingPointResult or the arrays inclinations, gains and"
@@ -216,7 +229,12 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         self.pole_rmse_ = float(
             np.sqrt(np.mean((np.polyval(self.pole_coefficients_, i_values) - p_values) ** 2))
         )
+        if delay is None:
+            delay = 1
+        if isinstance(delay, bool) or not isinstance(delay, int | np.integer) or delay < 1:
+            raise ValueError(f"delay must be a whole number of samples >= 1; got {delay!r}")
         self.ts_ = ts_value
+        self.delay_ = int(delay)
         return self
 
     @classmethod
@@ -253,6 +271,10 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         model.gain_rmse_ = math.nan
         model.pole_rmse_ = math.nan
         model.ts_ = float(ts)
+        delay = 1 if model.delay is None else model.delay
+        if isinstance(delay, bool) or not isinstance(delay, int | np.integer) or delay < 1:
+            raise ValueError(f"delay must be a whole number of samples >= 1; got {delay!r}")
+        model.delay_ = int(delay)
         return model
 
     # ------------------------------------------------------------------ the model
@@ -280,9 +302,9 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         inclination : float
             Operating point [deg].
         to : {"rate", "inclination"}, default "rate"
-            ``"rate"``: ``N / (z − P)`` from velocity command [rad/s] to inclination rate [deg/s];
-            ``"inclination"``: ``N · ts · z / ((z − P)(z − 1))`` to inclination [deg] (the rate
-            integrated as ``i(t) = i(t−1) + ts · r(t)``).
+            ``"rate"``: ``N z^{-(d-1)} / (z − P)`` from velocity command [rad/s] to inclination
+            rate [deg/s]; ``"inclination"``: ``N · ts · z^{2-d} / ((z − P)(z − 1))`` to inclination
+            [deg] (the rate integrated as ``i(t) = i(t−1) + ts · r(t)``); ``d`` is ``delay_``.
 
         Returns
         -------
@@ -297,10 +319,13 @@ class GainScheduledModel(BaseEstimator, ModelFile):
             raise ValueError(f"inclination must be a finite number of degrees; got {inclination!r}")
         n = float(self.gain(value))
         p = float(self.pole(value))
+        extra = [0.0] * (self.delay_ - 1)  # z^{-(d-1)}: d - 1 more poles at the origin
         if to == "rate":
-            return control.TransferFunction([n], [1.0, -p], dt=self.ts_)
+            return control.TransferFunction([n], [1.0, -p, *extra], dt=self.ts_)
         if to == "inclination":
-            return control.TransferFunction([n * self.ts_, 0.0], [1.0, -(1.0 + p), p], dt=self.ts_)
+            return control.TransferFunction(
+                [n * self.ts_, 0.0], [1.0, -(1.0 + p), p, *extra], dt=self.ts_
+            )
         raise ValueError(f"to must be 'rate' or 'inclination'; got {to!r}")
 
     # ------------------------------------------------------------------ simulation
@@ -419,8 +444,10 @@ class GainScheduledModel(BaseEstimator, ModelFile):
                 "ts": None if self.ts is None else float(self.ts),
                 "input": str(self.input),
                 "output": str(self.output),
+                "delay": None if self.delay is None else int(self.delay),
             },
             "ts": self.ts_,
+            "delay": self.delay_,
             "gain_rmse": self.gain_rmse_,
             "pole_rmse": self.pole_rmse_,
         }
@@ -439,6 +466,7 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         model.gain_rmse_ = float(meta["gain_rmse"])
         model.pole_rmse_ = float(meta["pole_rmse"])
         model.ts_ = float(meta["ts"])
+        model.delay_ = int(meta.get("delay", 1))
         return model
 
 
@@ -446,27 +474,28 @@ class GainScheduledSimulator:
     """Step-by-step free run of a :class:`GainScheduledModel`, for a closed loop beside a controller.
 
     ``step(u)`` takes the velocity command at the current time ``t`` [rad/s] and returns the
-    inclination ``i(t)`` [deg], which depends on the commands up to ``t − 1`` (one sample of delay):
-    ``r(t) = P(i(t−1)) r(t−1) + N(i(t−1)) u(t−1)``, ``i(t) = i(t−1) + ts r(t)``.
+    inclination ``i(t)`` [deg], which depends on the commands up to ``t − d`` (``d = delay_``):
+    ``r(t) = P(i(t−1)) r(t−1) + N(i(t−1)) u(t−d)``, ``i(t) = i(t−1) + ts r(t)``.
     """
 
     def __init__(self, model: GainScheduledModel) -> None:
         self._gain = np.asarray(model.gain_coefficients_, dtype=np.float64)
         self._pole = np.asarray(model.pole_coefficients_, dtype=np.float64)
         self.ts = float(model.ts_)
+        self.delay = int(model.delay_)
         self.n_inputs = 1
         self.n_outputs = 1
         self.reset()
 
     def reset(self, y0: float = 0.0, rate0: float = 0.0, u0: float = 0.0) -> None:
-        """Start again at inclination ``y0`` [deg], rate ``rate0`` [deg/s], last command ``u0``."""
+        """Start again at inclination ``y0`` [deg], rate ``rate0`` [deg/s], past commands ``u0``."""
         values = np.array([y0, rate0, u0], dtype=np.float64).reshape(-1)
         if values.size != 3:
             raise ValueError(f"y0, rate0 and u0 must be scalars; got {y0!r}, {rate0!r}, {u0!r}")
         check_finite(values[None, :], "initial state", ["y0", "rate0", "u0"])
         self.inclination = float(values[0])
         self.rate = float(values[1])
-        self._u = float(values[2])
+        self._past_u = [float(values[2])] * self.delay  # u(t-d), ..., u(t-1)
 
     @property
     def current_gain(self) -> float:
@@ -486,7 +515,7 @@ class GainScheduledSimulator:
         check_finite(u_now[None, :], "u")
         gain = self.current_gain
         pole = self.current_pole
-        self.rate = pole * self.rate + gain * self._u
+        self.rate = pole * self.rate + gain * self._past_u[0]
         self.inclination = self.inclination + self.ts * self.rate
-        self._u = float(u_now[0])
+        self._past_u = [*self._past_u[1:], float(u_now[0])]
         return np.array([self.inclination])
