@@ -658,10 +658,9 @@ class IOData:
         IOData(n_samples=3, ts=0.02, inputs=['cmd'], outputs=['incl'], name='log.csv')
         """
         path = Path(path)
-        if ts is not None and time == "time":
-            time = None
-        frame = pd.read_csv(path, **read_csv)
-        return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
+        return cls._from_file_frame(
+            path, pd.read_csv(path, **read_csv), inputs, outputs, time, ts, units
+        )
 
     @classmethod
     def from_parquet(
@@ -676,9 +675,22 @@ class IOData:
     ) -> IOData:
         """Read a Parquet log (needs the ``parquet`` extra: ``pip install neckid[parquet]``)."""
         path = Path(path)
+        return cls._from_file_frame(path, pd.read_parquet(path), inputs, outputs, time, ts, units)
+
+    @classmethod
+    def _from_file_frame(
+        cls,
+        path: Path,
+        frame: pd.DataFrame,
+        inputs: Sequence[str],
+        outputs: Sequence[str],
+        time: str | None,
+        ts: float | None,
+        units: Mapping[str, str] | None,
+    ) -> IOData:
+        """A table read from a file; an explicit ``ts`` overrides the default time column."""
         if ts is not None and time == "time":
             time = None
-        frame = pd.read_parquet(path)
         return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
 
     def to_parquet(self, path: str | Path) -> None:
