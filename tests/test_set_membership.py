@@ -256,6 +256,27 @@ def test_save_load_with_user_weights_and_linear_part(data: IOData, tmp_path) -> 
     assert loaded.get_params()["scaling"] == [2.0, 1.0]
 
 
+def test_input_weight_scales_only_the_input_terms(data: IOData, tmp_path) -> None:
+    lags = Lags(outputs=[1, 2], inputs=[0, 1])
+    plain = SetMembership(lags, epsilon=NOISE, linear_part=True).fit(data[:400])
+    light = SetMembership(lags, epsilon=NOISE, linear_part=True, input_weight=0.1)
+    light.fit(data[:400])
+    is_input = np.array([name.startswith("u") for name in light.lags_.names])
+    assert is_input.tolist() == [False, False, True, True]
+    np.testing.assert_allclose(light.weights_, plain.weights_ * np.where(is_input, 0.1, 1.0))
+    np.testing.assert_array_equal(light.coef_, plain.coef_)  # the linear part does not change
+    # the distance is the estimator's: gamma*(epsilon) equals the reference on the weighted rows
+    x, y = lags.build(data[:400])
+    residual = y - (x @ light.coef_ + light.intercept_)
+    star = gamma_star_reference(x * light.weights_, residual[:, 0], [NOISE])[0]
+    assert light.gamma_star_[0] == pytest.approx(star, rel=1e-12)
+    curve = gamma_curve(data[:400], lags, [NOISE], linear_part=True, input_weight=0.1)
+    assert curve.gamma[0, 0] == pytest.approx(star, rel=1e-12)
+    loaded = SetMembership.load(light.save(tmp_path / "iw.npz"))
+    assert loaded.get_params()["input_weight"] == 0.1
+    np.testing.assert_array_equal(loaded.simulate(data[400:]).y, light.simulate(data[400:]).y)
+
+
 # ------------------------------------------------------------------ bad input
 def _duplicated() -> IOData:
     u = np.array([0.0, 1.0, 0.0, 1.0, 0.5, 0.2])
@@ -278,6 +299,9 @@ def _duplicated() -> IOData:
         ({"epsilon": 0.0, "gamma": 0.01}, ValueError, r"below gamma\*\(epsilon\) = \d"),
         ({"linear_part": "yes"}, TypeError, "linear_part must be True or False"),
         ({"epsilons": [-1.0, 0.0]}, ValueError, "epsilons must be finite and >= 0"),
+        ({"input_weight": 0.0}, ValueError, r"input_weight must be finite and > 0.*0.0"),
+        ({"input_weight": float("inf")}, ValueError, "input_weight must be finite and > 0"),
+        ({"input_weight": "small"}, TypeError, "input_weight must be a number"),
     ],
 )
 def test_bad_arguments(data: IOData, kwargs: dict, error: type, match: str) -> None:

@@ -23,7 +23,7 @@ from neckid.models._sm_kernels import SMTree, free_run, gamma_star
 from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
 from neckid.models.io import register_model
-from neckid.regressors import Lags
+from neckid.regressors import Lags, ResolvedLags
 
 __all__ = [
     "DEFAULT_GAMMA_MARGIN",
@@ -264,6 +264,22 @@ def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
     return weights.copy()
 
 
+def _input_weight(value: Any) -> float:
+    """Check ``input_weight``: a finite number > 0."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"input_weight must be a number; got {value!r}")
+    weight = float(value)
+    if not math.isfinite(weight) or weight <= 0:
+        raise ValueError(f"input_weight must be finite and > 0; got {value!r}")
+    return weight
+
+
+def _term_weights(scaling: Any, input_weight: Any, x: FloatArray, lags: ResolvedLags) -> FloatArray:
+    """The weights of :func:`_weights`, with the input terms' multiplied by ``input_weight``."""
+    weights = _weights(scaling, x, lags.names)
+    return np.where(lags.source == 1, _input_weight(input_weight) * weights, weights)
+
+
 def _default_epsilons(targets: FloatArray) -> FloatArray:
     """Default ε grid per output: 0 and ``geomspace(1e-4, 0.25, 47) * ptp(ỹ)``."""
     span = np.ptp(targets, axis=0)
@@ -385,6 +401,11 @@ class SetMembership(NarxModel):
     scaling : {"std", "none"} or array_like of shape (n_terms,), default "std"
         Weights of the regressor components in the distance: ``1 / std`` of each component over
         the training regressors, all ones, or user weights (> 0).
+    input_weight : float, default 1.0
+        Factor (> 0) on the weight of every *input* term, on top of ``scaling``. Below 1 the
+        distance, and so the SM part, depends mostly on the past outputs: with a linear part, a
+        residual nonlinearity of the outputs alone (a cubic stiffness) is then interpolated in
+        the output directions, where it varies, instead of being diluted over the input lags.
     linear_part : bool, default False
         Fit a linear ARX on the same regressor by least squares first and identify its residual
         with SM; predictions and bounds are the linear part plus the residual's (what makes SM
@@ -510,6 +531,7 @@ class SetMembership(NarxModel):
         linear_part: bool = False,
         epsilons: ArrayLike | None = None,
         progress: ProgressOption = None,
+        input_weight: float = 1.0,
     ) -> None:
         self.lags = lags
         self.epsilon = epsilon
@@ -519,6 +541,7 @@ class SetMembership(NarxModel):
         self.linear_part = linear_part
         self.epsilons = epsilons
         self.progress = progress
+        self.input_weight = input_weight
 
     # ------------------------------------------------------------------ fit
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
@@ -550,7 +573,7 @@ class SetMembership(NarxModel):
         if not isinstance(self.linear_part, bool | np.bool_):
             raise TypeError(f"linear_part must be True or False; got {self.linear_part!r}")
 
-        weights = _weights(self.scaling, x, self.lags_.names)
+        weights = _term_weights(self.scaling, self.input_weight, x, self.lags_)
         if self.linear_part:
             coef, intercept = least_squares(x, y, fit_intercept=True)
         else:
@@ -775,6 +798,7 @@ class SetMembership(NarxModel):
                 "scaling": plain(self.scaling),
                 "linear_part": bool(self.linear_part),
                 "epsilons": plain(self.epsilons),
+                "input_weight": float(self.input_weight),
             },
             **self._narx_meta(),
         }
@@ -869,6 +893,7 @@ def gamma_curve(
     scaling: Literal["std", "none"] | ArrayLike = "std",
     linear_part: bool = False,
     progress: ProgressOption = None,
+    input_weight: float = 1.0,
 ) -> GammaCurve:
     r"""The curve γ*(ε) of the data: the smallest Lipschitz constant consistent with each ε.
 
@@ -888,6 +913,8 @@ def gamma_curve(
     progress : bool or callable, optional
         Progress bar for large data (default: from 20,000 regressors), or a callback
         ``(pairs_done, pairs_total)``.
+    input_weight : float, default 1.0
+        As in :class:`SetMembership`.
 
     Returns
     -------
@@ -919,11 +946,11 @@ def gamma_curve(
     >>> bool(np.all(np.diff(curve.gamma[:, 0]) <= 0))
     True
     """
-    model = SetMembership(lags, scaling=scaling, linear_part=linear_part)
+    model = SetMembership(lags, scaling=scaling, linear_part=linear_part, input_weight=input_weight)
     x, y = model._prepare_fit(data)
     if x.shape[0] < 2:
         raise ValueError(f"gamma_curve needs at least 2 regressors; the data give {x.shape[0]}")
-    weights = _weights(scaling, x, model.lags_.names)
+    weights = _term_weights(scaling, input_weight, x, model.lags_)
     if linear_part:
         coef, intercept = least_squares(x, y, fit_intercept=True)
         y = y - (x @ coef + intercept)
