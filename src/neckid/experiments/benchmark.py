@@ -332,10 +332,16 @@ def _import(module: str, name: str) -> Any:
 def _lag_grid(benchmark: str, quick: bool) -> list[Lags]:
     """Candidate regressors per data set (ranked on the training record)."""
     grids: dict[str, list[Lags]] = {
-        "softneck": [Lags.arx(1, 1, 1), Lags.arx(2, 2, 1), Lags.arx(3, 3, 1)],
+        "softneck": [
+            Lags.arx(1, 1, 1),
+            Lags.arx(2, 2, 1),
+            Lags.arx(3, 3, 1),
+            Lags.arx(1, 1, 0),
+            Lags.arx(2, 2, 0),
+        ],
         "cascaded_tanks": [Lags.arx(2, 2, 1), Lags.arx(3, 3, 1), Lags.arx(4, 4, 1)],
-        # Large records: one regressor, as the O(N^2) gamma*(epsilon) pass of SM costs minutes.
-        "silverbox": [Lags.arx(3, 3, 0)],
+        # Duffing oscillator: second order in the output, the input at t..t-3 (lag 0 included).
+        "silverbox": [Lags.arx(2, 3, 0), Lags.arx(2, 4, 0), Lags.arx(3, 4, 0)],
         "bouc_wen": [Lags.arx(5, 5, 0)],
         "robot_arm": [Lags.arx(2, 2, 1), Lags.arx(4, 4, 1)],
     }
@@ -346,6 +352,14 @@ def _lag_grid(benchmark: str, quick: bool) -> list[Lags]:
 #: Candidate noise bounds of Set Membership, as multiples of the one-step residual RMS of a linear
 #: ARX on the same regressor (training record); ``None`` is SetMembership's own knee rule.
 SM_EPSILON_FACTORS: tuple[float | None, ...] = (None, 1.0, 3.0)
+
+#: On the large records (Silverbox, Bouc-Wen) the knee is left out: it needs γ*(ε) on a 48-point
+#: grid over all pairs (minutes), where a given ε needs it at one ε (seconds).
+SM_EPSILON_FACTORS_LARGE: tuple[float | None, ...] = (0.5, 1.0)
+
+#: Candidate ``input_weight`` of SM with a linear part: the linear part carries the input
+#: dynamics, and a light input weight lets the SM residual depend mostly on the past outputs.
+SM_INPUT_WEIGHTS: tuple[float, ...] = (1.0, 0.1, 0.03)
 
 
 def _residual_scale(lags: Lags, train: IOData) -> float:
@@ -368,17 +382,26 @@ def _candidates(
         sm = _import("neckid.models.set_membership", "SetMembership")
         linear = method == "sm_linear"
         large = benchmark in ("silverbox", "bouc_wen")
-        factors: tuple[float | None, ...] = (None,) if quick or large else SM_EPSILON_FACTORS
+        full_grid = SM_EPSILON_FACTORS_LARGE if large else SM_EPSILON_FACTORS
+        factors: tuple[float | None, ...] = (None,) if quick else full_grid
+        weights = SM_INPUT_WEIGHTS if linear and not quick else (1.0,)
         candidates = []
         for lags in lags_grid:
             noise = _residual_scale(lags, train)
-            for factor in factors:
+            for factor, weight in itertools.product(factors, weights):
                 epsilon = None if factor is None else factor * noise
                 label = "knee" if epsilon is None else f"{factor:g} x {noise:.3g}"
                 candidates.append(
                     _Candidate(
-                        f"lags={lags!r}, epsilon={label}",
-                        _bind(sm, lags=lags, linear_part=linear, epsilon=epsilon, progress=False),
+                        f"lags={lags!r}, epsilon={label}, input_weight={weight:g}",
+                        _bind(
+                            sm,
+                            lags=lags,
+                            linear_part=linear,
+                            epsilon=epsilon,
+                            input_weight=weight,
+                            progress=False,
+                        ),
                     )
                 )
         return candidates
