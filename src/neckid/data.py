@@ -323,6 +323,16 @@ class IOData:
         fields.update(changes)
         return IOData(**fields)
 
+    def renamed(self, name: str | None) -> IOData:
+        """The same log under another experiment name (arrays and channels unchanged).
+
+        Examples
+        --------
+        >>> IOData(u=[1.0, 2.0], ts=0.1).renamed("run 2").name
+        'run 2'
+        """
+        return self._replace(name=name)
+
     # ------------------------------------------------------------------ channel access
     def channel(self, name: str) -> FloatArray:
         """Return one channel (input or output) by name as a 1-D array.

@@ -85,21 +85,6 @@ class BenchmarkData:
         )
 
 
-def _named(record: IOData, name: str) -> IOData:
-    """The same record under another name."""
-    return IOData(
-        record.u,
-        record.y,
-        ts=record.ts,
-        input_names=record.input_names,
-        output_names=record.output_names,
-        input_units=record.input_units,
-        output_units=record.output_units,
-        t0=record.t0,
-        name=name,
-    )
-
-
 def _file(path: str | Path, default_name: str) -> Path:
     """``path`` itself if it is a file, else ``path / default_name``; refuse what does not exist."""
     p = Path(path)
@@ -305,7 +290,7 @@ def load_silverbox(path: str | Path) -> BenchmarkData:
 
     def part(label: str) -> IOData:
         start, stop = SILVERBOX_SPLITS[label]
-        return _named(whole[start:stop], f"silverbox/{label}")
+        return whole[start:stop].renamed(f"silverbox/{label}")
 
     return BenchmarkData(
         name="silverbox",
@@ -495,8 +480,8 @@ def load_robot_arm(path: str | Path, ts: float = 1.0) -> BenchmarkData:
     )
     return BenchmarkData(
         name="robot_arm",
-        train=_named(whole[:ROBOT_ARM_SPLIT], "robot_arm/first_half"),
-        tests={"second_half": _named(whole[ROBOT_ARM_SPLIT:], "robot_arm/second_half")},
+        train=whole[:ROBOT_ARM_SPLIT].renamed("robot_arm/first_half"),
+        tests={"second_half": whole[ROBOT_ARM_SPLIT:].renamed("robot_arm/second_half")},
         n_initial=None,
         description=(
             "DaISy flexible robot arm (real): reaction torque -> arm acceleration, 1024 samples."

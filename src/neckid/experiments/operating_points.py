@@ -311,9 +311,7 @@ def identify_operating_points(
         input = command_name
     inclination_name = record.output_names[0]
     logs = [
-        _renamed(
-            record[k * segment + settle : (k + 1) * segment], f"operating point {target:g} deg"
-        )
+        record[k * segment + settle : (k + 1) * segment].renamed(f"operating point {target:g} deg")
         for k, target in enumerate(targets)
     ]
     result = operating_points_from_logs(
@@ -337,20 +335,6 @@ def identify_operating_points(
         "motor": int(motor),
     }
     return OperatingPointResult(result.table, result.logs, result.models, result.ts, settings)
-
-
-def _renamed(log: IOData, name: str) -> IOData:
-    return IOData(
-        log.u,
-        log.y,
-        log.ts,
-        input_names=log.input_names,
-        output_names=log.output_names,
-        input_units=log.input_units,
-        output_units=log.output_units,
-        t0=log.t0,
-        name=name,
-    )
 
 
 def operating_points_from_logs(
