@@ -8,26 +8,40 @@ The public API, re-exported here:
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
 - the operating-point protocol: :func:`identify_operating_points`, :func:`operating_points_from_logs`
 - modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`
+
+Notes
+-----
+The names are loaded lazily (PEP 562): ``import neckid`` loads none of the modules behind them, so
+it does not pay for scikit-learn, pandas, SciPy's statistics or the numba kernels until a name
+that needs them is first used. ``from neckid import X`` and ``neckid.X`` give the same objects as
+importing ``X`` from its own module. Type checkers read the imports under ``TYPE_CHECKING``.
 """
 
-from neckid import datasets, metrics, plant, signals
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from neckid._version import __version__
-from neckid.data import IOData, as_experiments
-from neckid.experiments.operating_points import (
-    OperatingPointResult,
-    identify_operating_points,
-    operating_points_from_logs,
-)
-from neckid.metrics import fit_percent, mae, rmse
-from neckid.models.arx import LinearARX
-from neckid.models.base import ModelResult, NotFittedError
-from neckid.models.io import load_model
-from neckid.models.neural import NeuralNARX
-from neckid.models.rls import RecursiveARX
-from neckid.models.scheduled import GainScheduledModel
-from neckid.models.set_membership import SetMembership, gamma_curve
-from neckid.regressors import Lags
-from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
+
+if TYPE_CHECKING:
+    from neckid import datasets, metrics, plant, signals
+    from neckid.data import IOData, as_experiments
+    from neckid.experiments.operating_points import (
+        OperatingPointResult,
+        identify_operating_points,
+        operating_points_from_logs,
+    )
+    from neckid.metrics import fit_percent, mae, rmse
+    from neckid.models.arx import LinearARX
+    from neckid.models.base import ModelResult, NotFittedError
+    from neckid.models.io import load_model
+    from neckid.models.neural import NeuralNARX
+    from neckid.models.rls import RecursiveARX
+    from neckid.models.scheduled import GainScheduledModel
+    from neckid.models.set_membership import SetMembership, gamma_curve
+    from neckid.regressors import Lags
+    from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
 __all__ = [
     "GainScheduledModel",
@@ -58,3 +72,49 @@ __all__ = [
     "select_lags",
     "signals",
 ]
+
+# Public submodules, and the module each other public name lives in (the same imports as above).
+_SUBMODULES = frozenset({"datasets", "metrics", "plant", "signals"})
+_NAME_TO_MODULE = {
+    "IOData": "neckid.data",
+    "as_experiments": "neckid.data",
+    "OperatingPointResult": "neckid.experiments.operating_points",
+    "identify_operating_points": "neckid.experiments.operating_points",
+    "operating_points_from_logs": "neckid.experiments.operating_points",
+    "fit_percent": "neckid.metrics",
+    "mae": "neckid.metrics",
+    "rmse": "neckid.metrics",
+    "LinearARX": "neckid.models.arx",
+    "ModelResult": "neckid.models.base",
+    "NotFittedError": "neckid.models.base",
+    "load_model": "neckid.models.io",
+    "NeuralNARX": "neckid.models.neural",
+    "RecursiveARX": "neckid.models.rls",
+    "GainScheduledModel": "neckid.models.scheduled",
+    "SetMembership": "neckid.models.set_membership",
+    "gamma_curve": "neckid.models.set_membership",
+    "Lags": "neckid.regressors",
+    "LagSelection": "neckid.selection",
+    "lag_grid": "neckid.selection",
+    "lipschitz_quotients": "neckid.selection",
+    "select_lags": "neckid.selection",
+}
+
+
+# Hidden from type checkers, which read the imports under TYPE_CHECKING instead: a visible module
+# __getattr__ would make them accept any name, so `from neckid import Typo` would pass unchecked.
+if not TYPE_CHECKING:
+
+    def __getattr__(name: str) -> object:
+        """Import a public name on first use and keep it in the module's namespace (PEP 562)."""
+        if name in _SUBMODULES:
+            return importlib.import_module(f"{__name__}.{name}")
+        if name not in _NAME_TO_MODULE:
+            raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(_NAME_TO_MODULE[name]), name)
+        globals()[name] = value
+        return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

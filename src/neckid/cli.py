@@ -7,7 +7,6 @@ import logging
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -100,6 +99,7 @@ def demo(
     three closed-loop tests (2 rad/s sine, 5 deg staircase, 20 deg step). Fits are NRMSE fits [%]
     of free-run simulations; errors are in degrees of inclination.
     """
+    import numpy as np
     from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from neckid.experiments.paper import EXPERIMENTS, DemoSettings, run_demo
@@ -295,6 +295,7 @@ def bandwidth(
     ),
 ) -> None:
     """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's."""
+    import numpy as np
     import pandas as pd
 
     from neckid.signals import bandwidth_from_chirp, paper_chirp_frequency
