@@ -66,7 +66,7 @@ def data_dir(tmp_path: Path) -> Path:
 def test_quick_benchmark_on_written_data(data_dir, tmp_path):
     out = tmp_path / "out"
     report = run_benchmark(
-        data_dir, methods=["arx", "sm"], quick=True, errors="raise", output_dir=out
+        data_dir, methods=["arx", "sm", "sm_parallel"], quick=True, errors="raise", output_dir=out
     )
     table = report.table
     assert set(table["benchmark"]) == {"softneck", "cascaded_tanks"}
@@ -84,6 +84,7 @@ def test_quick_benchmark_on_written_data(data_dir, tmp_path):
     assert (arx["fit_percent"] > 90).all()
     assert (table["train_time_s"] >= 0).all()
     assert "sm_minus_arx" in report.details["benchmarks"]["softneck"]
+    assert "sm_parallel_minus_arx" in report.details["benchmarks"]["softneck"]
     assert set(report.published["benchmark"]) == {"cascaded_tanks"}
     written = {p.name for p in out.iterdir()}
     assert written == {"benchmark.csv", "published.csv", "benchmark.json"}

@@ -44,7 +44,7 @@ def _plain(text: str) -> str:
     return re.sub(r"\s+", " ", text)
 
 
-@pytest.mark.parametrize("method", ["arx", "sm", "sm-linear", "nn", "rls"])
+@pytest.mark.parametrize("method", ["arx", "sm", "sm-linear", "sm-parallel", "nn", "rls"])
 def test_identify_validate_simulate_round_trip(
     neck_logs: tuple[Path, Path], tmp_path: Path, method: str
 ) -> None:

@@ -12,8 +12,8 @@ from neckid.regressors import Lags
 
 __all__ = ["METHODS", "make_estimator", "parse_lags", "read_log"]
 
-Method = Literal["sm", "sm-linear", "nn", "arx", "rls"]
-METHODS: tuple[str, ...] = ("sm", "sm-linear", "nn", "arx", "rls")
+Method = Literal["sm", "sm-linear", "sm-parallel", "nn", "arx", "rls"]
+METHODS: tuple[str, ...] = ("sm", "sm-linear", "sm-parallel", "nn", "arx", "rls")
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
@@ -110,6 +110,7 @@ def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **o
     """Build an unfitted estimator by method name.
 
     ``"sm"``: :class:`~neckid.SetMembership`; ``"sm-linear"``: the same with a linear part;
+    ``"sm-parallel"``: :class:`~neckid.ParallelSetMembership` (``lags`` are its linear ARX's);
     ``"nn"``: :class:`~neckid.NeuralNARX` (2 × 25); ``"arx"``: :class:`~neckid.LinearARX`;
     ``"rls"``: :class:`~neckid.RecursiveARX` (λ = 0.98) with ``na``/``nb``/``delay`` taken from
     contiguous ``lags``.
@@ -118,6 +119,10 @@ def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **o
         from neckid.models.set_membership import SetMembership
 
         return SetMembership(lags, linear_part=method == "sm-linear", **options)
+    if method == "sm-parallel":
+        from neckid.models.sm_parallel import ParallelSetMembership
+
+        return ParallelSetMembership(lags, **options)
     if method == "nn":
         from neckid.models.neural import NeuralNARX
 

@@ -61,6 +61,7 @@ METHODS: dict[str, str] = {
     "arx": "linear ARX",
     "sm": "Set Membership",
     "sm_linear": "Set Membership + linear part",
+    "sm_parallel": "Set Membership on a parallel linear model",
     "neural": "neural NARX",
     "scheduled": "scheduled CFF-RLS",
 }
@@ -362,6 +363,67 @@ SM_EPSILON_FACTORS_LARGE: tuple[float | None, ...] = (0.5, 1.0)
 SM_INPUT_WEIGHTS: tuple[float, ...] = (1.0, 0.1, 0.03)
 
 
+#: Candidate SM regressors of the parallel model: lags of the linear model's simulated output and
+#: of the inputs.
+SM_PARALLEL_REGRESSORS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
+    ((0,), ()),
+    ((0, 1), ()),
+    ((0, 1, 2), ()),
+    ((0, 1), (1,)),
+)
+
+#: Candidate noise bounds of the parallel model, as multiples of the RMS free-run error of the
+#: linear ARX on the training record; ``None`` is the knee rule.
+SM_PARALLEL_EPSILON_FACTORS: tuple[float | None, ...] = (None, 0.25, 1.0)
+
+
+def _simulation_error_scale(lags: Lags, train: IOData) -> float:
+    """RMS free-run error of a linear ARX with these lags on the training record."""
+    arx = _import("neckid.models.arx", "LinearARX")
+    result = arx(lags).fit(train).simulate(train)
+    value = float(rmse(train.y, result.y, skip=result.n_initial)[0])
+    if not math.isfinite(value):
+        raise ValueError(f"the linear ARX with {lags!r} diverges on the training record")
+    return value
+
+
+def _parallel_candidates(benchmark: str, quick: bool, train: IOData) -> list[_Candidate]:
+    model = _import("neckid.models.sm_parallel", "ParallelSetMembership")
+    large = benchmark in ("silverbox", "bouc_wen")
+    regressors = SM_PARALLEL_REGRESSORS[1:2] if quick else SM_PARALLEL_REGRESSORS
+    factors: tuple[float | None, ...] = (
+        (None,)
+        if quick
+        else SM_PARALLEL_EPSILON_FACTORS[1:]
+        if large
+        else SM_PARALLEL_EPSILON_FACTORS
+    )
+    candidates = []
+    for lags in _lag_grid(benchmark, quick):
+        try:
+            scale = _simulation_error_scale(lags, train)
+        except ValueError:
+            continue  # an unstable linear model cannot run in parallel
+        for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
+            epsilon = None if factor is None else factor * scale
+            label = "knee" if epsilon is None else f"{factor:g} x {scale:.3g}"
+            candidates.append(
+                _Candidate(
+                    f"lags={lags!r}, linear_lags={list(linear_lags)},"
+                    f" input_lags={list(input_lags)}, epsilon={label}",
+                    _bind(
+                        model,
+                        lags=lags,
+                        linear_lags=linear_lags,
+                        input_lags=input_lags,
+                        epsilon=epsilon,
+                        progress=False,
+                    ),
+                )
+            )
+    return candidates
+
+
 def _residual_scale(lags: Lags, train: IOData) -> float:
     """RMS of the one-step residual of a linear ARX with these lags on the training record."""
     arx = _import("neckid.models.arx", "LinearARX")
@@ -405,6 +467,8 @@ def _candidates(
                     )
                 )
         return candidates
+    if method == "sm_parallel":
+        return _parallel_candidates(benchmark, quick, train)
     if method == "neural":
         neural = _import("neckid.models.neural", "NeuralNARX")
         sizes = (10,) if quick else (25, 25)
@@ -515,6 +579,8 @@ def _scheduled_candidates(quick: bool) -> list[_Candidate]:
 
 # ---------------------------------------------------------------------------- evaluation
 def _max_lag(model: Any) -> int:
+    if hasattr(model, "max_lag_"):
+        return int(model.max_lag_)
     resolved = getattr(model, "lags_", None)
     return int(resolved.max_lag) if resolved is not None else 1
 
@@ -700,7 +766,7 @@ def _softneck_summary(rows: list[dict[str, Any]]) -> tuple[list[dict[str, Any]],
         )
     details: dict[str, Any] = {}
     fits = frame.pivot(index="test", columns="method", values="fit_percent")
-    for method in ("sm", "sm_linear", "neural", "scheduled"):
+    for method in ("sm", "sm_linear", "sm_parallel", "neural", "scheduled"):
         if method in fits and "arx" in fits:
             margin = (fits[method] - fits["arx"]).dropna()
             details[f"{method}_minus_arx"] = {str(k): float(v) for k, v in margin.items()}

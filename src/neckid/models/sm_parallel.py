@@ -1,0 +1,415 @@
+r"""ParallelSetMembership: Set Membership on a linear model run in parallel (output-error form).
+
+A NARX model (:class:`~neckid.SetMembership`) feeds its own outputs back in free run, so a small
+one-step error at a level the training data cover sparsely is integrated by the slow dynamics; on
+a short record (the cascaded tanks) that is where SM loses to a linear ARX. Here the feedback stays
+linear: a linear ARX identified by least squares is *simulated* from the inputs, and SM identifies
+the static map from that simulated output (and, optionally, a few input samples) to the measured
+output:
+
+.. math::
+
+    \hat y_L = \text{free run of the ARX on } u, \qquad
+    y(t) = f_o(v(t)) + e(t), \quad
+    v(t) = [\hat y_L(t - j)]_{j \in J} \cup [u(t - k)]_{k \in K}, \quad |e(t)| \le ε.
+
+The regressor ``v`` holds no measured output, so free-run simulation *is* one-step evaluation of
+the SM bounds: the SM guarantees (``y(t) ∈ [f_l(v(t)) − ε, f_u(v(t)) + ε]`` whenever the prior
+holds) are bounds on the simulation error, and errors of the nonlinear part are never fed back.
+In Narendra & Parthasarathy's terms the NARX SM models are series-parallel; this one is parallel.
+The structure is a Wiener model with a dynamic, nonparametric SM output map.
+
+References
+----------
+M. Milanese, C. Novara, "Set Membership identification of nonlinear systems", Automatica 40(6),
+957-975, 2004 (the bounds, the central estimate, γ*(ε)).
+K. S. Narendra, K. Parthasarathy, "Identification and control of dynamical systems using neural
+networks", IEEE Trans. Neural Networks 1(1), 4-27, 1990 (series-parallel and parallel models).
+M. Lauricella, L. Fagiano, "Set membership identification of linear systems with guaranteed
+simulation accuracy", IEEE Trans. Automatic Control 65(12), 5189-5204, 2020 (why simulation,
+not one-step, bounds matter).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from sklearn.base import BaseEstimator
+
+from neckid.data import IOData, as_experiments, check_finite
+from neckid.models.arx import LinearARX
+from neckid.models.base import ModelResult, check_is_fitted
+from neckid.models.io import ModelFile, register_model
+from neckid.models.set_membership import GammaCurve, Invalidation, SetMembership
+from neckid.regressors import Lags, ResolvedLags
+
+__all__ = ["ParallelSetMembership", "ParallelSetMembershipSimulator"]
+
+FloatArray = NDArray[np.float64]
+
+#: Suffix of the channel that carries the linear model's simulated output in the SM regressor.
+LINEAR_SUFFIX = "_linear"
+
+
+def _lag_tuple(value: Any, argument: str) -> tuple[int, ...]:
+    """An int or a sequence of ints >= 0 (no repeats), as a sorted tuple."""
+    values = [value] if isinstance(value, int | np.integer) else value
+    try:
+        items = list(values)
+    except TypeError as exc:
+        raise TypeError(f"{argument} must be a list of ints >= 0; got {value!r}") from exc
+    if any(isinstance(v, bool) or not isinstance(v, int | np.integer) for v in items):
+        raise TypeError(f"{argument} must be a list of ints >= 0; got {value!r}")
+    lags = [int(v) for v in items]
+    negative = [v for v in lags if v < 0]
+    if negative:
+        raise ValueError(f"{argument} must be >= 0; got {negative[0]} in {value!r}")
+    if len(set(lags)) != len(lags):
+        raise ValueError(f"{argument} has repeated lags: {value!r}")
+    return tuple(sorted(lags))
+
+
+@register_model
+class ParallelSetMembership(BaseEstimator, ModelFile):
+    r"""Set Membership identification of the map from a linear model's simulation to the output.
+
+    Fitting (1) identifies a linear ARX on ``lags`` by least squares, (2) simulates it in free
+    run on every training experiment, giving ``ŷ_L``, and (3) identifies with
+    :class:`~neckid.SetMembership` the map ``v(t) -> y(t)`` with ``v(t)`` the samples
+    ``ŷ_L(t − j)``, ``j`` in ``linear_lags``, and ``u(t − k)``, ``k`` in ``input_lags``.
+    Simulation runs the linear model and evaluates the SM bounds at each ``v(t)``; nothing of the
+    nonlinear part is fed back (see the module docstring).
+
+    Parameters
+    ----------
+    lags : Lags
+        Regressor of the linear ARX, e.g. ``Lags.arx(3, 3, 1)``.
+    linear_lags : sequence of int, default (0, 1)
+        Lags (>= 0) of the linear model's simulated output(s) in the SM regressor.
+    input_lags : sequence of int, default ()
+        Lags (>= 0) of every measured input in the SM regressor.
+    epsilon, gamma, gamma_margin, scaling, linear_part, epsilons, progress
+        As for :class:`~neckid.SetMembership`, applied to the SM map (``linear_part`` adds a
+        least-squares linear map of ``v`` under the SM residual; by default the SM map is the
+        whole correction).
+
+    Attributes
+    ----------
+    linear_ : LinearARX
+        The linear model run in parallel.
+    sm_ : SetMembership
+        The SM map; its inputs are the model's inputs followed by one ``<output>_linear``
+        channel per output.
+    epsilon_, gamma_ : ndarray, shape (n_outputs,)
+        The SM noise bound and Lipschitz constant used (those of ``sm_``).
+    max_lag_ : int
+        Initial samples a simulation takes from the measured outputs (the larger of the linear
+        model's and the SM regressor's maximum lag).
+    lags_ : ResolvedLags
+        The linear model's resolved regressor.
+    n_inputs_, n_outputs_, n_samples_ : int
+    ts_ : float
+
+    Raises
+    ------
+    ValueError
+        In ``fit``: the linear model's free run on a training experiment is not finite (an
+        unstable ARX; try other ``lags``), a channel is named ``<output>_linear`` already, and
+        every error :class:`~neckid.SetMembership` raises.
+
+    Notes
+    -----
+    ``predict`` and ``simulate`` give the same values: the model is of output-error type, so its
+    one-step predictor is its simulation (the measured outputs only set the initial conditions).
+
+    Examples
+    --------
+    A first-order system followed by a saturation (tanh): the linear ARX misses the saturation,
+    the parallel model maps the ARX's simulation through it:
+
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> from neckid.models.sm_parallel import ParallelSetMembership
+    >>> rng = np.random.default_rng(0)
+    >>> u = np.repeat(rng.uniform(0, 2, 200), 10)
+    >>> x = np.zeros(u.size)
+    >>> for t in range(1, u.size):
+    ...     x[t] = 0.9 * x[t - 1] + 0.1 * u[t - 1]
+    >>> data = IOData(u, np.tanh(x) + 0.01 * rng.normal(size=u.size), ts=0.1)
+    >>> train, test = data[:1500], data[1500:]
+    >>> arx = LinearARX(Lags.arx(1, 1, 1)).fit(train)
+    >>> model = ParallelSetMembership(Lags.arx(1, 1, 1)).fit(train)
+    >>> [round(float(m.simulate(test).fit_percent(test)[0])) for m in (arx, model)]
+    [73, 89]
+    """
+
+    def __init__(
+        self,
+        lags: Lags | None = None,
+        linear_lags: Sequence[int] = (0, 1),
+        input_lags: Sequence[int] = (),
+        epsilon: float | ArrayLike | None = None,
+        gamma: float | ArrayLike | None = None,
+        gamma_margin: float = 1.1,
+        scaling: str | ArrayLike = "std",
+        linear_part: bool = False,
+        epsilons: ArrayLike | None = None,
+        progress: Any = None,
+    ) -> None:
+        self.lags = lags
+        self.linear_lags = linear_lags
+        self.input_lags = input_lags
+        self.epsilon = epsilon
+        self.gamma = gamma
+        self.gamma_margin = gamma_margin
+        self.scaling = scaling
+        self.linear_part = linear_part
+        self.epsilons = epsilons
+        self.progress = progress
+
+    # ------------------------------------------------------------------ fit
+    def _sm_lags(self, input_names: Sequence[str], output_names: Sequence[str]) -> Lags:
+        linear = _lag_tuple(self.linear_lags, "linear_lags")
+        inputs = _lag_tuple(self.input_lags, "input_lags")
+        spec: dict[str, list[int]] = {name: list(inputs) for name in input_names}
+        for name in output_names:
+            spec[name + LINEAR_SUFFIX] = list(linear)
+        if not linear and not inputs:
+            raise ValueError(
+                "linear_lags and input_lags are both empty: the SM map would have no regressor;"
+                " give linear_lags (e.g. [0, 1]) or input_lags"
+            )
+        return Lags(outputs=0, inputs=spec)
+
+    def _augment(self, data: IOData, simulated: FloatArray) -> IOData:
+        out = data
+        for j, name in enumerate(data.output_names):
+            out = out.with_channel(
+                name + LINEAR_SUFFIX, simulated[:, j], unit=data.output_units[j], kind="input"
+            )
+        return out
+
+    def _linear_run(self, data: IOData, argument: str) -> IOData:
+        """``data`` with the linear model's free run appended as ``<output>_linear`` inputs."""
+        simulated = self.linear_.simulate(data).y
+        bad = np.flatnonzero(~np.isfinite(simulated).all(axis=1))
+        if bad.size:
+            raise ValueError(
+                f"the linear ARX {self.linear_.lags_.to_lags()!r} diverges in free run on {argument}"
+                f" ({data.name or 'unnamed record'}) at sample {int(bad[0])}: it is unstable; try"
+                " other lags"
+            )
+        return self._augment(data, simulated)
+
+    def fit(self, data: IOData | Sequence[IOData]) -> ParallelSetMembership:
+        """Fit the linear model, simulate it on each experiment, then fit the SM map.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            One experiment or several (regressors never straddle two).
+
+        Returns
+        -------
+        ParallelSetMembership
+            ``self``.
+        """
+        experiments = as_experiments(data)
+        first = experiments[0]
+        if first.n_outputs == 0:
+            raise ValueError("data has no output channel to identify")
+        taken = set(first.input_names) | set(first.output_names)
+        clash = [n + LINEAR_SUFFIX for n in first.output_names if n + LINEAR_SUFFIX in taken]
+        if clash:
+            raise ValueError(
+                f"channel {clash[0]!r} exists already; ParallelSetMembership names the linear"
+                " model's simulated outputs '<output>_linear': rename that channel"
+            )
+        sm_lags = self._sm_lags(first.input_names, first.output_names)
+        if self.lags is None:
+            raise ValueError("ParallelSetMembership needs lags=Lags(...) for its linear model")
+        self.linear_ = LinearARX(self.lags).fit(experiments)
+        augmented = [
+            self._linear_run(d, f"training experiment {i}") for i, d in enumerate(experiments)
+        ]
+        self.sm_ = SetMembership(
+            sm_lags,
+            epsilon=self.epsilon,
+            gamma=self.gamma,
+            gamma_margin=self.gamma_margin,
+            scaling=self.scaling,
+            linear_part=self.linear_part,
+            epsilons=self.epsilons,
+            progress=self.progress,
+        ).fit(augmented)
+        self._set_fitted_attributes()
+        return self
+
+    def _set_fitted_attributes(self) -> None:
+        self.lags_: ResolvedLags = self.linear_.lags_
+        self.max_lag_ = max(self.linear_.lags_.max_lag, self.sm_.lags_.max_lag)
+        self.n_inputs_ = self.linear_.n_inputs_
+        self.n_outputs_ = self.linear_.n_outputs_
+        self.n_samples_ = self.sm_.n_samples_
+        self.ts_ = self.linear_.ts_
+        self.epsilon_ = self.sm_.epsilon_
+        self.gamma_ = self.sm_.gamma_
+
+    @property
+    def gamma_curve_(self) -> GammaCurve | None:
+        """The SM map's γ*(ε) curve (see :attr:`SetMembership.gamma_curve_`)."""
+        check_is_fitted(self, "sm_")
+        return self.sm_.gamma_curve_
+
+    # ------------------------------------------------------------------ evaluation
+    def _run(self, data: IOData, kind: Any) -> ModelResult:
+        check_is_fitted(self, "sm_")
+        self.lags_.check_compatible(data)
+        m = self.max_lag_
+        if data.n_samples <= m:
+            raise ValueError(
+                f"data has {data.n_samples} samples, too few for lags up to {m}: it needs at least"
+                f" {m + 1}"
+            )
+        result = self.sm_.predict(self._linear_run(data, "data"))
+        y = np.array(data.y, dtype=np.float64)
+        lower = np.full(y.shape, np.nan)
+        upper = np.full(y.shape, np.nan)
+        y[m:] = result.y[m:]
+        assert result.lower is not None and result.upper is not None
+        lower[m:], upper[m:] = result.lower[m:], result.upper[m:]
+        return ModelResult(kind, data.time, y, data.output_names, m, lower, upper)
+
+    def simulate(self, data: IOData) -> ModelResult:
+        """Free-run simulation with the SM bounds of each step.
+
+        The first ``max_lag_`` measured outputs are the initial conditions (bounds NaN there);
+        from then on only ``data.u`` is used. ``lower``/``upper`` bound the noise-free output
+        ``f_o(v(t))``; a measurement consistent with the prior lies within ε of them.
+        """
+        return self._run(data, "simulation")
+
+    def predict(self, data: IOData) -> ModelResult:
+        """The same values as :meth:`simulate` (an output-error model predicts by simulating)."""
+        return self._run(data, "prediction")
+
+    def fit_percent(self, data: IOData) -> FloatArray:
+        """Free-run NRMSE fit [%] per output on ``data`` (MATLAB ``compare``)."""
+        return self.simulate(data).fit_percent(data)
+
+    def invalidation(self, data: IOData | Sequence[IOData]) -> Invalidation | list[Invalidation]:
+        """Which samples of new data fall outside ``[f_l − ε, f_u + ε]`` of the *simulation*.
+
+        See :meth:`SetMembership.invalidation`; here the regressor is the linear model's free
+        run, so a sample outside the band falsifies the prior along the whole simulated record.
+        """
+        check_is_fitted(self, "sm_")
+        experiments = as_experiments(data)
+        augmented = [self._linear_run(d, f"experiment {i}") for i, d in enumerate(experiments)]
+        result = self.sm_.invalidation(augmented)
+        assert isinstance(result, list)
+        return result[0] if isinstance(data, IOData) else result
+
+    def simulator(self) -> ParallelSetMembershipSimulator:
+        """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""
+        check_is_fitted(self, "sm_")
+        return ParallelSetMembershipSimulator(self)
+
+    # ------------------------------------------------------------------ files
+    def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+        check_is_fitted(self, "sm_")
+        linear_arrays, linear_meta = self.linear_._get_state()
+        sm_arrays, sm_meta = self.sm_._get_state()
+        arrays = {f"linear__{k}": v for k, v in linear_arrays.items()}
+        arrays.update({f"sm__{k}": v for k, v in sm_arrays.items()})
+        meta = {
+            "params": {
+                "linear_lags": list(_lag_tuple(self.linear_lags, "linear_lags")),
+                "input_lags": list(_lag_tuple(self.input_lags, "input_lags")),
+            },
+            "linear": linear_meta,
+            "sm": sm_meta,
+        }
+        return arrays, meta
+
+    @classmethod
+    def _from_state(
+        cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]
+    ) -> ParallelSetMembership:
+        def part(prefix: str) -> dict[str, NDArray[Any]]:
+            return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
+
+        model = cls(lags=None, **meta["params"])
+        model.linear_ = LinearARX._from_state(part("linear__"), meta["linear"])
+        model.sm_ = SetMembership._from_state(part("sm__"), meta["sm"])
+        model.lags = model.linear_.lags
+        sm_params = model.sm_.get_params()
+        for name in ("epsilon", "gamma", "gamma_margin", "scaling", "linear_part", "epsilons"):
+            setattr(model, name, sm_params[name])
+        model._set_fitted_attributes()
+        return model
+
+
+class ParallelSetMembershipSimulator:
+    """Step-by-step run of a fitted :class:`ParallelSetMembership`, with each step's bounds.
+
+    ``step(u)`` advances the linear model and returns the SM central estimate; after it,
+    :attr:`lower` and :attr:`upper` hold that step's bounds. ``reset(y0, u0)`` sets the initial
+    conditions: a single row (repeated) or ``max_lag_`` rows, oldest first, of past outputs and
+    inputs; the linear model's simulated output starts equal to the past outputs.
+    """
+
+    def __init__(self, model: ParallelSetMembership) -> None:
+        self._model = model
+        self.n_inputs = model.n_inputs_
+        self.n_outputs = model.n_outputs_
+        self._linear = model.linear_.simulator()
+        self._sm_lags = model.sm_.lags_
+        self.lower: FloatArray = np.full(self.n_outputs, np.nan)
+        self.upper: FloatArray = np.full(self.n_outputs, np.nan)
+        self.reset()
+
+    def _history(self, value: ArrayLike | None, width: int, argument: str) -> FloatArray:
+        m = max(self._model.max_lag_, 1)
+        if value is None:
+            return np.zeros((m, width))
+        array = np.asarray(value, dtype=np.float64)
+        if array.ndim <= 1:
+            array = np.broadcast_to(array.reshape(1, -1), (m, width))
+        if array.shape != (m, width):
+            raise ValueError(
+                f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
+            )
+        check_finite(np.asarray(array), argument)
+        return np.array(array, dtype=np.float64)
+
+    def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
+        """Start again from the given (or zero) past outputs and inputs."""
+        y_hist = self._history(y0, self.n_outputs, "y0")
+        u_hist = self._history(u0, self.n_inputs, "u0")
+        m_linear = max(self._model.linear_.lags_.max_lag, 1)
+        self._linear.reset(y_hist[-m_linear:], u_hist[-m_linear:])
+        # SM regressor history: the measured inputs, then the simulated outputs.
+        self._v = np.hstack([u_hist, y_hist])
+        self.lower = np.full(self.n_outputs, np.nan)
+        self.upper = np.full(self.n_outputs, np.nan)
+
+    def step_bounds(self, u: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Advance one sample with input ``u``; return ``(y, lower, upper)``, each ``(n_outputs,)``."""
+        u_now = np.asarray(u, dtype=np.float64).reshape(-1)
+        y_linear = self._linear.step(u_now)  # checks the shape and finiteness of u
+        self._v = np.vstack([self._v, np.concatenate([u_now, y_linear])[None, :]])
+        t = self._v.shape[0] - 1
+        w = self._sm_lags.regressor_from_history(np.empty((t + 1, 0)), self._v, t)
+        bounds = self._model.sm_._bounds_rows(np.ascontiguousarray(w[None, :]))
+        self._v = self._v[1:]
+        self.lower = bounds.lower[0].copy()
+        self.upper = bounds.upper[0].copy()
+        return bounds.central[0].copy(), self.lower.copy(), self.upper.copy()
+
+    def step(self, u: ArrayLike) -> FloatArray:
+        """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y``."""
+        return self.step_bounds(u)[0]
