@@ -87,3 +87,34 @@ def test_unknown_name_raises_attribute_error() -> None:
     assert not hasattr(neckid, "select_lag")
     with pytest.raises(ImportError, match="cannot import name 'NoSuchModel' from 'neckid'"):
         exec("from neckid import NoSuchModel", {})
+
+
+def test_model_modules_list_every_registered_model_class() -> None:
+    from neckid.models import io
+
+    for module in set(io.MODEL_MODULES.values()):
+        importlib.import_module(module)
+    assert set(io._REGISTRY) == set(io.MODEL_MODULES)
+    for name, module in io.MODEL_MODULES.items():
+        assert getattr(importlib.import_module(module), name).__name__ == name
+
+
+def test_load_model_in_a_fresh_interpreter(tmp_path) -> None:
+    # `import neckid` registers no model class any more: load_model must import the right module.
+    import numpy as np
+
+    data = neckid.IOData(np.sin(np.arange(80.0)), np.cos(np.arange(80.0)), ts=1.0)
+    lags = neckid.Lags.arx(1, 1, 1)
+    paths = [
+        neckid.LinearARX(lags).fit(data).save(tmp_path / "arx"),
+        neckid.SetMembership(lags, progress=False).fit(data).save(tmp_path / "sm"),
+    ]
+    code = (
+        "import sys; from neckid import load_model; "
+        "print(','.join(type(load_model(p)).__name__ for p in sys.argv[1:]))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, *map(str, paths)], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "LinearARX,SetMembership"

@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 from sklearn.base import clone
 
-from neckid import IOData, Lags, LinearARX, SetMembership, load_model
+from neckid import IOData, Lags, LinearARX, ParallelSetMembership, SetMembership, load_model
 from neckid.models.base import NotFittedError
-from neckid.models.sm_parallel import ParallelSetMembership
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

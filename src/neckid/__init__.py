@@ -3,8 +3,8 @@
 The public API, re-exported here:
 
 - data: :class:`IOData`, :func:`as_experiments`, :class:`Lags`
-- models: :class:`SetMembership`, :func:`gamma_curve`, :class:`NeuralNARX`, :class:`LinearARX`,
-  :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
+- models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
+  :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
 - the operating-point protocol: :func:`identify_operating_points`, :func:`operating_points_from_logs`
 - modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`
@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     from neckid.models.rls import RecursiveARX
     from neckid.models.scheduled import GainScheduledModel
     from neckid.models.set_membership import SetMembership, gamma_curve
+    from neckid.models.sm_parallel import ParallelSetMembership
     from neckid.regressors import Lags
     from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
@@ -53,6 +54,7 @@ __all__ = [
     "NeuralNARX",
     "NotFittedError",
     "OperatingPointResult",
+    "ParallelSetMembership",
     "RecursiveARX",
     "SetMembership",
     "__version__",
@@ -93,6 +95,7 @@ _NAME_TO_MODULE = {
     "GainScheduledModel": "neckid.models.scheduled",
     "SetMembership": "neckid.models.set_membership",
     "gamma_curve": "neckid.models.set_membership",
+    "ParallelSetMembership": "neckid.models.sm_parallel",
     "Lags": "neckid.regressors",
     "LagSelection": "neckid.selection",
     "lag_grid": "neckid.selection",

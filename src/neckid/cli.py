@@ -155,7 +155,9 @@ def identify(
     log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
     inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
     outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
-    method: str = typer.Option("sm", "--method", help="sm | sm-linear | nn | arx | rls."),
+    method: str = typer.Option(
+        "sm", "--method", help="sm | sm-linear | sm-parallel | nn | arx | rls."
+    ),
     lags: str = typer.Option(
         "1-3/8-10",
         "--lags",
@@ -346,7 +348,7 @@ def benchmark(
     methods: str = typer.Option(
         None,
         "--methods",
-        help="Comma-separated: arx, sm, sm_linear, neural, scheduled (default all).",
+        help="Comma-separated: arx, sm, sm_linear, sm_parallel, neural, scheduled (default all).",
     ),
     only: str = typer.Option(
         None,

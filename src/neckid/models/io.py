@@ -16,6 +16,7 @@ read it.
 
 from __future__ import annotations
 
+import importlib
 import json
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -49,6 +50,18 @@ class SavableModel(Protocol):
 
 
 _REGISTRY: dict[str, Callable[[Mapping[str, NDArray[Any]], Mapping[str, Any]], Any]] = {}
+
+#: Where each model class of neckid lives: ``load_model`` imports that module (which registers the
+#: class) when a file names it, so loading works in a fresh interpreter where ``import neckid``
+#: has loaded nothing (the package's names are lazy).
+MODEL_MODULES: dict[str, str] = {
+    "GainScheduledModel": "neckid.models.scheduled",
+    "LinearARX": "neckid.models.arx",
+    "NeuralNARX": "neckid.models.neural",
+    "ParallelSetMembership": "neckid.models.sm_parallel",
+    "RecursiveARX": "neckid.models.rls",
+    "SetMembership": "neckid.models.set_membership",
+}
 
 
 def register_model(cls: type) -> type:
@@ -124,12 +137,12 @@ def load_model(path: str | Path) -> Any:
         If the file names a model class this neckid does not know.
     """
     class_name, arrays, meta = read_model_file(path)
-    # Importing the package registers every model class.
-    import neckid  # noqa: F401
-
+    if class_name not in _REGISTRY and class_name in MODEL_MODULES:
+        importlib.import_module(MODEL_MODULES[class_name])  # registers the class
     if class_name not in _REGISTRY:
+        known = sorted(set(_REGISTRY) | set(MODEL_MODULES))
         raise ValueError(
-            f"{path} holds a {class_name!r}, which this neckid cannot load; known: {sorted(_REGISTRY)}"
+            f"{path} holds a {class_name!r}, which this neckid cannot load; known: {known}"
         )
     return _REGISTRY[class_name](arrays, meta)
 

@@ -131,8 +131,7 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
     the parallel model maps the ARX's simulation through it:
 
     >>> import numpy as np
-    >>> from neckid import IOData, Lags, LinearARX
-    >>> from neckid.models.sm_parallel import ParallelSetMembership
+    >>> from neckid import IOData, Lags, LinearARX, ParallelSetMembership
     >>> rng = np.random.default_rng(0)
     >>> u = np.repeat(rng.uniform(0, 2, 200), 10)
     >>> x = np.zeros(u.size)
