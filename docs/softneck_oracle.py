@@ -1,0 +1,65 @@
+"""How far a model identified on another log can get on each soft-neck validation log (docs/benchmarks.md).
+
+Run: ``.venv/bin/python docs/softneck_oracle.py ../shared/data/softneck``. For every validation
+log of the benchmark's soft-neck protocol it prints the free-run fit of
+
+- the benchmark's ARX identified on ``stair/ada000response.csv`` (the cross-log baseline);
+- an ARX and two ``ParallelSetMembership`` models identified on *that log itself* (oracles that
+  have seen the test data);
+
+and counts the logs where the better oracle is at least 5 points above the cross-log ARX: where it
+is not, a model identified on another log is not expected to be either.
+"""
+
+import argparse
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from neckid import Lags, LinearARX, ParallelSetMembership
+from neckid.experiments.benchmark import _free_run, _load_softneck
+from neckid.metrics import fit_percent
+
+#: The regressor the benchmark's selection chose for the ARX on the training log.
+ARX_LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
+
+
+def free_run_fit(model, record) -> float:
+    """Free-run fit [%] as in the benchmark (the model's own initial samples skipped)."""
+    y, skip = _free_run(model, record, None)
+    return float(fit_percent(record.y, y, skip=skip)[0]) if np.isfinite(y).all() else -np.inf
+
+
+def main() -> None:
+    """Print the per-log table and the count."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("softneck", type=Path, help="folder of the real soft-neck logs")
+    args = parser.parse_args()
+    warnings.filterwarnings("ignore")
+    bench = _load_softneck(args.softneck, quick=False)
+    cross = LinearARX(ARX_LAGS).fit(bench.train)
+    rows = []
+    for name, record in bench.tests.items():
+        oracles = [
+            LinearARX(ARX_LAGS),
+            ParallelSetMembership(Lags(outputs=[1], inputs=[0]), linear_lags=[0]),
+            ParallelSetMembership(ARX_LAGS, linear_lags=[0, 1], input_lags=[0, 1]),
+        ]
+        fits = [free_run_fit(cross, record)]
+        fits += [free_run_fit(model.fit(record), record) for model in oracles]
+        rows.append(fits)
+        print(
+            f"{name:32s} cross-log ARX {fits[0]:6.1f} | own-log ARX {fits[1]:6.1f}"
+            f" | own-log SM parallel {fits[2]:6.1f} / {fits[3]:6.1f}"
+        )
+    table = np.array(rows)
+    reach = np.maximum(table[:, 2], table[:, 3]) >= table[:, 0] + 5
+    print("mean fit [%]:", np.round(table.mean(axis=0), 1).tolist())
+    print(
+        f"logs where the better own-log SM is >= cross-log ARX + 5: {int(reach.sum())} / {len(table)}"
+    )
+
+
+if __name__ == "__main__":
+    main()
