@@ -1,7 +1,8 @@
 """Benchmark the identification methods on real data, next to published figures of merit.
 
-:func:`run_benchmark` runs linear ARX, Set Membership (pure and with a linear part), neural NARX
-and, on the soft-neck logs, the CFF-RLS scheduled model, on
+:func:`run_benchmark` runs linear ARX, Set Membership (pure, with a linear part, and on the free
+run of a parallel linear model: :class:`~neckid.ParallelSetMembership`), neural NARX and, on the
+soft-neck logs, the CFF-RLS scheduled model, on
 
 - the four public benchmarks of :mod:`neckid.datasets.benchmarks`, with the official protocol of
   each (train on the training record, free-run simulation of every test record, the number of
@@ -815,8 +816,8 @@ def run_benchmark(
         data folder); ``<name>/`` directly under it works too. Data sets not found are skipped
         (listed in ``details["missing"]``).
     methods : sequence of str, default all
-        Keys of :data:`METHODS`: ``"arx"``, ``"sm"``, ``"sm_linear"``, ``"neural"``,
-        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only).
+        Keys of :data:`METHODS`: ``"arx"``, ``"sm"``, ``"sm_linear"``, ``"sm_parallel"``,
+        ``"neural"``, ``"scheduled"`` (the scheduled model runs on the soft-neck logs only).
     benchmarks : sequence of str, optional
         Keys of :data:`BENCHMARKS` to run; default all that are found.
     quick : bool, default False
