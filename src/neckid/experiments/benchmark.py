@@ -378,16 +378,6 @@ SM_PARALLEL_REGRESSORS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
 SM_PARALLEL_EPSILON_FACTORS: tuple[float | None, ...] = (None, 0.25, 1.0)
 
 
-def _simulation_error_scale(lags: Lags, train: IOData) -> float:
-    """RMS free-run error of a linear ARX with these lags on the training record."""
-    arx = _import("neckid.models.arx", "LinearARX")
-    result = arx(lags).fit(train).simulate(train)
-    value = float(rmse(train.y, result.y, skip=result.n_initial)[0])
-    if not math.isfinite(value):
-        raise ValueError(f"the linear ARX with {lags!r} diverges on the training record")
-    return value
-
-
 def _parallel_candidates(benchmark: str, quick: bool, train: IOData) -> list[_Candidate]:
     model = _import("neckid.models.sm_parallel", "ParallelSetMembership")
     large = benchmark in ("silverbox", "bouc_wen")
@@ -402,7 +392,7 @@ def _parallel_candidates(benchmark: str, quick: bool, train: IOData) -> list[_Ca
     candidates = []
     for lags in _lag_grid(benchmark, quick):
         try:
-            scale = _simulation_error_scale(lags, train)
+            scale = _arx_error_scale(lags, train, free_run=True)
         except ValueError:
             continue  # an unstable linear model cannot run in parallel
         for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
@@ -425,12 +415,19 @@ def _parallel_candidates(benchmark: str, quick: bool, train: IOData) -> list[_Ca
     return candidates
 
 
-def _residual_scale(lags: Lags, train: IOData) -> float:
-    """RMS of the one-step residual of a linear ARX with these lags on the training record."""
+def _arx_error_scale(lags: Lags, train: IOData, free_run: bool = False) -> float:
+    """RMS error of a linear ARX with these lags on the training record.
+
+    The one-step residual by default; with ``free_run``, the free-run error (``ValueError`` when
+    the ARX diverges).
+    """
     arx = _import("neckid.models.arx", "LinearARX")
     model = arx(lags).fit(train)
-    prediction = model.predict(train)
-    return float(rmse(train.y, prediction.y, skip=prediction.n_initial)[0])
+    result = model.simulate(train) if free_run else model.predict(train)
+    value = float(rmse(train.y, result.y, skip=result.n_initial)[0])
+    if free_run and not math.isfinite(value):
+        raise ValueError(f"the linear ARX with {lags!r} diverges on the training record")
+    return value
 
 
 def _candidates(
@@ -450,7 +447,7 @@ def _candidates(
         weights = SM_INPUT_WEIGHTS if linear and not quick else (1.0,)
         candidates = []
         for lags in lags_grid:
-            noise = _residual_scale(lags, train)
+            noise = _arx_error_scale(lags, train)
             for factor, weight in itertools.product(factors, weights):
                 epsilon = None if factor is None else factor * noise
                 label = "knee" if epsilon is None else f"{factor:g} x {noise:.3g}"

@@ -29,7 +29,14 @@ from neckid.metrics import fit_percent, mae, rmse
 from neckid.models.io import ModelFile
 from neckid.regressors import Lags, ResolvedLags
 
-__all__ = ["ModelResult", "NarxModel", "NarxSimulator", "NotFittedError", "check_is_fitted"]
+__all__ = [
+    "ModelResult",
+    "NarxModel",
+    "NarxSimulator",
+    "NotFittedError",
+    "check_is_fitted",
+    "history_rows",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -233,6 +240,27 @@ def _free_run(
     return y
 
 
+def history_rows(value: ArrayLike | None, m: int, width: int, argument: str) -> FloatArray:
+    """A simulator's initial history: ``(m, width)`` rows, oldest first.
+
+    ``None`` gives zeros; a single row (or a scalar) is repeated ``m`` times; otherwise the shape
+    must be ``(m, width)``. Values must be finite; ``argument`` names them in errors.
+    """
+    if value is None:
+        return np.zeros((m, width))
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim <= 1:
+        array = np.broadcast_to(
+            array.reshape(1, -1) if array.ndim else array.reshape(1, 1), (m, width)
+        )
+    if array.shape != (m, width):
+        raise ValueError(
+            f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
+        )
+    check_finite(np.asarray(array), argument)
+    return np.array(array, dtype=np.float64)
+
+
 class NarxSimulator:
     """Step-by-step free run of a NARX map, for use in a closed loop next to a controller.
 
@@ -258,24 +286,8 @@ class NarxSimulator:
             Past inputs (oldest first); a single row is repeated. Default zeros.
         """
         m = max(self._resolved.max_lag, 1)
-        self._y = self._history(y0, m, self.n_outputs, "y0")
-        self._u = self._history(u0, m, self.n_inputs, "u0")
-
-    @staticmethod
-    def _history(value: ArrayLike | None, m: int, width: int, argument: str) -> FloatArray:
-        if value is None:
-            return np.zeros((m, width))
-        array = np.asarray(value, dtype=np.float64)
-        if array.ndim <= 1:
-            array = np.broadcast_to(
-                array.reshape(1, -1) if array.ndim else array.reshape(1, 1), (m, width)
-            )
-        if array.shape != (m, width):
-            raise ValueError(
-                f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
-            )
-        check_finite(np.asarray(array), argument)
-        return np.array(array, dtype=np.float64)
+        self._y = history_rows(y0, m, self.n_outputs, "y0")
+        self._u = history_rows(u0, m, self.n_inputs, "u0")
 
     def step(self, u: ArrayLike) -> FloatArray:
         """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y`` (``(n_outputs,)``)."""

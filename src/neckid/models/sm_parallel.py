@@ -39,9 +39,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator
 
-from neckid.data import IOData, as_experiments, check_finite
+from neckid.data import IOData, as_experiments
 from neckid.models.arx import LinearARX
-from neckid.models.base import ModelResult, check_is_fitted
+from neckid.models.base import ModelResult, check_is_fitted, history_rows
 from neckid.models.io import ModelFile, register_model
 from neckid.models.set_membership import GammaCurve, Invalidation, SetMembership
 from neckid.regressors import Lags, ResolvedLags
@@ -371,24 +371,11 @@ class ParallelSetMembershipSimulator:
         self.upper: FloatArray = np.full(self.n_outputs, np.nan)
         self.reset()
 
-    def _history(self, value: ArrayLike | None, width: int, argument: str) -> FloatArray:
-        m = max(self._model.max_lag_, 1)
-        if value is None:
-            return np.zeros((m, width))
-        array = np.asarray(value, dtype=np.float64)
-        if array.ndim <= 1:
-            array = np.broadcast_to(array.reshape(1, -1), (m, width))
-        if array.shape != (m, width):
-            raise ValueError(
-                f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
-            )
-        check_finite(np.asarray(array), argument)
-        return np.array(array, dtype=np.float64)
-
     def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
         """Start again from the given (or zero) past outputs and inputs."""
-        y_hist = self._history(y0, self.n_outputs, "y0")
-        u_hist = self._history(u0, self.n_inputs, "u0")
+        m = max(self._model.max_lag_, 1)
+        y_hist = history_rows(y0, m, self.n_outputs, "y0")
+        u_hist = history_rows(u0, m, self.n_inputs, "u0")
         m_linear = max(self._model.linear_.lags_.max_lag, 1)
         self._linear.reset(y_hist[-m_linear:], u_hist[-m_linear:])
         # SM regressor history: the measured inputs, then the simulated outputs.
