@@ -16,6 +16,7 @@ import numpy as np
 from neckid import IOData, Lags
 from neckid.models.set_membership import SetMembership
 from neckid.plant import SoftNeck
+from neckid.report.sm_plots import plot_gamma_curve
 
 OUT = Path(__file__).resolve().parent / "img"
 LAGS = Lags(outputs=3, inputs=[1, 2, 3])
@@ -42,7 +43,7 @@ def main() -> None:
     curve = model.gamma_curve_
     if curve is None:
         raise RuntimeError("the estimator computes the curve when gamma is not given")
-    fig = curve.plot()
+    fig = plot_gamma_curve(curve)
     fig.axes[0].set_xscale("symlog", linthresh=1e-3)
     fig.axes[0].set_xlim(left=0.0)
     fig.axes[0].set_title("γ*(ε) of the simulated neck (residual of the linear part)")

@@ -89,14 +89,16 @@ def test_unknown_name_raises_attribute_error() -> None:
         exec("from neckid import NoSuchModel", {})
 
 
-def test_model_modules_list_every_registered_model_class() -> None:
-    from neckid.models import io
+def test_model_classes_come_from_the_method_registry() -> None:
+    from neckid.models.io import ModelFile
+    from neckid.registry import methods, model_classes
 
-    for module in set(io.MODEL_MODULES.values()):
-        importlib.import_module(module)
-    assert set(io._REGISTRY) == set(io.MODEL_MODULES)
-    for name, module in io.MODEL_MODULES.items():
-        assert getattr(importlib.import_module(module), name).__name__ == name
+    classes = model_classes()
+    assert set(classes) == {m.estimator_class().__name__ for m in methods().values()}
+    for name, module in classes.items():
+        cls = getattr(importlib.import_module(module), name)
+        assert cls.__name__ == name
+        assert issubclass(cls, ModelFile)
 
 
 def test_load_model_in_a_fresh_interpreter(tmp_path) -> None:

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from scipy import signal as sps
 
 from neckid import signals
+from neckid.report.signal_plots import plot_bandwidth
 from neckid.signals import (
     BandwidthResult,
     bandwidth_from_chirp,
@@ -21,8 +22,8 @@ from neckid.signals import (
     multisine_frequencies,
     paper_chirp,
     paper_chirp_frequency,
-    plot_bandwidth,
     prbs,
+    random_binary,
     sine,
     staircase,
     step,
@@ -221,6 +222,44 @@ def test_prbs_seed_shifts_the_sequence() -> None:
     assert any(np.array_equal(np.roll(b, k), a) for k in range(127))
 
 
+# ------------------------------------------------------------------------------ random binary
+def test_random_binary_levels_clock_and_seed() -> None:
+    x = random_binary(1000, 0.7, clock=4, seed=3)
+    assert x.shape == (1000,) and x.dtype == np.float64
+    assert set(np.unique(x)) == {-0.7, 0.7}
+    assert np.all(x.reshape(-1, 4) == x[::4, None])
+    np.testing.assert_array_equal(x, random_binary(1000, 0.7, clock=4, seed=3))
+    assert not np.array_equal(x, random_binary(1000, 0.7, clock=4, seed=4))
+    assert abs(x.mean()) < 0.1
+
+
+def test_random_binary_draws_one_fair_coin_per_clock_period() -> None:
+    # The levels are Generator.integers(0, 2) flips, one per started clock period, cut at n_samples.
+    flips = np.random.default_rng(5).integers(0, 2, size=4)
+    expected = np.repeat(2.0 * flips - 1.0, 3)[:10]
+    np.testing.assert_array_equal(random_binary(10, 1.0, clock=3, seed=5), expected)
+    # A Generator is drawn from and advanced, so successive segments differ.
+    rng = np.random.default_rng(0)
+    first, second = random_binary(64, 1.0, seed=rng), random_binary(64, 1.0, seed=rng)
+    assert not np.array_equal(first, second)
+    assert random_binary(0, 1.0).shape == (0,)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"clock": 0}, ValueError, r"clock must be a whole number >= 1; got 0"),
+        ({"clock": 2.0}, TypeError, r"clock must be a whole number >= 1; got 2.0"),
+        ({"n_samples": -1}, ValueError, r"n_samples must be a whole number >= 0; got -1"),
+        ({"amplitude": np.nan}, ValueError, r"amplitude must be a number; got nan"),
+    ],
+)
+def test_random_binary_bad_input(kwargs: dict, error: type, match: str) -> None:
+    arguments = {"n_samples": 10, "amplitude": 1.0, **kwargs}
+    with pytest.raises(error, match=match):
+        random_binary(**arguments)
+
+
 # ---------------------------------------------------------------------------------- bandwidth
 def first_order_response(t: np.ndarray, command: np.ndarray, tau: float) -> np.ndarray:
     _, y, _ = sps.lsim(([1.0], [tau, 1.0]), command, t, X0=[command[0] / tau])
@@ -338,12 +377,12 @@ C = paper_chirp(T)
 
 BAD_CALLS = [
     (lambda: paper_chirp([0.0, np.nan, 1.0]), ValueError, r"t has a non-finite value nan at row 1"),
-    (lambda: paper_chirp(T, rate=np.inf), ValueError, r"rate must be finite; got inf"),
+    (lambda: paper_chirp(T, rate=np.inf), ValueError, r"rate must be a number; got inf"),
     (lambda: paper_chirp(T, amplitude="big"), TypeError, r"amplitude must be a number; got 'big'"),
     (lambda: paper_chirp(np.zeros((2, 2))), ValueError, r"t must be 1-D.*\(2, 2\)"),
-    (lambda: sine(T, 1.0, omega=np.nan), ValueError, r"omega must be finite; got nan"),
+    (lambda: sine(T, 1.0, omega=np.nan), ValueError, r"omega must be a number; got nan"),
     (lambda: step(T, amplitude=None), TypeError, r"amplitude must be a number; got None"),
-    (lambda: staircase(T, step_duration=0.0), ValueError, r"step_duration must be > 0; got 0.0"),
+    (lambda: staircase(T, step_duration=0.0), ValueError, r"step_duration must be a number > 0; got 0.0"),
     (
         lambda: staircase(T, step=5.0, initial=3.0, maximum=1.0),
         ValueError,
@@ -355,9 +394,9 @@ BAD_CALLS = [
         ValueError,
         r"duration is None.*last time stamp.*got 0.0",
     ),
-    (lambda: chirp(T, 1.0, 2.0, duration=-3.0), ValueError, r"duration must be > 0; got -3.0"),
-    (lambda: multisine(100, 0.0, (1.0, 2.0)), ValueError, r"ts must be > 0; got 0.0"),
-    (lambda: multisine(100, -0.1, (1.0, 2.0)), ValueError, r"ts must be > 0; got -0.1"),
+    (lambda: chirp(T, 1.0, 2.0, duration=-3.0), ValueError, r"duration must be a number > 0; got -3.0"),
+    (lambda: multisine(100, 0.0, (1.0, 2.0)), ValueError, r"ts must be a positive number of seconds; got 0.0"),
+    (lambda: multisine(100, -0.1, (1.0, 2.0)), ValueError, r"ts must be a positive number of seconds; got -0.1"),
     (
         lambda: multisine(100, 0.01, (5.0, 1.0)),
         ValueError,
@@ -385,11 +424,11 @@ BAD_CALLS = [
         ValueError,
         r"phases must be 'schroeder' or 'random'; got 'flat'",
     ),
-    (lambda: multisine(2.5, 0.01, (1.0, 2.0)), TypeError, r"n_samples must be an int; got 2.5"),
+    (lambda: multisine(2.5, 0.01, (1.0, 2.0)), TypeError, r"n_samples must be a whole number >= 1; got 2.5"),
     (
         lambda: multisine(100, 0.01, (10.0, 100.0), amplitude=0.0),
         ValueError,
-        r"amplitude must be > 0; got 0.0",
+        r"amplitude must be a number > 0; got 0.0",
     ),
     (
         lambda: prbs(100, 0.02, clock_period=0.03),
@@ -401,9 +440,9 @@ BAD_CALLS = [
         ValueError,
         r"levels must be two different values; got \(1.0, 1.0\)",
     ),
-    (lambda: prbs(100, 0.02, 0.02, order=1), ValueError, r"order must be >= 2; got 1"),
-    (lambda: prbs(100, 0.02, 0.02, order=40), ValueError, r"order must be in 2..32; got 40"),
-    (lambda: prbs(0, 0.02, 0.02), ValueError, r"n_samples must be >= 1; got 0"),
+    (lambda: prbs(100, 0.02, 0.02, order=1), ValueError, r"order must be a whole number in \[2, 32\]; got 1"),
+    (lambda: prbs(100, 0.02, 0.02, order=40), ValueError, r"order must be a whole number in \[2, 32\]; got 40"),
+    (lambda: prbs(0, 0.02, 0.02), ValueError, r"n_samples must be a whole number >= 1; got 0"),
     (lambda: bandwidth_from_chirp(T, C, C[:-1]), ValueError, r"same length; got 100, 100 and 99"),
     (
         lambda: bandwidth_from_chirp(T, C, np.where(T[7] == T, np.nan, C)),
@@ -428,7 +467,7 @@ BAD_CALLS = [
     (
         lambda: bandwidth_from_chirp(T, C, C, threshold=0.0),
         ValueError,
-        r"threshold must be > 0; got 0.0",
+        r"threshold must be a number > 0; got 0.0",
     ),
     (
         lambda: bandwidth_from_chirp(T, C, C, frequency=-np.ones(100)),
@@ -449,7 +488,7 @@ BAD_CALLS = [
     (
         lambda: bandwidth_from_chirp(T, C, C, cycles_per_window=0),
         ValueError,
-        r"cycles_per_window must be >= 1; got 0",
+        r"cycles_per_window must be a whole number >= 1; got 0",
     ),
 ]
 

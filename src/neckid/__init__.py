@@ -3,6 +3,7 @@
 The public API, re-exported here:
 
 - data: :class:`IOData`, :func:`as_experiments`, :class:`Lags`
+- the method registry: :func:`methods` (name -> :class:`Method`), :func:`get_method`
 - models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
   :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
     from neckid.models.scheduled import GainScheduledModel
     from neckid.models.set_membership import SetMembership, gamma_curve
     from neckid.models.sm_parallel import ParallelSetMembership
+    from neckid.registry import Method, get_method, methods
     from neckid.regressors import Lags
     from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
@@ -50,6 +52,7 @@ __all__ = [
     "LagSelection",
     "Lags",
     "LinearARX",
+    "Method",
     "ModelResult",
     "NeuralNARX",
     "NotFittedError",
@@ -62,11 +65,13 @@ __all__ = [
     "datasets",
     "fit_percent",
     "gamma_curve",
+    "get_method",
     "identify_operating_points",
     "lag_grid",
     "lipschitz_quotients",
     "load_model",
     "mae",
+    "methods",
     "metrics",
     "operating_points_from_logs",
     "plant",
@@ -97,6 +102,9 @@ _NAME_TO_MODULE = {
     "gamma_curve": "neckid.models.set_membership",
     "ParallelSetMembership": "neckid.models.sm_parallel",
     "Lags": "neckid.regressors",
+    "Method": "neckid.registry",
+    "get_method": "neckid.registry",
+    "methods": "neckid.registry",
     "LagSelection": "neckid.selection",
     "lag_grid": "neckid.selection",
     "lipschitz_quotients": "neckid.selection",

@@ -330,7 +330,7 @@ def bandwidth(
             f" at ratio {threshold}"
         )
     if plot is not None:
-        from neckid.signals import plot_bandwidth
+        from neckid.report.signal_plots import plot_bandwidth
 
         plot_bandwidth(result).savefig(plot, dpi=120)
         console.print(f"figure written to {plot}")

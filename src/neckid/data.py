@@ -10,18 +10,19 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
+
+from neckid.validation import check_finite, check_ts
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["IOData", "as_experiments"]
 
 FloatArray = NDArray[np.float64]
-
-#: Relative tolerance on the spacing of time stamps before a log counts as non-uniform.
-TIME_JITTER_TOLERANCE = 0.05
 
 
 def _as_2d(values: ArrayLike | None, argument: str, n_samples: int | None = None) -> FloatArray:
@@ -43,30 +44,6 @@ def _as_2d(values: ArrayLike | None, argument: str, n_samples: int | None = None
             f"{argument} must be 1-D or 2-D (time down the rows); got shape {array.shape}"
         )
     return np.ascontiguousarray(array)
-
-
-def check_finite(array: FloatArray, argument: str, names: Sequence[str] | None = None) -> None:
-    """Raise ``ValueError`` naming the channel, the row and the value of the first NaN or inf.
-
-    Parameters
-    ----------
-    array : ndarray, shape (n_samples, n_channels)
-        The values to check.
-    argument : str
-        What the array is called in the message (``"u"``, ``"y"``, ``"commands"``).
-    names : sequence of str, optional
-        Channel names, one per column.
-    """
-    bad = ~np.isfinite(array)
-    if bad.any():
-        row, col = (int(i) for i in np.argwhere(bad)[0])
-        channel = names[col] if names is not None and col < len(names) else f"column {col}"
-        count = int(bad.sum())
-        raise ValueError(
-            f"{argument} channel {channel!r} has a non-finite value {float(array[row, col])!r} at row {row}"
-            f" ({count} non-finite value{'s' if count > 1 else ''} in {argument} in all);"
-            " clean or interpolate the log before identification"
-        )
 
 
 def _names(names: Sequence[str] | None, count: int, prefix: str, argument: str) -> tuple[str, ...]:
@@ -94,61 +71,6 @@ def _units(units: Sequence[str] | None, count: int, argument: str) -> tuple[str,
     if len(units) != count:
         raise ValueError(f"{argument} has {len(units)} entries for {count} channels")
     return units
-
-
-def check_ts(ts: float) -> float:
-    """Return the sampling period as a float, refusing what is not a positive finite number."""
-    try:
-        value = float(ts)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"ts must be a number of seconds; got {ts!r}") from exc
-    if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"ts must be a positive number of seconds; got {value!r}")
-    return value
-
-
-def ts_from_time(time: ArrayLike, column: str = "time") -> tuple[float, float]:
-    """Infer ``(ts, t0)`` from a vector of time stamps and check that it is uniform.
-
-    Raises ``ValueError`` naming the row of the first time stamp that is not finite, repeats,
-    goes back in time, or departs from uniform sampling by more than 5 % of ``ts``.
-    """
-    t = np.asarray(time, dtype=np.float64).ravel()
-    if t.size < 2:
-        raise ValueError(
-            f"{column!r} needs at least 2 time stamps to give a sampling period; got {t.size}"
-        )
-    bad = np.flatnonzero(~np.isfinite(t))
-    if bad.size:
-        raise ValueError(
-            f"time column {column!r} has a non-finite value {float(t[bad[0]])!r} at row {bad[0]}"
-        )
-    dt = np.diff(t)
-    back = np.flatnonzero(dt < 0)
-    if back.size:
-        r = int(back[0]) + 1
-        raise ValueError(
-            f"time column {column!r} is not sorted: row {r} has t={float(t[r])!r} after t={float(t[r - 1])!r};"
-            " sort the log by time first"
-        )
-    same = np.flatnonzero(dt == 0)
-    if same.size:
-        r = int(same[0]) + 1
-        raise ValueError(
-            f"time column {column!r} repeats the time stamp {float(t[r])!r} at rows {r - 1} and {r};"
-            " drop duplicated samples first"
-        )
-    ts = float(np.median(dt))
-    off = np.flatnonzero(np.abs(dt - ts) > TIME_JITTER_TOLERANCE * ts)
-    if off.size:
-        r = int(off[0]) + 1
-        raise ValueError(
-            f"time column {column!r} is not uniformly sampled: the step before row {r} is"
-            f" {float(dt[r - 1])!r} s, the median step is {ts!r} s; resample the log onto a uniform grid"
-        )
-    # The mean step is the least-squares estimate of ts from a uniform grid.
-    ts = float((t[-1] - t[0]) / (t.size - 1))
-    return ts, float(t[0])
 
 
 class IOData:
@@ -539,30 +461,21 @@ class IOData:
         return self[:k], self[k:]
 
     # ------------------------------------------------------------------ tables and files
+    # The conversions live in neckid.data_files; it imports this module, hence the local imports.
     def to_frame(self, time: str | None = "time") -> pd.DataFrame:
         """Return a DataFrame with a time column (seconds) and one column per channel.
 
-        Units are kept in ``DataFrame.attrs["units"]``.
+        Units are kept in ``DataFrame.attrs["units"]``; the channel kinds and ``ts`` in
+        ``attrs["inputs"]``, ``attrs["outputs"]`` and ``attrs["ts"]``.
+
+        Parameters
+        ----------
+        time : str or None, default "time"
+            Name of the time column, ``t0 + k * ts``; ``None`` leaves it out.
         """
-        columns: dict[str, FloatArray] = {}
-        if time is not None:
-            columns[time] = self.time
-        for i, n in enumerate(self.input_names):
-            columns[n] = self._u[:, i].copy()
-        for i, n in enumerate(self.output_names):
-            columns[n] = self._y[:, i].copy()
-        frame = pd.DataFrame(columns)
-        frame.attrs["units"] = dict(
-            zip(
-                self.input_names + self.output_names,
-                self.input_units + self.output_units,
-                strict=True,
-            )
-        )
-        frame.attrs["inputs"] = list(self.input_names)
-        frame.attrs["outputs"] = list(self.output_names)
-        frame.attrs["ts"] = self.ts
-        return frame
+        from neckid.data_files import to_frame
+
+        return to_frame(self, time)
 
     @classmethod
     def from_frame(
@@ -591,56 +504,20 @@ class IOData:
             and ``ts`` must be given.
         units : mapping of str to str, optional
             Unit of each channel by name; ``frame.attrs["units"]`` is used when absent.
+        name : str, optional
+            A label for the experiment.
+
+        Raises
+        ------
+        KeyError
+            If a named column is not in the table.
+        ValueError
+            If not exactly one of ``time`` and ``ts`` is given, a column is not numeric, or the
+            time stamps are not sorted, distinct and uniform (the message names the row).
         """
-        if not isinstance(frame, pd.DataFrame):
-            raise TypeError(f"frame must be a pandas DataFrame; got {type(frame).__name__}")
-        if isinstance(inputs, str):
-            inputs = [inputs]
-        if isinstance(outputs, str):
-            outputs = [outputs]
-        wanted = [*inputs, *outputs, *([time] if time is not None else [])]
-        missing = [c for c in wanted if c not in frame.columns]
-        if missing:
-            raise KeyError(
-                f"columns {missing} are not in the table; it has {list(map(str, frame.columns))}"
-            )
-        if (time is None) == (ts is None):
-            raise ValueError(
-                "give exactly one of time= (a time column) and ts= (the sampling period)"
-            )
-        t0 = 0.0
-        if time is not None:
-            ts_value, t0 = ts_from_time(frame[time].to_numpy(dtype=np.float64), column=time)
-        elif ts is not None:  # always true here: exactly one of time and ts was given
-            ts_value = ts
-        units = dict(units) if units is not None else dict(frame.attrs.get("units", {}))
+        from neckid.data_files import from_frame
 
-        def columns(names: Sequence[str]) -> FloatArray:
-            if not names:
-                return np.zeros((len(frame), 0))
-            out = np.empty((len(frame), len(names)))
-            for j, c in enumerate(names):
-                try:
-                    out[:, j] = pd.to_numeric(frame[c], errors="raise").to_numpy(dtype=np.float64)
-                except (TypeError, ValueError):
-                    values = pd.to_numeric(frame[c], errors="coerce")
-                    row = int(np.flatnonzero(values.isna() & frame[c].notna())[0])
-                    raise ValueError(
-                        f"column {c!r} is not numeric: row {row} holds {frame[c].iloc[row]!r}"
-                    ) from None
-            return out
-
-        return cls(
-            u=columns(inputs),
-            y=columns(outputs),
-            ts=ts_value,
-            input_names=list(inputs),
-            output_names=list(outputs),
-            input_units=[units.get(c, "") for c in inputs],
-            output_units=[units.get(c, "") for c in outputs],
-            t0=t0,
-            name=name,
-        )
+        return from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=name)
 
     @classmethod
     def from_csv(
@@ -656,8 +533,8 @@ class IOData:
     ) -> IOData:
         r"""Read a CSV log (one row per sample, a header row of column names).
 
-        ``time="time"`` reads time stamps from that column; pass ``time=None, ts=...`` for a
-        log without one. Extra keyword arguments go to :func:`pandas.read_csv`.
+        ``time="time"`` reads time stamps from that column; pass ``time=None, ts=...`` (or just
+        ``ts=...``) for a log without one. Extra keyword arguments go to :func:`pandas.read_csv`.
 
         Examples
         --------
@@ -667,10 +544,9 @@ class IOData:
         >>> IOData.from_csv(path, inputs=["cmd"], outputs=["incl"])
         IOData(n_samples=3, ts=0.02, inputs=['cmd'], outputs=['incl'], name='log.csv')
         """
-        path = Path(path)
-        return cls._from_file_frame(
-            path, pd.read_csv(path, **read_csv), inputs, outputs, time, ts, units
-        )
+        from neckid.data_files import read_csv as read
+
+        return read(path, inputs, outputs, time=time, ts=ts, units=units, **read_csv)
 
     @classmethod
     def from_parquet(
@@ -684,34 +560,21 @@ class IOData:
         units: Mapping[str, str] | None = None,
     ) -> IOData:
         """Read a Parquet log (needs the ``parquet`` extra: ``pip install neckid[parquet]``)."""
-        path = Path(path)
-        return cls._from_file_frame(path, pd.read_parquet(path), inputs, outputs, time, ts, units)
+        from neckid.data_files import read_parquet
 
-    @classmethod
-    def _from_file_frame(
-        cls,
-        path: Path,
-        frame: pd.DataFrame,
-        inputs: Sequence[str],
-        outputs: Sequence[str],
-        time: str | None,
-        ts: float | None,
-        units: Mapping[str, str] | None,
-    ) -> IOData:
-        """A table read from a file; an explicit ``ts`` overrides the default time column."""
-        if ts is not None and time == "time":
-            time = None
-        return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
+        return read_parquet(path, inputs, outputs, time=time, ts=ts, units=units)
 
     def to_parquet(self, path: str | Path) -> None:
         """Write a Parquet file with a ``time`` column; units go in the file's metadata."""
-        frame = self.to_frame()
-        frame.attrs = {"units": frame.attrs["units"]}
-        frame.to_parquet(Path(path), index=False)
+        from neckid.data_files import write_parquet
+
+        write_parquet(self, path)
 
     def to_csv(self, path: str | Path) -> None:
         """Write a CSV file with a header row and a ``time`` column (seconds)."""
-        self.to_frame().to_csv(Path(path), index=False)
+        from neckid.data_files import write_csv
+
+        write_csv(self, path)
 
     @classmethod
     def from_mat(
@@ -721,7 +584,7 @@ class IOData:
         outputs: Sequence[str] = (),
         *,
         time: str | None = None,
-        ts: float | None = None,
+        ts: float | str | None = None,
         units: Mapping[str, str] | None = None,
     ) -> IOData:
         """Read a MATLAB ``.mat`` file (v4 to v7.2) whose variables are vectors or 1-column matrices.
@@ -734,25 +597,9 @@ class IOData:
             Variable of time stamps; otherwise give ``ts``. A scalar variable named by ``ts``
             (a string) is read as the period.
         """
-        from scipy.io import loadmat
+        from neckid.data_files import read_mat
 
-        path = Path(path)
-        content = loadmat(path, squeeze_me=True)
-        variables = {k: v for k, v in content.items() if not k.startswith("__")}
-        if isinstance(ts, str):
-            if ts not in variables:
-                raise KeyError(
-                    f"variable {ts!r} (ts) is not in {path.name}; it has {sorted(variables)}"
-                )
-            ts = float(np.asarray(variables[ts]).ravel()[0])
-        names = [*inputs, *outputs, *([time] if time else [])]
-        missing = [n for n in names if n not in variables]
-        if missing:
-            raise KeyError(
-                f"variables {missing} are not in {path.name}; it has {sorted(variables)}"
-            )
-        frame = pd.DataFrame({n: np.asarray(variables[n], dtype=np.float64).ravel() for n in names})
-        return cls.from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
+        return read_mat(path, inputs, outputs, time=time, ts=ts, units=units)
 
     def to_dict(self) -> dict[str, Any]:
         """Return the metadata (everything but the arrays) as a JSON-serialisable dict."""

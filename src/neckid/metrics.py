@@ -12,6 +12,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
+from neckid.validation import check_number, check_vector
+
 __all__ = [
     "CorrelationTest",
     "fit_percent",
@@ -38,8 +40,7 @@ def _pair(y_true: ArrayLike, y_pred: ArrayLike, skip: int) -> tuple[FloatArray, 
         )
     if a.shape != b.shape:
         raise ValueError(f"y_true and y_pred must have the same shape; got {a.shape} and {b.shape}")
-    if isinstance(skip, bool) or not isinstance(skip, int | np.integer) or skip < 0:
-        raise ValueError(f"skip must be a whole number >= 0; got {skip!r}")
+    skip = check_number(skip, "skip", low=0, integer=True)
     if skip >= a.shape[0]:
         raise ValueError(f"skip={skip} leaves no sample of {a.shape[0]}")
     a, b = a[skip:], b[skip:]
@@ -171,9 +172,8 @@ def _xcorr(a: FloatArray, b: FloatArray, lags: NDArray[np.int64]) -> FloatArray:
 
 
 def _band(n: int, confidence: float) -> float:
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1); got {confidence!r}")
-    return float(stats.norm.ppf(0.5 + confidence / 2.0) / np.sqrt(n))
+    level = check_number(confidence, "confidence", low=0, high=1, closed="neither")
+    return float(stats.norm.ppf(0.5 + level / 2.0) / np.sqrt(n))
 
 
 def residual_autocorrelation(
@@ -202,8 +202,7 @@ def residual_autocorrelation(
     1.0
     """
     e = _residual_vector(residuals, "residuals")
-    if not 1 <= max_lag < e.size:
-        raise ValueError(f"max_lag must be in [1, {e.size - 1}]; got {max_lag}")
+    max_lag = check_number(max_lag, "max_lag", low=1, high=e.size - 1, integer=True)
     lags = np.arange(0, max_lag + 1, dtype=np.int64)
     r = _xcorr(e, e, lags)
     bound = _band(e.size, confidence)
@@ -222,8 +221,7 @@ def residual_input_correlation(
     x = _residual_vector(u, "u")
     if x.size != e.size:
         raise ValueError(f"residuals and u must have the same length; got {e.size} and {x.size}")
-    if not 1 <= max_lag < e.size:
-        raise ValueError(f"max_lag must be in [1, {e.size - 1}]; got {max_lag}")
+    max_lag = check_number(max_lag, "max_lag", low=1, high=e.size - 1, integer=True)
     lags = np.arange(-max_lag, max_lag + 1, dtype=np.int64)
     r = _xcorr(e, x, lags)
     bound = _band(e.size, confidence)
@@ -231,14 +229,9 @@ def residual_input_correlation(
 
 
 def _residual_vector(values: ArrayLike, argument: str) -> FloatArray:
-    v = np.asarray(values, dtype=np.float64)
-    if v.ndim == 2 and 1 in v.shape:
-        v = v.ravel()
-    if v.ndim != 1:
-        raise ValueError(f"{argument} must be one channel (1-D); got shape {np.shape(values)}")
-    bad = np.flatnonzero(~np.isfinite(v))
-    if bad.size:
-        raise ValueError(f"{argument} has a non-finite value {float(v[bad[0]])!r} at row {bad[0]}")
+    """One channel as a finite 1-D array of at least 3 samples (a single row or column is raveled)."""
+    v = np.asarray(values)
+    v = check_vector(v.ravel() if v.ndim == 2 and 1 in v.shape else v, argument)
     if v.size < 3:
         raise ValueError(f"{argument} needs at least 3 samples; got {v.size}")
     return v

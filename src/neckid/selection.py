@@ -6,7 +6,8 @@ Two complementary tools:
   on every candidate lag set and ranks them by one-step or free-run fit on a validation record, as
   the seed paper chose its network's regressor.
 - :func:`lipschitz_quotients` computes He & Asada's order index from the data alone, no model
-  needed; :func:`plot_lipschitz_index` draws it against the order.
+  needed; :func:`neckid.report.selection_plots.plot_lipschitz_index` draws it against the
+  order.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import time
 import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -28,15 +29,10 @@ from sklearn.base import clone
 from neckid.data import IOData, as_experiments
 from neckid.regressors import Lags
 
-if TYPE_CHECKING:
-    from matplotlib.axes import Axes
-    from matplotlib.figure import Figure
-
 __all__ = [
     "LagSelection",
     "lag_grid",
     "lipschitz_quotients",
-    "plot_lipschitz_index",
     "select_lags",
 ]
 
@@ -572,67 +568,3 @@ def lipschitz_quotients(
     table.attrs["input_delay"] = int(input_delay)
     table.attrs["reference"] = "He & Asada, ACC 1993"
     return table
-
-
-def plot_lipschitz_index(
-    table: pd.DataFrame, output: str | None = None, ax: Axes | None = None
-) -> Figure:
-    """Plot the Lipschitz order index against the input order, one line per output order.
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        The result of :func:`lipschitz_quotients`.
-    output : str, optional
-        Which output channel; default the first in the table.
-    ax : matplotlib.axes.Axes, optional
-        Where to draw; default a new figure.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The figure holding ``ax`` (not shown: call ``plt.show()`` or ``fig.savefig`` yourself).
-
-    Raises
-    ------
-    ValueError
-        If the table lacks the columns of :func:`lipschitz_quotients` or does not hold ``output``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from neckid import IOData
-    >>> u = np.random.default_rng(0).normal(size=200)
-    >>> table = lipschitz_quotients(IOData(u, np.cumsum(u), ts=0.1), 1, 2)
-    >>> fig = plot_lipschitz_index(table)
-    >>> fig.axes[0].get_ylabel()
-    'Lipschitz index'
-    """
-    needed = {"output", "output_order", "input_order", "index"}
-    missing = needed - set(table.columns)
-    if missing:
-        raise ValueError(
-            f"table must come from lipschitz_quotients; it lacks the columns {sorted(missing)}"
-        )
-    outputs = list(dict.fromkeys(table["output"]))
-    name = outputs[0] if output is None else output
-    if name not in outputs:
-        raise ValueError(f"output {name!r} is not in the table; it holds {outputs}")
-    if ax is None:
-        from matplotlib.figure import Figure as _Figure
-
-        fig = _Figure(figsize=(6.0, 4.0))
-        ax = fig.add_subplot()
-    else:
-        fig = ax.get_figure()  # type: ignore[assignment]
-    part = table[table["output"] == name]
-    for na, rows in part.groupby("output_order", sort=True):
-        rows = rows.sort_values("input_order")
-        ax.plot(rows["input_order"], rows["index"], marker="o", label=f"output order {na}")
-    ax.set_yscale("log")
-    ax.set_xlabel("input order (number of input lags)")
-    ax.set_ylabel("Lipschitz index")
-    ax.set_title(f"He & Asada order index, output {name}")
-    ax.legend()
-    ax.grid(True, which="both", alpha=0.3)
-    return fig

@@ -11,10 +11,11 @@ Contents
 - :func:`chirp`, :func:`chirp_frequency`: a general linear chirp.
 - :func:`multisine`, :func:`multisine_frequencies`: sum of sinusoids at the DFT frequencies of a band, Schroeder or random phases.
 - :func:`prbs`: a maximum-length pseudo-random binary sequence held for a clock period.
+- :func:`random_binary`: independent random ``±amplitude`` levels, each held ``clock`` samples.
 - :func:`staircase`, :func:`step`, :func:`sine`.
 - :func:`bandwidth_from_chirp` and :class:`BandwidthResult`: the frequency at which the response
   amplitude first stays below a fraction of the command's (the paper's 90 % rule);
-  :func:`plot_bandwidth` draws its envelopes (matplotlib is imported only there).
+  :func:`neckid.report.signal_plots.plot_bandwidth` draws its envelopes.
 """
 
 from __future__ import annotations
@@ -30,7 +31,13 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import integrate
 from scipy import signal as sps
 
-from neckid.data import ts_from_time
+from neckid.validation import (
+    check_number,
+    check_time_vector,
+    check_ts,
+    check_uniform_time,
+    check_vector,
+)
 
 __all__ = [
     "BandwidthResult",
@@ -41,63 +48,14 @@ __all__ = [
     "multisine_frequencies",
     "paper_chirp",
     "paper_chirp_frequency",
-    "plot_bandwidth",
     "prbs",
+    "random_binary",
     "sine",
     "staircase",
     "step",
 ]
 
 FloatArray = NDArray[np.float64]
-
-
-# ---------------------------------------------------------------------------------------- helpers
-def _finite_float(value: float, argument: str) -> float:
-    """Return ``value`` as a finite float or raise naming ``argument``."""
-    if isinstance(value, bool):
-        raise TypeError(f"{argument} must be a number; got {value!r}")
-    try:
-        number = float(value)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{argument} must be a number; got {value!r}") from exc
-    if not math.isfinite(number):
-        raise ValueError(f"{argument} must be finite; got {value!r}")
-    return number
-
-
-def _positive_float(value: float, argument: str) -> float:
-    number = _finite_float(value, argument)
-    if number <= 0:
-        raise ValueError(f"{argument} must be > 0; got {value!r}")
-    return number
-
-
-def _positive_int(value: int, argument: str, minimum: int = 1) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{argument} must be an int; got {value!r}")
-    if value < minimum:
-        raise ValueError(f"{argument} must be >= {minimum}; got {value!r}")
-    return int(value)
-
-
-def _time_vector(t: ArrayLike, argument: str = "t") -> FloatArray:
-    """Return ``t`` as a 1-D finite float64 array (scalars become one-element arrays)."""
-    try:
-        array = np.asarray(t, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{argument} must be numeric; could not convert it: {exc}") from exc
-    if array.ndim == 0:
-        array = array.reshape(1)
-    if array.ndim != 1:
-        raise ValueError(
-            f"{argument} must be 1-D (one value per time stamp); got shape {array.shape}"
-        )
-    bad = np.flatnonzero(~np.isfinite(array))
-    if bad.size:
-        raise ValueError(
-            f"{argument} has a non-finite value {float(array[bad[0]])!r} at row {bad[0]}"
-        )
-    return np.ascontiguousarray(array)
 
 
 # ---------------------------------------------------------------------------------- paper chirp
@@ -145,10 +103,10 @@ def paper_chirp(
     >>> paper_chirp_frequency(t).round(4)  # rad/s, 2 * 0.1 * t
     array([0.    , 0.7927, 1.121 ])
     """
-    time = _time_vector(t)
-    offset_value = _finite_float(offset, "offset")
-    amplitude_value = _finite_float(amplitude, "amplitude")
-    rate_value = _finite_float(rate, "rate")
+    time = check_time_vector(t)
+    offset_value = check_number(offset, "offset")
+    amplitude_value = check_number(amplitude, "amplitude")
+    rate_value = check_number(rate, "rate")
     return offset_value + amplitude_value * np.sin(rate_value * time**2)
 
 
@@ -172,8 +130,8 @@ def paper_chirp_frequency(t: ArrayLike, rate: float = 0.1) -> FloatArray:
     >>> paper_chirp_frequency([0.0, 10.0, 50.0])
     array([ 0.,  2., 10.])
     """
-    time = _time_vector(t)
-    return 2.0 * _finite_float(rate, "rate") * time
+    time = check_time_vector(t)
+    return 2.0 * check_number(rate, "rate") * time
 
 
 # ------------------------------------------------------------------------------- simple signals
@@ -204,9 +162,9 @@ def sine(
     >>> sine([0.0, 0.25, 0.5], amplitude=2.0, omega=2 * np.pi, offset=1.0).round(12)
     array([1., 3., 1.])
     """
-    time = _time_vector(t)
-    return _finite_float(offset, "offset") + _finite_float(amplitude, "amplitude") * np.sin(
-        _finite_float(omega, "omega") * time + _finite_float(phase, "phase")
+    time = check_time_vector(t)
+    return check_number(offset, "offset") + check_number(amplitude, "amplitude") * np.sin(
+        check_number(omega, "omega") * time + check_number(phase, "phase")
     )
 
 
@@ -235,11 +193,11 @@ def step(
     >>> step([0.0, 0.5, 1.0, 1.5], amplitude=10.0, step_time=1.0, initial=2.0)
     array([ 2.,  2., 12., 12.])
     """
-    time = _time_vector(t)
-    initial_value = _finite_float(initial, "initial")
-    amplitude_value = _finite_float(amplitude, "amplitude")
+    time = check_time_vector(t)
+    initial_value = check_number(initial, "initial")
+    amplitude_value = check_number(amplitude, "amplitude")
     return np.where(
-        time >= _finite_float(step_time, "step_time"),
+        time >= check_number(step_time, "step_time"),
         initial_value + amplitude_value,
         initial_value,
     ).astype(np.float64)
@@ -287,16 +245,16 @@ def staircase(
     >>> staircase([0.0, 1.0, 2.0, 3.0], step=-1.0, step_duration=1.0, start_time=1.0)
     array([ 0., -1., -2., -3.])
     """
-    time = _time_vector(t)
-    step_value = _finite_float(step, "step")
-    duration = _positive_float(step_duration, "step_duration")
-    start = _finite_float(start_time, "start_time")
-    initial_value = _finite_float(initial, "initial")
+    time = check_time_vector(t)
+    step_value = check_number(step, "step")
+    duration = check_number(step_duration, "step_duration", low=0, closed="neither")
+    start = check_number(start_time, "start_time")
+    initial_value = check_number(initial, "initial")
     # A relative tolerance keeps t = k * step_duration computed in floating point on level k.
     count = np.floor((time - start) / duration + 1e-9) + 1.0
     values = initial_value + step_value * np.where(time >= start - 1e-9 * duration, count, 0.0)
     if maximum is not None:
-        limit = _finite_float(maximum, "maximum")
+        limit = check_number(maximum, "maximum")
         if (step_value >= 0 and limit < initial_value) or (
             step_value < 0 and limit > initial_value
         ):
@@ -318,7 +276,7 @@ def _chirp_duration(time: FloatArray, duration: float | None) -> float:
                 f" got {end!r}; give duration explicitly"
             )
         return end
-    return _positive_float(duration, "duration")
+    return check_number(duration, "duration", low=0, closed="neither")
 
 
 def chirp_frequency(
@@ -346,9 +304,9 @@ def chirp_frequency(
     >>> chirp_frequency([0.0, 5.0, 10.0], omega_start=1.0, omega_end=3.0)
     array([1., 2., 3.])
     """
-    time = _time_vector(t)
-    start = _finite_float(omega_start, "omega_start")
-    end = _finite_float(omega_end, "omega_end")
+    time = check_time_vector(t)
+    start = check_number(omega_start, "omega_start")
+    end = check_number(omega_end, "omega_end")
     for argument, value in (("omega_start", start), ("omega_end", end)):
         if value < 0:
             raise ValueError(f"{argument} must be >= 0 rad/s; got {value!r}")
@@ -398,15 +356,15 @@ def chirp(
     >>> np.allclose(chirp(t, 0.0, 12.0, amplitude=4.0, offset=5.0), paper_chirp(t))
     True
     """
-    time = _time_vector(t)
-    start = _finite_float(omega_start, "omega_start")
-    end = _finite_float(omega_end, "omega_end")
+    time = check_time_vector(t)
+    start = check_number(omega_start, "omega_start")
+    end = check_number(omega_end, "omega_end")
     for argument, value in (("omega_start", start), ("omega_end", end)):
         if value < 0:
             raise ValueError(f"{argument} must be >= 0 rad/s; got {value!r}")
     length = _chirp_duration(time, duration)
     phase = start * time + 0.5 * (end - start) / length * time**2
-    return _finite_float(offset, "offset") + _finite_float(amplitude, "amplitude") * np.sin(phase)
+    return check_number(offset, "offset") + check_number(amplitude, "amplitude") * np.sin(phase)
 
 
 # ------------------------------------------------------------------------------------ multisine
@@ -440,8 +398,8 @@ def multisine_frequencies(
     >>> omegas.round(3)
     array([12.566, 18.85 , 25.133])
     """
-    n = _positive_int(period, "period", minimum=2)
-    sample_time = _positive_float(ts, "ts")
+    n = check_number(period, "period", low=2, integer=True)
+    sample_time = check_ts(ts)
     low, high = _band(band, sample_time)
     resolution = 2.0 * math.pi / (n * sample_time)
     k = np.arange(1, (n + 1) // 2, dtype=np.int64)  # excludes DC and Nyquist
@@ -463,8 +421,8 @@ def _band(band: tuple[float, float], ts: float) -> tuple[float, float]:
         raise TypeError(
             f"band must be a pair (omega_low, omega_high) in rad/s; got {band!r}"
         ) from exc
-    low = _finite_float(low_raw, "band[0]")
-    high = _finite_float(high_raw, "band[1]")
+    low = check_number(low_raw, "band[0]")
+    high = check_number(high_raw, "band[1]")
     nyquist = math.pi / ts
     if not 0.0 <= low < high:
         raise ValueError(f"band must satisfy 0 <= omega_low < omega_high (rad/s); got {band!r}")
@@ -544,10 +502,10 @@ def multisine(
     >>> np.allclose(x[:200], x[200:])
     True
     """
-    n = _positive_int(n_samples, "n_samples")
-    sample_time = _positive_float(ts, "ts")
-    repeats = _positive_int(n_periods, "n_periods")
-    peak = _positive_float(amplitude, "amplitude")
+    n = check_number(n_samples, "n_samples", low=1, integer=True)
+    sample_time = check_ts(ts)
+    repeats = check_number(n_periods, "n_periods", low=1, integer=True)
+    peak = check_number(amplitude, "amplitude", low=0, closed="neither")
     if period is None:
         if n % repeats:
             raise ValueError(
@@ -556,7 +514,7 @@ def multisine(
             )
         length = n // repeats
     else:
-        length = _positive_int(period, "period", minimum=2)
+        length = check_number(period, "period", low=2, integer=True)
         if repeats != 1 and repeats * length != n:
             raise ValueError(
                 f"n_periods={repeats} periods of period={length} samples make {repeats * length}"
@@ -629,9 +587,9 @@ def prbs(
     >>> prbs(10, ts=0.5, clock_period=1.0, levels=(0.0, 5.0), order=3)
     array([5., 5., 5., 5., 5., 5., 0., 0., 5., 5.])
     """
-    n = _positive_int(n_samples, "n_samples")
-    sample_time = _positive_float(ts, "ts")
-    clock = _positive_float(clock_period, "clock_period")
+    n = check_number(n_samples, "n_samples", low=1, integer=True)
+    sample_time = check_ts(ts)
+    clock = check_number(clock_period, "clock_period", low=0, closed="neither")
     hold = round(clock / sample_time)
     if hold < 1 or abs(hold * sample_time - clock) > 1e-6 * clock:
         raise ValueError(
@@ -641,8 +599,8 @@ def prbs(
         low_raw, high_raw = levels
     except (TypeError, ValueError) as exc:
         raise TypeError(f"levels must be a pair (low, high); got {levels!r}") from exc
-    low = _finite_float(low_raw, "levels[0]")
-    high = _finite_float(high_raw, "levels[1]")
+    low = check_number(low_raw, "levels[0]")
+    high = check_number(high_raw, "levels[1]")
     if low == high:
         raise ValueError(f"levels must be two different values; got {levels!r}")
     n_bits = -(-n // hold)
@@ -654,9 +612,7 @@ def prbs(
                 " longest m-sequence (order 32); give order to repeat a shorter one"
             )
     else:
-        bits = _positive_int(order, "order", minimum=2)
-        if bits > 32:
-            raise ValueError(f"order must be in 2..32; got {order!r}")
+        bits = check_number(order, "order", low=2, high=32, integer=True)
     state = None
     if seed is not None:
         rng = np.random.default_rng(seed)
@@ -668,6 +624,56 @@ def prbs(
     return np.ascontiguousarray(np.repeat(values, hold)[:n], dtype=np.float64)
 
 
+def random_binary(
+    n_samples: int,
+    amplitude: float,
+    clock: int = 1,
+    seed: int | np.random.Generator | None = 0,
+) -> FloatArray:
+    """A random binary signal: ``±amplitude`` levels drawn independently, each held ``clock`` samples.
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the signal in samples, >= 0.
+    amplitude : float
+        The level (unit of the command the signal is added to; rad/s for the operating-point
+        protocol's velocity excitation).
+    clock : int, default 1
+        Samples each level is held before the next random draw, >= 1. It sets the bandwidth:
+        most of the power lies below ``1 / (2 clock ts)`` Hz.
+    seed : int, numpy.random.Generator or None, default 0
+        Passed to :func:`numpy.random.default_rng`; a Generator is drawn from (and advanced).
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+        Each value is ``-amplitude`` or ``+amplitude``.
+
+    Notes
+    -----
+    Unlike :func:`prbs`, the levels are independent fair coin flips
+    (``numpy.random.Generator.integers(0, 2)``, one per clock period), not a maximum-length
+    sequence: the signal does not repeat and its autocorrelation is two-valued only on average.
+    This is the excitation of the seed paper's operating-point protocol
+    (:func:`neckid.experiments.operating_points.identify_operating_points`).
+
+    Examples
+    --------
+    >>> x = random_binary(8, 0.5, clock=2, seed=1)
+    >>> sorted(set(x.tolist())) in ([-0.5, 0.5], [-0.5], [0.5])
+    True
+    >>> bool(np.all(x[0::2] == x[1::2]))
+    True
+    """
+    n = check_number(n_samples, "n_samples", low=0, integer=True)
+    hold = check_number(clock, "clock", low=1, integer=True)
+    level = check_number(amplitude, "amplitude")
+    rng = np.random.default_rng(seed)
+    levels = rng.integers(0, 2, size=-(-n // hold)) * 2.0 - 1.0
+    return np.asarray(level * np.repeat(levels, hold)[:n], dtype=np.float64)
+
+
 # ------------------------------------------------------------------------------------ bandwidth
 BandwidthStatus = Literal["found", "not_reached", "below_at_start"]
 
@@ -677,7 +683,8 @@ class BandwidthResult:
     """The bandwidth found in a chirp run, with the amplitude envelopes it was read from.
 
     One entry of the arrays per analysis window (one cycle of the command, windows half a cycle
-    apart), so ``plot_bandwidth`` can draw a figure like the paper's Fig. 3.
+    apart), so :func:`neckid.report.signal_plots.plot_bandwidth` can draw a figure like the
+    paper's Fig. 3.
 
     Attributes
     ----------
@@ -891,19 +898,19 @@ def bandwidth_from_chirp(
     >>> result.status, round(result.bandwidth, 1)
     ('found', 9.7)
     """
-    time = _time_vector(t, "t")
-    ts_from_time(time, column="t")
-    cmd = _time_vector(command, "command")
-    out = _time_vector(response, "response")
+    time = check_time_vector(t, "t")
+    check_uniform_time(time, "t")
+    cmd = check_vector(command, "command")
+    out = check_vector(response, "response")
     if cmd.size != time.size or out.size != time.size:
         raise ValueError(
             "t, command and response must have the same length; got"
             f" {time.size}, {cmd.size} and {out.size}"
         )
-    threshold_value = _positive_float(threshold, "threshold")
-    cycles = _positive_int(cycles_per_window, "cycles_per_window")
-    min_samples = _positive_int(min_samples_per_cycle, "min_samples_per_cycle", minimum=6)
-    min_below = _positive_int(min_windows_below, "min_windows_below", minimum=1)
+    threshold_value = check_number(threshold, "threshold", low=0, closed="neither")
+    cycles = check_number(cycles_per_window, "cycles_per_window", low=1, integer=True)
+    min_samples = check_number(min_samples_per_cycle, "min_samples_per_cycle", low=6, integer=True)
+    min_below = check_number(min_windows_below, "min_windows_below", low=1, integer=True)
 
     if frequency is None:
         if np.ptp(cmd) == 0:
@@ -911,7 +918,7 @@ def bandwidth_from_chirp(
         phase = _phase_from_command(time, cmd)
     else:
         omega_raw = frequency(time) if callable(frequency) else frequency
-        omega = _time_vector(omega_raw, "frequency")
+        omega = check_vector(omega_raw, "frequency")
         if omega.size != time.size:
             raise ValueError(
                 f"frequency must give one value per time stamp ({time.size}); got {omega.size}"
@@ -1003,66 +1010,3 @@ def bandwidth_from_chirp(
         ratio=ratio,
         crossing_index=crossing,
     )
-
-
-def plot_bandwidth(result: BandwidthResult, ax: Any = None) -> Any:
-    """Draw the amplitude envelopes of a chirp run against frequency, like the paper's Fig. 3.
-
-    The command's amplitude, ``threshold`` times it (dashed), the response's amplitude, and a
-    vertical line at the bandwidth where the response falls below the dashed line for good.
-
-    Parameters
-    ----------
-    result : BandwidthResult
-        What :func:`bandwidth_from_chirp` returned.
-    ax : matplotlib.axes.Axes, optional
-        Where to draw; a new figure is made when ``None``.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The figure holding ``ax`` (never shown; call ``savefig`` or ``plt.show`` yourself).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> t = np.arange(0.0, 60.0, 0.01)
-    >>> command = paper_chirp(t)
-    >>> response = 5.0 + 4.0 / np.sqrt(1 + (0.1 * paper_chirp_frequency(t)) ** 2) * np.sin(0.1 * t**2)
-    >>> result = bandwidth_from_chirp(t, command, response, frequency=paper_chirp_frequency)
-    >>> fig = plot_bandwidth(result)
-    >>> fig.axes[0].get_xlabel()
-    'frequency (rad/s)'
-    >>> import matplotlib.pyplot as plt
-    >>> plt.close(fig)
-    """
-    if not isinstance(result, BandwidthResult):
-        raise TypeError(f"result must be a BandwidthResult; got {type(result).__name__}")
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(8, 3.6), layout="constrained")
-    else:
-        fig = ax.figure
-    ax.plot(result.frequency, result.command_amplitude, color="black", lw=1.2, label="command")
-    ax.plot(
-        result.frequency,
-        result.threshold * result.command_amplitude,
-        color="black",
-        lw=1.0,
-        ls="--",
-        label=f"{result.threshold:g} x command",
-    )
-    ax.plot(result.frequency, result.response_amplitude, color="C0", lw=1.2, label="response")
-    if result.status == "found":
-        ax.axvline(
-            result.bandwidth,
-            color="C3",
-            lw=1.0,
-            label=f"bandwidth {result.bandwidth:.3g} rad/s",
-        )
-    ax.set_xlabel("frequency (rad/s)")
-    ax.set_ylabel("amplitude")
-    ax.set_title(f"chirp amplitude envelopes ({result.status})")
-    ax.legend(loc="best", fontsize="small")
-    return fig

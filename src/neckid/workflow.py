@@ -10,10 +10,7 @@ from typing import Any, Literal
 from neckid.data import IOData
 from neckid.regressors import Lags
 
-__all__ = ["METHODS", "make_estimator", "parse_lags", "read_log"]
-
-Method = Literal["sm", "sm-linear", "sm-parallel", "nn", "arx", "rls"]
-METHODS: tuple[str, ...] = ("sm", "sm-linear", "sm-parallel", "nn", "arx", "rls")
+__all__ = ["make_estimator", "parse_lags", "read_log"]
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
@@ -107,46 +104,13 @@ def read_log(
 
 
 def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **options: Any) -> Any:
-    """Build an unfitted estimator by method name.
+    """Build an unfitted estimator by its name in :func:`neckid.methods` (deprecated spellings warn).
 
-    ``"sm"``: :class:`~neckid.SetMembership`; ``"sm-linear"``: the same with a linear part;
-    ``"sm-parallel"``: :class:`~neckid.ParallelSetMembership` (``lags`` are its linear ARX's);
-    ``"nn"``: :class:`~neckid.NeuralNARX` (2 × 25); ``"arx"``: :class:`~neckid.LinearARX`;
-    ``"rls"``: :class:`~neckid.RecursiveARX` (λ = 0.98) with ``na``/``nb``/``delay`` taken from
-    contiguous ``lags``.
+    ``random_state`` is passed to the methods that have one (the neural NARX).
     """
-    if method == "sm" or method == "sm-linear":
-        from neckid.models.set_membership import SetMembership
+    from neckid.registry import get_method
 
-        return SetMembership(lags, linear_part=method == "sm-linear", **options)
-    if method == "sm-parallel":
-        from neckid.models.sm_parallel import ParallelSetMembership
-
-        return ParallelSetMembership(lags, **options)
-    if method == "nn":
-        from neckid.models.neural import NeuralNARX
-
-        return NeuralNARX(lags, random_state=random_state, **options)
-    if method == "arx":
-        from neckid.models.arx import LinearARX
-
-        return LinearARX(lags, **options)
-    if method == "rls":
-        from neckid.models.rls import RecursiveARX
-
-        na, nb, delay = _contiguous_orders(lags)
-        return RecursiveARX(na=na, nb=nb, delay=delay, **options)
-    raise ValueError(f"method must be one of {list(METHODS)}; got {method!r}")
-
-
-def _contiguous_orders(lags: Lags) -> tuple[int, int, int]:
-    if isinstance(lags.outputs, dict) or isinstance(lags.inputs, dict):
-        raise ValueError(
-            "the rls method needs the same lags for every channel, e.g. --lags 1-2/1-2"
-        )
-    outs, ins = list(lags.outputs), list(lags.inputs)
-    if outs != list(range(1, len(outs) + 1)):
-        raise ValueError(f"the rls method needs output lags 1..na; got {outs}")
-    if ins and ins != list(range(ins[0], ins[0] + len(ins))):
-        raise ValueError(f"the rls method needs contiguous input lags d..d+nb-1; got {ins}")
-    return len(outs), len(ins), (ins[0] if ins else 1)
+    entry = get_method(method)
+    if "random_state" in entry.estimator_class()._parameter_constraints:
+        options = {"random_state": random_state, **options}
+    return entry.make(lags, **options)

@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from neckid.data import IOData
+from neckid.validation import check_ts, check_uniform_time
 
 __all__ = [
     "CHANNELS",
@@ -50,9 +51,6 @@ logger = logging.getLogger(__name__)
 
 #: Sample time of the soft-neck bench, in seconds.
 SOFTNECK_TS = 0.025
-
-#: Relative tolerance on a time step before it counts as a gap (missing samples).
-_STEP_TOLERANCE = 0.05
 
 #: Every channel a soft-neck log may hold: name -> (unit, kind, meaning).
 CHANNELS: dict[str, tuple[str, Literal["input", "output"], str]] = {
@@ -185,35 +183,14 @@ def _regularise_time(
     """Check the time column; return (rows to keep, ts, t0).
 
     Steps must be one sample period (within 5 %) or zero (a repeated stamp); anything else
-    (time going back, a gap) is refused with the row.
+    (time going back, a gap) is refused with the row (:func:`~neckid.validation.check_uniform_time`).
     """
-    if time.size < 2:
-        raise ValueError(f"{name}: needs at least 2 rows to check the sampling; got {time.size}")
-    dt = np.diff(time)
-    back = np.flatnonzero(dt < 0)
-    if back.size:
-        r = int(back[0]) + 1
-        raise ValueError(
-            f"{name}: time goes back at data row {r}: t={time[r]:g} s after t={time[r - 1]:g} s"
-        )
-    positive = dt[dt > 0]
-    if positive.size == 0:
-        raise ValueError(f"{name}: every row has the same time stamp {time[0]:g} s")
-    if ts is None:
-        ts_value = float(np.median(positive))
-    else:
-        ts_value = float(ts)
-        if not math.isfinite(ts_value) or ts_value <= 0:
-            raise ValueError(f"ts must be a positive number of seconds; got {ts!r}")
-    repeated = dt == 0
-    off = np.flatnonzero(~repeated & (np.abs(dt - ts_value) > _STEP_TOLERANCE * ts_value))
-    if off.size:
-        r = int(off[0]) + 1
-        raise ValueError(
-            f"{name}: the time step before data row {r} is {dt[r - 1]:.6g} s where the sampling"
-            f" period is {ts_value:g} s (t={time[r - 1]:g} -> {time[r]:g} s); the log has a gap or jitter"
-            " beyond 5 %: resample it onto a uniform grid first"
-        )
+    ts_checked = None if ts is None else check_ts(ts)
+    try:
+        ts_value, t0 = check_uniform_time(time, "time", ts=ts_checked, allow_repeats=True)
+    except ValueError as exc:
+        raise ValueError(f"{name}: {exc}") from exc
+    repeated = np.diff(time) == 0
     keep = np.ones(time.size, dtype=bool)
     n_repeated = int(repeated.sum())
     if n_repeated:
@@ -236,7 +213,7 @@ def _regularise_time(
                 n_repeated,
                 rows,
             )
-    return keep, ts_value, float(time[0])
+    return keep, ts_value, t0
 
 
 def load_softneck_log(

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -27,14 +27,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
 from neckid.models.rls import RecursiveARX
-from neckid.models.scheduled import GainScheduledModel
+from neckid.models.scheduled import GainScheduledModel, default_window, identify_point
+from neckid.signals import random_binary
+from neckid.validation import check_number, check_ts
+
+if TYPE_CHECKING:
+    from neckid.plant.protocols import Controller, Plant
 
 __all__ = [
     "DEFAULT_INCLINATIONS",
     "OperatingPointResult",
     "identify_operating_points",
     "operating_points_from_logs",
-    "prbs",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -51,22 +55,6 @@ TABLE_COLUMNS = (
     "settled_at",
     "n_samples",
 )
-
-
-class Plant(Protocol):
-    """What the protocol drives: the simulated neck, or a stand-in."""
-
-    def reset(self) -> Any: ...
-
-    def step(self, u: Any) -> Any: ...
-
-
-class Controller(Protocol):
-    """The closed-loop inclination controller: ``step(reference, measurement) -> command``."""
-
-    def reset(self) -> Any: ...
-
-    def step(self, reference: Any, measurement: Any) -> Any: ...
 
 
 @dataclass(frozen=True)
@@ -119,65 +107,21 @@ class OperatingPointResult:
         return self.table["converged"].to_numpy(dtype=bool)
 
     def fit_schedule(self, degree: int = 1, converged_only: bool = True) -> GainScheduledModel:
-        """Fit :class:`GainScheduledModel` lines ``N(i)``, ``P(i)`` through the points."""
-        return GainScheduledModel(degree=degree, ts=self.ts).fit(
-            self, converged_only=converged_only
+        """Fit :class:`GainScheduledModel` lines ``N(i)``, ``P(i)`` through the points.
+
+        With ``converged_only`` the points whose estimate did not converge are left out.
+        """
+        table = self.table[self.table["converged"]] if converged_only else self.table
+        return GainScheduledModel.from_points(
+            table["inclination"].to_numpy(dtype=np.float64),
+            table["gain"].to_numpy(dtype=np.float64),
+            table["pole"].to_numpy(dtype=np.float64),
+            ts=self.ts,
+            delay=int(self.settings.get("delay", 1)),
+            degree=degree,
+            input_name=str(self.settings.get("input", "velocity_command")),
+            output_name=str(self.settings.get("output", "inclination")),
         )
-
-
-def prbs(
-    n_samples: int,
-    amplitude: float,
-    clock: int = 1,
-    seed: int | np.random.Generator | None = 0,
-) -> FloatArray:
-    """Random binary sequence ``±amplitude`` whose level can switch every ``clock`` samples.
-
-    Parameters
-    ----------
-    n_samples : int
-        Length.
-    amplitude : float
-        Level (same units as the command it is added to).
-    clock : int, default 1
-        Samples each level is held before a new random draw (sets the bandwidth: about
-        ``1 / (2 clock ts)`` Hz).
-    seed : int, Generator or None, default 0
-        Passed to ``numpy.random.default_rng``.
-
-    Returns
-    -------
-    ndarray, shape (n_samples,)
-
-    Examples
-    --------
-    >>> x = prbs(8, 0.5, clock=2, seed=1)
-    >>> sorted(set(x.tolist())) in ([-0.5, 0.5], [-0.5], [0.5])
-    True
-    >>> bool(np.all(x[0::2] == x[1::2]))
-    True
-    """
-    if isinstance(clock, bool) or not isinstance(clock, int | np.integer) or clock < 1:
-        raise ValueError(f"clock must be a whole number of samples >= 1; got {clock!r}")
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 0:
-        raise ValueError(f"n_samples must be a whole number >= 0; got {n_samples!r}")
-    rng = np.random.default_rng(seed)
-    levels = rng.integers(0, 2, size=-(-int(n_samples) // int(clock))) * 2.0 - 1.0
-    return np.asarray(float(amplitude) * np.repeat(levels, clock)[:n_samples], dtype=np.float64)
-
-
-def _positive(value: float, argument: str) -> float:
-    number = float(value)
-    if not math.isfinite(number) or number <= 0:
-        raise ValueError(f"{argument} must be a positive finite number; got {value!r}")
-    return number
-
-
-def _default_window(forgetting_factor: float) -> int:
-    """Five memories of the estimator, ``5 / (1 − λ)`` samples (500 when ``λ = 1``)."""
-    if forgetting_factor >= 1.0:
-        return 500
-    return max(10, round(5.0 / (1.0 - forgetting_factor)))
 
 
 def identify_operating_points(
@@ -204,26 +148,27 @@ def identify_operating_points(
 
     The plant and controller are reset once; the targets are then visited in order, as on the real
     neck (a staircase). At each target the reference is held for ``settle_time`` seconds with no
-    excitation, then for ``hold_time`` seconds with a PRBS of ``±excitation_amplitude`` rad/s added
-    to the command of ``motor``; CFF-RLS runs on the excited part (see
-    :func:`operating_points_from_logs`).
+    excitation, then for ``hold_time`` seconds with a random binary signal of
+    ``±excitation_amplitude`` rad/s (:func:`~neckid.signals.random_binary`) added to the command of
+    ``motor``; CFF-RLS runs on the excited part (see :func:`operating_points_from_logs`).
 
     Parameters
     ----------
-    plant : object with ``reset()`` and ``step(u) -> y``
-        ``u`` is the velocity command, shape ``(n_motors,)`` [rad/s]; ``y[0]`` is the inclination
+    plant : Plant
+        Anything with ``reset()`` and ``step(u) -> y`` (:class:`~neckid.plant.Plant`); ``u`` is the velocity command, shape ``(n_motors,)`` [rad/s]; ``y[0]`` is the inclination
         [deg]. For example ``neckid.plant.SoftNeck(configuration="planar", ts=ts)``.
-    controller : object with ``reset()`` and ``step(reference, measurement) -> command``, optional
-        The inclination controller (e.g. ``neckid.plant.InclinationController``); by default
+    controller : Controller, optional
+        The inclination controller, anything with ``reset()`` and
+        ``step(reference, measurement) -> command`` (:class:`~neckid.plant.Controller`); by default
         ``neckid.plant.InclinationController(ts=ts)``.
     inclinations : sequence of float, default 5, 10, …, 35
         Targets [deg].
     ts : float, default 0.02
         Sampling period in seconds (must be the plant's).
     excitation_amplitude : float, default 1.0
-        PRBS level [rad/s], added on top of the controller's command.
+        Level of the random binary excitation [rad/s], added on top of the controller's command.
     excitation_clock : int, default 5
-        Samples each PRBS level is held (5 samples at 50 Hz: most of the power below 5 Hz).
+        Samples each excitation level is held (5 samples at 50 Hz: most of the power below 5 Hz).
     settle_time, hold_time : float, default 5.0 and 20.0
         Seconds to reach the target, and seconds of excited identification there.
     motor : int, default 0
@@ -246,7 +191,7 @@ def identify_operating_points(
     tolerance, atol : float, default 0.3 and 0.1
         Convergence band around the settled estimate, ``atol + tolerance · |θ|`` per parameter.
     seed : int, Generator or None, default 0
-        Seeds the PRBS.
+        Seeds the random binary excitation.
 
     Returns
     -------
@@ -263,7 +208,7 @@ def identify_operating_points(
     --------
     With the scheduled model itself as a stand-in plant and a proportional controller:
 
-    >>> from neckid.models.scheduled import GainScheduledModel
+    >>> from neckid.models.scheduled import GainScheduledModel, default_window, identify_point
     >>> truth = GainScheduledModel.from_coefficients([-0.02, 1.5], [0.01, 0.3], ts=0.02)
     >>> class P:
     ...     def reset(self): pass
@@ -276,10 +221,14 @@ def identify_operating_points(
     >>> np.round(result.gains, 1), np.round(result.poles, 1)
     (array([1.3, 0.9]), array([0.4, 0.6]))
     """
-    ts = _positive(ts, "ts")
-    settle = round(_positive(settle_time, "settle_time") / ts) if settle_time else 0
-    hold = round(_positive(hold_time, "hold_time") / ts)
-    amplitude = _positive(excitation_amplitude, "excitation_amplitude")
+    ts = check_ts(ts)
+    settle = (
+        round(check_number(settle_time, "settle_time", low=0, closed="neither") / ts)
+        if settle_time
+        else 0
+    )
+    hold = round(check_number(hold_time, "hold_time", low=0, closed="neither") / ts)
+    amplitude = check_number(excitation_amplitude, "excitation_amplitude", low=0, closed="neither")
     targets = [float(v) for v in inclinations]
     if not targets:
         raise ValueError("inclinations is empty; give at least one target inclination in degrees")
@@ -301,7 +250,9 @@ def identify_operating_points(
     excitation = np.zeros((reference.size, n_motors))
     for k in range(len(targets)):
         start = k * segment + settle
-        excitation[start : start + hold, motor] = prbs(hold, amplitude, excitation_clock, seed=rng)
+        excitation[start : start + hold, motor] = random_binary(
+            hold, amplitude, excitation_clock, seed=rng
+        )
     if getattr(controller, "n_references", 1) != 1:
         # Three tendons: lean towards the excited motor's tendon (orientation 120° per motor).
         reference = np.column_stack([reference, np.full(reference.size, 120.0 * motor)])
@@ -417,7 +368,7 @@ def operating_points_from_logs(
         raise ValueError(f"skip must be a whole number of samples >= 0; got {skip!r}")
     lam = float(forgetting_factor)
     if window is None:
-        window = _default_window(lam) if 0 < lam <= 1 else 1
+        window = default_window(lam) if 0 < lam <= 1 else 1
     rows: list[dict[str, Any]] = []
     models: list[RecursiveARX] = []
     ts = experiments[0].ts
@@ -435,36 +386,32 @@ def operating_points_from_logs(
                 f"{label} has {log.n_samples} samples; the protocol needs at least"
                 f" skip + window + 3 = {skip + window + 3}"
             )
-        rate = np.diff(incl) / log.ts
-        rls_data = IOData(
-            u[1:],
-            rate,
-            ts=log.ts,
-            input_names=[input],
-            output_names=[f"{output}_rate"],
-            input_units=[log.unit(input)],
-            output_units=[f"{log.unit(output) or 'deg'}/s"],
-            name=label,
-        )
-        model = RecursiveARX(
-            na=1,
-            nb=1,
+        point = identify_point(
+            u,
+            incl,
+            log.ts,
             delay=delay,
             forgetting_factor=forgetting_factor,
             initial_covariance=initial_covariance,
-        ).fit(rls_data)
-        ok, settled = model.converged(window=window, tolerance=tolerance, atol=atol)
-        settled_part = model.theta_history_[-window:]
-        models.append(model)
+            window=window,
+            tolerance=tolerance,
+            atol=atol,
+            input_name=input,
+            output_name=output,
+            input_unit=log.unit(input),
+            output_unit=log.unit(output),
+            label=label,
+        )
+        models.append(point.model)
         rows.append(
             {
                 "target": target_values[index],
-                "inclination": float(np.mean(incl[-window:])),
-                "gain": float(np.mean(settled_part[:, 1])),
-                "pole": float(-np.mean(settled_part[:, 0])),
-                "converged": bool(ok),
-                "settled_at": -1 if settled is None else int(settled),
-                "n_samples": int(rls_data.n_samples),
+                "inclination": point.inclination,
+                "gain": point.gain,
+                "pole": point.pole,
+                "converged": point.converged,
+                "settled_at": point.settled_at,
+                "n_samples": point.n_samples,
             }
         )
     table = pd.DataFrame(rows, columns=list(TABLE_COLUMNS))
@@ -476,5 +423,7 @@ def operating_points_from_logs(
         "tolerance": float(tolerance),
         "atol": float(atol),
         "skip": int(skip),
+        "input": str(input),
+        "output": str(output),
     }
     return OperatingPointResult(table, tuple(experiments), tuple(models), ts, settings)

@@ -419,8 +419,9 @@ def _write_outputs(
 
     from neckid.report.html import Figure, Report, library_versions
     from neckid.report.plots import plot_simulation
+    from neckid.report.sm_plots import plot_gamma_curve
     from neckid.report.scheduled_plots import plot_gain_schedule
-    from neckid.signals import plot_bandwidth
+    from neckid.report.signal_plots import plot_bandwidth
 
     files: dict[str, Path] = {}
     figures: list[Figure] = []
@@ -457,7 +458,7 @@ def _write_outputs(
     sm = narx_models["Set Membership"]
     if sm.gamma_curve_ is not None:
         save(
-            sm.gamma_curve_.plot(),
+            plot_gamma_curve(sm.gamma_curve_),
             "gamma_curve",
             "γ*(ε): the smallest Lipschitz constant consistent with the data, per noise bound ε"
             " (circle: the chosen ε).",

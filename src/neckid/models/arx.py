@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from neckid.models.base import NarxModel, check_is_fitted
-from neckid.models.io import register_model
 from neckid.regressors import Lags
+from neckid.validation import Interval
 
 __all__ = ["LinearARX", "least_squares"]
 
@@ -47,7 +47,6 @@ def least_squares(
     return np.ascontiguousarray(coef), np.asarray(intercept, dtype=np.float64)
 
 
-@register_model
 class LinearARX(NarxModel):
     """Linear ARX (or any linear-in-the-regressor) model fitted by batch least squares.
 
@@ -84,25 +83,30 @@ class LinearARX(NarxModel):
     array([0.9, 0.5])
     """
 
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "fit_intercept": ["boolean"],
+        "ridge": [Interval("real", 0, None)],
+    }
+
     def __init__(
-        self, lags: Lags | None = None, fit_intercept: bool = True, ridge: float = 0.0
+        self, lags: Lags | None = None, *, fit_intercept: bool = True, ridge: float = 0.0
     ) -> None:
         self.lags = lags
         self.fit_intercept = fit_intercept
         self.ridge = ridge
 
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
-        ridge = float(self.ridge)
-        if not np.isfinite(ridge) or ridge < 0:
-            raise ValueError(f"ridge must be a finite number >= 0; got {self.ridge!r}")
-        self.coef_, self.intercept_ = least_squares(x, y, bool(self.fit_intercept), ridge)
+        self.coef_, self.intercept_ = least_squares(
+            x, y, bool(self.fit_intercept), float(self.ridge)
+        )
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_ + self.intercept_, dtype=np.float64)
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        check_is_fitted(self, "coef_")
+        check_is_fitted(self)
         arrays = {"coef": self.coef_, "intercept": self.intercept_}
         meta = {
             "params": {"fit_intercept": bool(self.fit_intercept), "ridge": float(self.ridge)},

@@ -5,18 +5,27 @@ Contracts (see DESIGN.md):
 - ``fit(data)`` takes an :class:`~neckid.IOData` or a list of them and returns ``self``; learned
   values end in ``_``.
 - ``predict(data)`` is one-step-ahead: the regressor uses the *measured* past outputs.
-- ``simulate(data)`` is a free run: the regressor uses the model's *own* past outputs.
+- ``simulate(data, initial=None)`` is a free run: the regressor uses the model's *own* past
+  outputs. ``data`` may hold inputs only when ``initial`` gives the first ``max_lag_`` outputs.
 - Both return a :class:`ModelResult` of the same length as ``data``; its first ``n_initial``
-  samples (``n_initial = max_lag``) are the measured outputs, used as initial conditions and
-  skipped by :meth:`ModelResult.fit_percent`.
-- ``simulator()`` gives an object with ``reset(...)`` and ``step(u) -> y`` for closed loops.
+  samples (``n_initial = max_lag_``) are the measured (or given) outputs, used as initial
+  conditions and skipped by :meth:`ModelResult.fit_percent`.
+- ``simulator()`` gives an object with ``reset(y0, u0)`` and ``step(u) -> y`` for closed loops;
+  after ``reset(y0=y[:max_lag_], u0=u[:max_lag_])``, stepping ``u[max_lag_:]`` gives what
+  ``simulate`` gives.
+- Hyper-parameters are keyword-only after ``lags`` and declared once in
+  ``_parameter_constraints`` (checked at ``fit`` by :func:`neckid.validation.validate_parameters`);
+  a model is fitted when it has ``max_lag_`` (:meth:`Estimator.__sklearn_is_fitted__`).
+
+Every estimator subclasses :class:`Estimator`; the contract test (``tests/test_contract.py``) runs
+over every method of :func:`neckid.methods`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 import pandas as pd
@@ -24,12 +33,14 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator
 from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
 
-from neckid.data import IOData, as_experiments, check_finite
+from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent, mae, rmse
 from neckid.models.io import ModelFile
 from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import check_finite, validate_parameters
 
 __all__ = [
+    "Estimator",
     "ModelResult",
     "NarxModel",
     "NarxSimulator",
@@ -49,9 +60,10 @@ class NotFittedError(_SklearnNotFittedError):
     """
 
 
-def check_is_fitted(model: object, attribute: str) -> None:
-    """Raise :class:`NotFittedError` unless ``model`` has the learned ``attribute``."""
-    if not hasattr(model, attribute):
+def check_is_fitted(model: Any) -> None:
+    """Raise :class:`NotFittedError` unless ``model`` is fitted (its ``__sklearn_is_fitted__``)."""
+    fitted = getattr(model, "__sklearn_is_fitted__", None)
+    if fitted is None or not fitted():
         raise NotFittedError(
             f"this {type(model).__name__} is not fitted yet; call fit(data) before using it"
         )
@@ -76,6 +88,14 @@ class ModelResult:
         output; figures of merit skip them.
     lower, upper : ndarray, shape (n_samples, n_outputs), optional
         Guaranteed bounds beside the central estimate (Set Membership), ``None`` otherwise.
+    extras : dict
+        Model-specific series (the scheduled model's rate, gain and pole).
+    output_units : tuple of str
+        Unit of each output (``""`` when unknown).
+    u : ndarray, shape (n_samples, n_inputs), optional
+        The inputs the result was computed from.
+    input_names, input_units : tuple of str
+        Names and units of those inputs.
     """
 
     kind: Literal["prediction", "simulation"]
@@ -86,6 +106,40 @@ class ModelResult:
     lower: FloatArray | None = None
     upper: FloatArray | None = None
     extras: dict[str, Any] = field(default_factory=dict)
+    output_units: tuple[str, ...] = ()
+    u: FloatArray | None = None
+    input_names: tuple[str, ...] = ()
+    input_units: tuple[str, ...] = ()
+
+    @classmethod
+    def from_data(
+        cls,
+        kind: Literal["prediction", "simulation"],
+        data: IOData,
+        y: FloatArray,
+        n_initial: int,
+        output_names: Sequence[str],
+        output_units: Sequence[str] | None = None,
+        lower: FloatArray | None = None,
+        upper: FloatArray | None = None,
+        extras: dict[str, Any] | None = None,
+    ) -> ModelResult:
+        """A result on the time base and inputs of ``data`` (outputs named by the model)."""
+        units = tuple(output_units) if output_units is not None else ("",) * len(output_names)
+        return cls(
+            kind,
+            data.time,
+            y,
+            tuple(output_names),
+            int(n_initial),
+            lower,
+            upper,
+            extras or {},
+            units,
+            data.u,
+            tuple(data.input_names),
+            tuple(data.input_units),
+        )
 
     @property
     def n_samples(self) -> int:
@@ -108,14 +162,26 @@ class ModelResult:
         return mae(y_true, self.y, skip=self.n_initial)
 
     def to_frame(self) -> pd.DataFrame:
-        """A DataFrame: time, each output, and ``<name>_lower`` / ``<name>_upper`` where there are bounds."""
+        """A DataFrame: time, the inputs, each output, and ``<name>_lower`` / ``<name>_upper``.
+
+        ``frame.attrs`` keeps ``kind``, ``n_initial`` and ``units`` (channel -> unit, time in s).
+        """
         columns: dict[str, FloatArray] = {"time": self.time}
+        units = {"time": "s"}
+        if self.u is not None:
+            for j, n in enumerate(self.input_names):
+                columns[n] = self.u[:, j]
+                units[n] = self.input_units[j] if j < len(self.input_units) else ""
         for j, n in enumerate(self.output_names):
+            unit = self.output_units[j] if j < len(self.output_units) else ""
+            units[n] = unit
             columns[n] = self.y[:, j]
             if self.lower is not None and self.upper is not None:
                 columns[f"{n}_lower"] = self.lower[:, j]
                 columns[f"{n}_upper"] = self.upper[:, j]
+                units[f"{n}_lower"] = units[f"{n}_upper"] = unit
         frame = pd.DataFrame(columns)
+        frame.attrs["units"] = units
         frame.attrs["kind"] = self.kind
         frame.attrs["n_initial"] = self.n_initial
         return frame
@@ -134,7 +200,135 @@ def as_input_matrix(u: ArrayLike, n_inputs: int, argument: str = "u") -> FloatAr
     return np.ascontiguousarray(array)
 
 
-class NarxModel(BaseEstimator, ModelFile):
+class Estimator(BaseEstimator, ModelFile):
+    """What every neckid estimator shares (see the module docstring for the contract).
+
+    Subclasses declare ``_parameter_constraints`` (one entry per ``__init__`` argument), call
+    :meth:`_validate_params` at the start of ``fit``, and set ``max_lag_``, ``ts_``,
+    ``n_inputs_``, ``n_outputs_``, ``input_names_``, ``output_names_`` and ``output_units_``
+    when fitted.
+    """
+
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {}
+
+    #: True for output-error models, whose best one-step predictor is their free run: their
+    #: ``predict`` returns a result of kind ``"simulation"`` and says so.
+    predicts_by_simulation: ClassVar[bool] = False
+
+    max_lag_: int
+    ts_: float
+    n_inputs_: int
+    n_outputs_: int
+    input_names_: tuple[str, ...]
+    output_names_: tuple[str, ...]
+    output_units_: tuple[str, ...]
+
+    def __sklearn_is_fitted__(self) -> bool:
+        """Whether ``fit`` has run (the one fitted check of every neckid model)."""
+        return hasattr(self, "max_lag_")
+
+    def _validate_params(self) -> None:
+        validate_parameters(self)
+
+    def _set_channels(self, data: IOData) -> None:
+        self.input_names_ = tuple(data.input_names)
+        self.output_names_ = tuple(data.output_names)
+        self.output_units_ = tuple(data.output_units)
+        self.n_inputs_ = data.n_inputs
+        self.n_outputs_ = data.n_outputs
+        self.ts_ = float(data.ts)
+
+    def _channels_meta(self) -> dict[str, Any]:
+        return {
+            "input_names": list(self.input_names_),
+            "output_names": list(self.output_names_),
+            "output_units": list(self.output_units_),
+        }
+
+    def _restore_channels(self, meta: Any, lags: ResolvedLags | None = None) -> None:
+        names = meta.get("output_names")
+        self.output_names_ = tuple(names if names is not None else lags.output_names)  # type: ignore[union-attr]
+        inputs = meta.get("input_names")
+        self.input_names_ = tuple(inputs if inputs is not None else lags.input_names)  # type: ignore[union-attr]
+        units = meta.get("output_units")
+        self.output_units_ = tuple(units) if units is not None else ("",) * len(self.output_names_)
+        self.n_inputs_ = len(self.input_names_)
+        self.n_outputs_ = len(self.output_names_)
+
+    def _check_inputs(self, data: IOData) -> None:
+        if tuple(data.input_names) != self.input_names_:
+            raise ValueError(
+                f"data has inputs {list(data.input_names)}, but the model was fitted on"
+                f" {list(self.input_names_)}; use data.select(inputs=...) to match"
+            )
+        if data.n_outputs and tuple(data.output_names) != self.output_names_:
+            raise ValueError(
+                f"data has outputs {list(data.output_names)}, but the model was fitted on"
+                f" {list(self.output_names_)}; use data.select(outputs=...) to match"
+            )
+
+    def _initial_outputs(self, data: IOData, initial: ArrayLike | None) -> FloatArray:
+        """The output array a free run starts from: ``(n_samples, n_outputs)``.
+
+        Its first ``max_lag_`` rows are the initial conditions: ``initial`` when given (one row,
+        repeated, or ``max_lag_`` rows, oldest first), else the measured outputs of ``data``.
+        The other rows are the measured outputs when there are any, zeros otherwise; a free run
+        overwrites them.
+        """
+        self._check_inputs(data)
+        m = self.max_lag_
+        if data.n_samples <= m:
+            raise ValueError(
+                f"data has {data.n_samples} samples, too few for lags up to {m}: it needs at least"
+                f" {m + 1}"
+            )
+        if initial is None:
+            if data.n_outputs == 0:
+                raise ValueError(
+                    f"data holds inputs only: give initial= the first {m} output sample(s),"
+                    f" shape ({self.n_outputs_},) or ({m}, {self.n_outputs_})"
+                )
+            return np.array(data.y, dtype=np.float64)
+        y = (
+            np.array(data.y, dtype=np.float64)
+            if data.n_outputs
+            else np.zeros((data.n_samples, self.n_outputs_))
+        )
+        y[:m] = history_rows(initial, max(m, 1), self.n_outputs_, "initial")[-m:] if m else y[:0]
+        return y
+
+    def _result(
+        self,
+        kind: Literal["prediction", "simulation"],
+        data: IOData,
+        y: FloatArray,
+        lower: FloatArray | None = None,
+        upper: FloatArray | None = None,
+        extras: dict[str, Any] | None = None,
+    ) -> ModelResult:
+        return ModelResult.from_data(
+            kind,
+            data,
+            y,
+            self.max_lag_,
+            self.output_names_,
+            self.output_units_,
+            lower,
+            upper,
+            extras,
+        )
+
+    def fit_percent(self, data: IOData) -> FloatArray:
+        """Free-run NRMSE fit [%] per output on ``data`` (MATLAB ``compare``)."""
+        return self.simulate(data).fit_percent(data)
+
+    def simulate(
+        self, data: IOData, initial: ArrayLike | None = None
+    ) -> ModelResult:  # pragma: no cover
+        raise NotImplementedError
+
+
+class NarxModel(Estimator):
     """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
 
     Subclasses implement ``_fit_regression(x, y)`` (set learned attributes) and
@@ -154,20 +348,21 @@ class NarxModel(BaseEstimator, ModelFile):
     # ------------------------------------------------------------------ shared
     def _narx_meta(self) -> dict[str, Any]:
         """What every NARX model file stores besides its own arrays."""
-        check_is_fitted(self, "lags_")
+        check_is_fitted(self)
         return {
             "lags": self.lags_.to_dict(),
             "ts": self.ts_,
             "n_samples": self.n_samples_,
+            **self._channels_meta(),
         }
 
     def _restore_narx_meta(self, meta: Any) -> None:
         self.lags_ = ResolvedLags.from_dict(meta["lags"])
         self.lags = self.lags_.to_lags()
-        self.n_inputs_ = len(self.lags_.input_names)
-        self.n_outputs_ = len(self.lags_.output_names)
+        self._restore_channels(meta, self.lags_)
         self.ts_ = float(meta["ts"])
         self.n_samples_ = int(meta["n_samples"])
+        self.max_lag_ = self.lags_.max_lag
 
     def _lags(self) -> Lags:
         if self.lags is None:
@@ -179,6 +374,7 @@ class NarxModel(BaseEstimator, ModelFile):
     def _prepare_fit(self, data: IOData | Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
         experiments = as_experiments(data)
         lags = self._lags()
+        self._validate_params()
         resolved = lags.resolve(experiments)
         if experiments[0].n_outputs == 0:
             raise ValueError("data has no output channel to identify")
@@ -186,40 +382,48 @@ class NarxModel(BaseEstimator, ModelFile):
         x = np.vstack([p[0] for p in parts])
         y = np.vstack([p[1] for p in parts])
         self.lags_ = resolved
-        self.n_inputs_ = experiments[0].n_inputs
-        self.n_outputs_ = experiments[0].n_outputs
-        self.ts_ = experiments[0].ts
+        self._set_channels(experiments[0])
         self.n_samples_ = int(x.shape[0])
         return x, y
+
+    def _mark_fitted(self) -> None:
+        self.max_lag_ = self.lags_.max_lag
 
     def fit(self, data: IOData | Sequence[IOData]) -> NarxModel:
         """Fit the model on one experiment or a list of them (regressors never straddle two)."""
         x, y = self._prepare_fit(data)
         self._fit_regression(x, y)
+        self._mark_fitted()
         return self
 
     def predict(self, data: IOData) -> ModelResult:
         """One-step-ahead prediction: the regressor holds the measured past outputs."""
-        check_is_fitted(self, "lags_")
+        check_is_fitted(self)
+        self._check_inputs(data)
         x, _ = self.lags_.build_one(data)
         y = np.array(data.y, dtype=np.float64)
         y[self.lags_.max_lag :] = self._predict_rows(x)
-        return ModelResult("prediction", data.time, y, data.output_names, self.lags_.max_lag)
+        return self._result("prediction", data, y)
 
-    def simulate(self, data: IOData) -> ModelResult:
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation: the regressor holds the model's own past outputs.
 
-        The first ``max_lag`` measured outputs of ``data`` are the initial conditions; from then on
-        only ``data.u`` is used.
+        Parameters
+        ----------
+        data : IOData
+            The inputs; its first ``max_lag_`` measured outputs are the initial conditions unless
+            ``initial`` is given (then ``data`` may hold inputs only).
+        initial : array_like, shape (n_outputs,) or (max_lag_, n_outputs), optional
+            The first outputs (oldest first; one row is repeated).
         """
-        check_is_fitted(self, "lags_")
-        self.lags_.check_compatible(data)
-        y = _free_run(self.lags_, self._predict_rows, data.u, data.y)
-        return ModelResult("simulation", data.time, y, data.output_names, self.lags_.max_lag)
+        check_is_fitted(self)
+        y0 = self._initial_outputs(data, initial)
+        y = _free_run(self.lags_, self._predict_rows, data.u, y0)
+        return self._result("simulation", data, y)
 
     def simulator(self) -> NarxSimulator:
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""
-        check_is_fitted(self, "lags_")
+        check_is_fitted(self)
         return NarxSimulator(self.lags_, self._predict_rows)
 
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import importlib
 import json
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -32,7 +32,6 @@ __all__ = [
     "ModelFile",
     "load_model",
     "read_model_file",
-    "register_model",
     "write_model_file",
 ]
 
@@ -47,27 +46,6 @@ class SavableModel(Protocol):
 
     @classmethod
     def _from_state(cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]) -> Any: ...
-
-
-_REGISTRY: dict[str, Callable[[Mapping[str, NDArray[Any]], Mapping[str, Any]], Any]] = {}
-
-#: Where each model class of neckid lives: ``load_model`` imports that module (which registers the
-#: class) when a file names it, so loading works in a fresh interpreter where ``import neckid``
-#: has loaded nothing (the package's names are lazy).
-MODEL_MODULES: dict[str, str] = {
-    "GainScheduledModel": "neckid.models.scheduled",
-    "LinearARX": "neckid.models.arx",
-    "NeuralNARX": "neckid.models.neural",
-    "ParallelSetMembership": "neckid.models.sm_parallel",
-    "RecursiveARX": "neckid.models.rls",
-    "SetMembership": "neckid.models.set_membership",
-}
-
-
-def register_model(cls: type) -> type:
-    """Class decorator: make ``load_model`` able to rebuild instances of ``cls``."""
-    _REGISTRY[cls.__name__] = cls._from_state  # type: ignore[attr-defined]
-    return cls
 
 
 def write_model_file(
@@ -117,7 +95,15 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
         raise ValueError(
             f"{path} is an .npz file but not a neckid model file (no {_META_KEY!r} entry)"
         )
-    header = json.loads(str(arrays.pop(_META_KEY)))
+    try:
+        header = json.loads(str(arrays.pop(_META_KEY)))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: the {_META_KEY!r} header is not valid JSON: {exc}") from exc
+    if not isinstance(header, dict) or not isinstance(header.get("meta", {}), dict):
+        raise ValueError(
+            f"{path}: the {_META_KEY!r} header must be a JSON object with a 'meta' object; got"
+            f" {type(header).__name__}"
+        )
     if header.get("format") != "neckid-model":
         raise ValueError(f"{path} is not a neckid model file (format={header.get('format')!r})")
     if int(header.get("version", 0)) > FORMAT_VERSION:
@@ -136,23 +122,24 @@ def load_model(path: str | Path) -> Any:
     ValueError
         If the file names a model class this neckid does not know.
     """
+    from neckid.registry import model_classes
+
     class_name, arrays, meta = read_model_file(path)
-    if class_name not in _REGISTRY and class_name in MODEL_MODULES:
-        importlib.import_module(MODEL_MODULES[class_name])  # registers the class
-    if class_name not in _REGISTRY:
-        known = sorted(set(_REGISTRY) | set(MODEL_MODULES))
+    classes = model_classes()
+    if class_name not in classes:
         raise ValueError(
-            f"{path} holds a {class_name!r}, which this neckid cannot load; known: {known}"
+            f"{path} holds a {class_name!r}, which this neckid cannot load; known: {sorted(classes)}"
         )
-    return _REGISTRY[class_name](arrays, meta)
+    cls = getattr(importlib.import_module(classes[class_name]), class_name)
+    return cls._from_state(arrays, meta)
 
 
 class ModelFile:
     """Mixin giving a model ``save(path)`` and ``Class.load(path)``.
 
     The class implements ``_get_state() -> (arrays, meta)`` (raising ``NotFittedError`` when not
-    fitted) and the classmethod ``_from_state(arrays, meta)``, and is decorated with
-    :func:`register_model`.
+    fitted) and the classmethod ``_from_state(arrays, meta)``; ``load_model`` finds the class
+    through :func:`neckid.registry.model_classes`.
     """
 
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:  # pragma: no cover

@@ -11,18 +11,18 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
 from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
-from neckid.models.io import register_model
 from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import Interval, Options
 
 __all__ = ["NeuralNARX", "forward_pass"]
 
@@ -97,7 +97,6 @@ def forward_pass(
     return h
 
 
-@register_model
 class NeuralNARX(NarxModel):
     """Neural-network NARX model: ``y(t) = f(w(t))`` with ``f`` a multilayer perceptron.
 
@@ -190,9 +189,25 @@ class NeuralNARX(NarxModel):
     True
     """
 
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "hidden_layer_sizes": ["layer-sizes", Interval("int", 1, None)],
+        "activation": [Options(_ACTIVATIONS)],
+        "alpha": [Interval("real", 0, None)],
+        "learning_rate_init": [Interval("real", 0, None, closed="neither")],
+        "max_iter": [Interval("int", 1, None)],
+        "tol": [Interval("real", 0, None)],
+        "n_iter_no_change": [Interval("int", 1, None)],
+        "early_stopping": ["boolean"],
+        "validation_fraction": [Interval("real", 0, 1, closed="neither")],
+        "simulation_tuning": [Interval("int", 0, None)],
+        "random_state": [None, Interval("int", 0, None), np.random.RandomState],
+    }
+
     def __init__(
         self,
         lags: Lags | None = None,
+        *,
         hidden_layer_sizes: tuple[int, ...] = (25, 25),
         activation: Activation = "tanh",
         alpha: float = 1e-4,
@@ -220,49 +235,10 @@ class NeuralNARX(NarxModel):
 
     # ------------------------------------------------------------------ validation
     def _check_params(self) -> tuple[tuple[int, ...], int]:
+        self._validate_params()
         sizes = self.hidden_layer_sizes
-        if isinstance(sizes, int | np.integer) and not isinstance(sizes, bool):
-            sizes = (int(sizes),)
-        try:
-            layers = tuple(sizes)
-        except TypeError:
-            raise TypeError(
-                f"hidden_layer_sizes must be a tuple of ints; got {self.hidden_layer_sizes!r}"
-            ) from None
-        if not layers or any(
-            isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 1 for n in layers
-        ):
-            raise ValueError(
-                "hidden_layer_sizes must be a non-empty tuple of ints >= 1;"
-                f" got {self.hidden_layer_sizes!r}"
-            )
-        if self.activation not in _ACTIVATIONS:
-            raise ValueError(
-                f"activation must be one of {list(_ACTIVATIONS)}; got {self.activation!r}"
-            )
-        for name in ("alpha", "learning_rate_init", "tol"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float | np.number):
-                raise TypeError(f"{name} must be a number; got {value!r}")
-            lower_ok = value >= 0 if name in ("alpha", "tol") else value > 0
-            if not np.isfinite(value) or not lower_ok:
-                rule = ">= 0" if name in ("alpha", "tol") else "> 0"
-                raise ValueError(f"{name} must be a finite number {rule}; got {value!r}")
-        for name in ("max_iter", "n_iter_no_change"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-                raise ValueError(f"{name} must be an int >= 1; got {value!r}")
-        fraction = self.validation_fraction
-        if isinstance(fraction, bool) or not isinstance(fraction, int | float | np.number):
-            raise TypeError(f"validation_fraction must be a number; got {fraction!r}")
-        if not 0.0 < float(fraction) < 1.0:
-            raise ValueError(f"validation_fraction must be in (0, 1); got {fraction!r}")
-        tuning = self.simulation_tuning
-        if isinstance(tuning, bool) or not isinstance(tuning, int | np.integer) or tuning < 0:
-            raise ValueError(
-                f"simulation_tuning must be an int >= 0 (extra restarts); got {tuning!r}"
-            )
-        return tuple(int(n) for n in layers), int(tuning)
+        layers = (int(sizes),) if isinstance(sizes, int | np.integer) else tuple(sizes)
+        return tuple(int(n) for n in layers), int(self.simulation_tuning)
 
     # ------------------------------------------------------------------ fitting
     def fit(self, data: IOData | Sequence[IOData]) -> NeuralNARX:
@@ -291,6 +267,7 @@ class NeuralNARX(NarxModel):
         if tuning == 0:
             x, y = self._prepare_fit(experiments)
             self._train_one(x, y, layers, self.random_state)
+            self._mark_fitted()
             return self
         resolved = self._lags().resolve(experiments)
         heads: list[IOData] = []
@@ -329,6 +306,7 @@ class NeuralNARX(NarxModel):
         for name, value in best.items():
             setattr(self, name, value)
         self.simulation_fits_ = scores
+        self._mark_fitted()
         return self
 
     def _train_one(
@@ -395,27 +373,29 @@ class NeuralNARX(NarxModel):
         out = forward_pass(xs, self.coefs_, self.intercepts_, self.activation)
         return np.asarray(out * self.y_scale_ + self.y_mean_, dtype=np.float64)
 
-    def simulate(self, data: IOData) -> ModelResult:
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation: the regressor holds the model's own past outputs.
 
-        The first ``max_lag`` measured outputs of ``data`` are the initial conditions; from then on
-        only ``data.u`` is used. Same result as the generic loop of :class:`NarxModel`, computed with
-        a NumPy forward pass specialised for one row per step.
+        The first ``max_lag`` outputs of ``data`` (or ``initial``) are the initial conditions;
+        from then on only ``data.u`` is used. Same result as the generic loop of
+        :class:`NarxModel`, computed with a NumPy forward pass specialised for one row per step.
 
         Parameters
         ----------
         data : IOData
-            Inputs, and initial outputs in its first ``max_lag`` rows.
+            Inputs, and initial outputs in its first ``max_lag`` rows (or inputs only, with
+            ``initial``).
+        initial : array_like, shape (n_outputs,) or (max_lag, n_outputs), optional
+            The first outputs, oldest first (one row is repeated).
 
         Returns
         -------
         ModelResult
             ``kind="simulation"``, ``n_initial=max_lag``.
         """
-        check_is_fitted(self, "lags_")
-        self.lags_.check_compatible(data)
-        y = self._simulate_array(data.u, data.y)
-        return ModelResult("simulation", data.time, y, data.output_names, self.lags_.max_lag)
+        check_is_fitted(self)
+        y = self._simulate_array(data.u, self._initial_outputs(data, initial))
+        return self._result("simulation", data, y)
 
     def _simulate_array(self, u: FloatArray, y_measured: FloatArray) -> FloatArray:
         resolved: ResolvedLags = self.lags_
@@ -466,7 +446,7 @@ class NeuralNARX(NarxModel):
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        check_is_fitted(self, "coefs_")
+        check_is_fitted(self)
         arrays: dict[str, NDArray[Any]] = {
             "x_mean": self.x_mean_,
             "x_scale": self.x_scale_,

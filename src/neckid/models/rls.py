@@ -11,16 +11,16 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid.data import IOData, as_experiments, check_finite
-from neckid.models.base import ModelResult, NarxModel, check_is_fitted
-from neckid.models.io import register_model
+from neckid.data import IOData, as_experiments
+from neckid.models.base import NarxModel, check_is_fitted
 from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import Interval, check_finite, check_number
 
 __all__ = ["Convergence", "RecursiveARX", "rls_reference"]
 
@@ -192,34 +192,24 @@ def rls_reference(
 
 
 # ---------------------------------------------------------------------- estimator
-def _check_order(value: Any, argument: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"{argument} must be an int; got {value!r}")
-    if value < minimum:
-        raise ValueError(f"{argument} must be >= {minimum}; got {value}")
-    return int(value)
-
-
-@register_model
 class RecursiveARX(NarxModel):
     """ARX model whose parameters are estimated online by CFF-RLS (constant forgetting factor).
 
-    The model (seed paper, section IV; Landau et al., 2011) is
+    The model (seed paper, section IV; Landau et al., 2011) over the regressor of ``lags`` is, for
+    the usual ``lags = Lags.arx(na, nb, d)``,
 
     ``y(t) = −a1 y(t−1) − … − a_na y(t−na) + b1 u(t−d) + … + b_nb u(t−d−nb+1)``
 
     with ``θ = [a1 … a_na, b1 … b_nb]`` and ``φ(t−1) = [−y(t−1) … −y(t−na), u(t−d) … u(t−d−nb+1)]``,
-    so that ``y(t) = θᵀφ(t−1)``. With several inputs there are ``nb`` terms per input, in input
-    order: ``θ = [a…, b(input 1)…, b(input 2)…]``. One output only.
+    so that ``y(t) = θᵀφ(t−1)``. Any other :class:`~neckid.Lags` works the same way: one ``a``
+    per output term (named by its lag, ``a3`` for ``y(t−3)``) and one ``b`` per input term, in
+    the order of ``lags_.names``; with several inputs the ``b`` names carry the input name.
+    One output only.
 
     Parameters
     ----------
-    na : int
-        Number of past outputs (>= 0).
-    nb : int
-        Number of past inputs per input channel (>= 0; ``na + nb >= 1``).
-    delay : int, default 1
-        Input delay ``d`` in samples (>= 0; 0 lets ``u(t)`` act on ``y(t)``).
+    lags : Lags
+        The regressor, e.g. ``Lags.arx(na=1, nb=1, delay=1)`` (the seed paper's first-order model).
     forgetting_factor : float, default 0.98
         ``λ`` in (0, 1]. ``λ = 1`` is ordinary RLS; the seed paper uses 0.98. Past samples weigh
         ``λ^k``; the memory is about ``1 / (1 − λ)`` samples.
@@ -227,7 +217,8 @@ class RecursiveARX(NarxModel):
         ``F(0)``: a scalar ``s`` means ``s·I``; a matrix must be symmetric positive definite. Large
         values mean little trust in ``initial_parameters``.
     initial_parameters : array_like of shape (n_params,), optional
-        ``θ̂(0)``, in the order of ``θ`` above; zeros by default.
+        ``θ̂(0)``, in the order of ``θ`` above (``n_params`` = number of regressor terms); zeros
+        by default.
     max_covariance_trace : float, optional
         Blow-up limit: when ``trace(F)`` exceeds it (or ``F`` or ``θ̂`` stop being finite) ``F`` is
         reset to ``F(0)`` and a warning is issued. Default ``1e6 · trace(F(0))``.
@@ -248,7 +239,7 @@ class RecursiveARX(NarxModel):
     parameter_names_ : tuple of str
         ``("a1", …, "b1", …)``; with several inputs ``b`` names carry the input name.
     lags_ : ResolvedLags
-        The regressor, as for the other NARX models (``Lags.arx(na, nb, delay)``).
+        The regressor, as for the other NARX models.
     n_inputs_, n_outputs_, n_samples_ : int
     ts_ : float
 
@@ -277,7 +268,7 @@ class RecursiveARX(NarxModel):
 
     ``predict`` and ``simulate`` (and ``simulator``) use the *final* estimate ``theta_`` as a fixed
     linear ARX model, with the conventions of :class:`~neckid.models.base.NarxModel`: the first
-    ``max_lag = max(na, delay + nb − 1)`` samples are initial conditions.
+    ``max_lag_`` samples (``max(na, delay + nb − 1)`` for ``Lags.arx``) are initial conditions.
 
     References
     ----------
@@ -288,14 +279,14 @@ class RecursiveARX(NarxModel):
     Examples
     --------
     >>> import numpy as np
-    >>> from neckid import IOData
+    >>> from neckid import IOData, Lags
     >>> from neckid.models.rls import RecursiveARX
     >>> rng = np.random.default_rng(0)
     >>> u = rng.normal(size=2000)
     >>> y = np.zeros(2000)
     >>> for t in range(1, 2000):
     ...     y[t] = 0.8 * y[t - 1] + 0.5 * u[t - 1]
-    >>> model = RecursiveARX(na=1, nb=1, forgetting_factor=1.0).fit(IOData(u, y, ts=0.02))
+    >>> model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0).fit(IOData(u, y, ts=0.02))
     >>> np.round(model.theta_, 6)  # a1 = -0.8, b1 = 0.5
     array([-0.8,  0.5])
     >>> model.converged(window=100, tolerance=1e-3).converged
@@ -303,87 +294,68 @@ class RecursiveARX(NarxModel):
 
     Online use, one sample at a time:
 
-    >>> online = RecursiveARX(na=1, nb=1, forgetting_factor=1.0)
+    >>> online = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0)
     >>> for yt, ut in zip(y, u):
     ...     _ = online.update(yt, ut)
     >>> np.allclose(online.theta_, model.theta_)
     True
     """
 
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "forgetting_factor": [Interval("real", 0, 1, closed="right")],
+        "initial_covariance": [Interval("real", 0, None, closed="neither"), "array-like"],
+        "initial_parameters": [None, "array-like"],
+        "max_covariance_trace": [None, Interval("real", 0, None, closed="neither")],
+    }
+
     def __init__(
         self,
-        na: int = 1,
-        nb: int = 1,
-        delay: int = 1,
+        lags: Lags | None = None,
+        *,
         forgetting_factor: float = 0.98,
         initial_covariance: float | ArrayLike = 1e4,
         initial_parameters: ArrayLike | None = None,
         max_covariance_trace: float | None = None,
     ) -> None:
-        self.na = na
-        self.nb = nb
-        self.delay = delay
+        self.lags = lags
         self.forgetting_factor = forgetting_factor
         self.initial_covariance = initial_covariance
         self.initial_parameters = initial_parameters
         self.max_covariance_trace = max_covariance_trace
 
     # ------------------------------------------------------------------ checks
-    def _check_params(self, n_inputs: int) -> tuple[float, FloatArray, FloatArray, float]:
-        """Validate the hyper-parameters; return ``(λ, F0, θ0, max_trace)``."""
-        na = _check_order(self.na, "na", 0)
-        nb = _check_order(self.nb, "nb", 0)
-        _check_order(self.delay, "delay", 0)
-        if na + nb == 0:
-            raise ValueError("na + nb must be >= 1; got na=0 and nb=0")
-        p = na + nb * n_inputs
-        lam = self.forgetting_factor
-        if isinstance(lam, bool) or not isinstance(lam, int | float | np.floating | np.integer):
-            raise TypeError(f"forgetting_factor must be a number in (0, 1]; got {lam!r}")
-        lam = float(lam)
-        if not (0.0 < lam <= 1.0):
-            raise ValueError(f"forgetting_factor must be in (0, 1]; got {self.forgetting_factor!r}")
-
+    def _check_params(self, p: int) -> tuple[float, FloatArray, FloatArray, float]:
+        """Validate the hyper-parameters for ``p`` parameters; return ``(λ, F0, θ0, max_trace)``."""
+        self._validate_params()
+        lam = float(self.forgetting_factor)
         f0 = np.asarray(self.initial_covariance, dtype=np.float64)
         if f0.ndim == 0:
-            scale = float(f0)
-            if not math.isfinite(scale) or scale <= 0:
-                raise ValueError(
-                    f"initial_covariance must be a positive finite number or a matrix; got"
-                    f" {self.initial_covariance!r}"
-                )
-            f0 = scale * np.eye(p)
+            f0 = float(f0) * np.eye(p)
         else:
             if f0.shape != (p, p):
                 raise ValueError(
                     f"initial_covariance must be a scalar or a ({p}, {p}) matrix for {p} parameters;"
                     f" got shape {f0.shape}"
                 )
-            if not np.all(np.isfinite(f0)):
-                raise ValueError("initial_covariance has a non-finite entry")
             if not np.allclose(f0, f0.T, rtol=1e-12, atol=0.0):
                 raise ValueError("initial_covariance must be symmetric; got an asymmetric matrix")
-            if np.linalg.eigvalsh(f0).min() <= 0:
+            smallest = float(np.linalg.eigvalsh(f0).min())
+            if smallest <= 0:
                 raise ValueError(
-                    "initial_covariance must be positive definite; its smallest eigenvalue is"
-                    f" {np.linalg.eigvalsh(f0).min()!r}"
+                    f"initial_covariance must be positive definite; its smallest eigenvalue is"
+                    f" {smallest!r}"
                 )
             f0 = np.ascontiguousarray(0.5 * (f0 + f0.T))
-
         if self.initial_parameters is None:
             theta0 = np.zeros(p)
         else:
             theta0 = np.array(self.initial_parameters, dtype=np.float64).reshape(-1)
             if theta0.shape != (p,):
                 raise ValueError(
-                    f"initial_parameters must have {p} values (na + nb * n_inputs); got"
+                    f"initial_parameters must have {p} values (one per regressor term); got"
                     f" {theta0.size}"
                 )
-            if not np.all(np.isfinite(theta0)):
-                raise ValueError(
-                    f"initial_parameters must be finite; got {self.initial_parameters!r}"
-                )
-
         if self.max_covariance_trace is None:
             max_trace = DEFAULT_TRACE_FACTOR * float(np.trace(f0))
         else:
@@ -395,30 +367,36 @@ class RecursiveARX(NarxModel):
                 )
         return lam, f0, theta0, max_trace
 
-    def _arx_lags(self) -> Lags:
-        return Lags.arx(na=self.na, nb=self.nb, delay=self.delay)
-
     def _regressor(self, data: IOData) -> tuple[FloatArray, FloatArray]:
         """``φ`` (with the sign of the output terms flipped) and ``y`` for one experiment."""
         x, y = self.lags_.build_one(data)
-        x[:, : self.na] *= -1.0
+        x[:, self._output_terms] *= -1.0
         return np.ascontiguousarray(x), np.ascontiguousarray(y[:, 0])
 
-    def _start(self, resolved: ResolvedLags, ts: float, n_inputs: int) -> None:
+    def _start(self, resolved: ResolvedLags, data: IOData) -> None:
         """Set the learned state to the initial one (the start of ``fit`` or of online use)."""
-        lam, f0, theta0, max_trace = self._check_params(n_inputs)
+        lam, f0, theta0, max_trace = self._check_params(resolved.n_terms)
         self.lags_ = resolved
-        self.n_inputs_ = n_inputs
-        self.n_outputs_ = 1
-        self.ts_ = ts
+        self._set_channels(data)
+        self.max_lag_ = resolved.max_lag
         self.n_samples_ = 0
         self.theta_ = theta0.copy()
         self.covariance_ = f0.copy()
         self.n_covariance_resets_ = 0
-        names = [f"a{i + 1}" for i in range(int(self.na))]
-        for c in resolved.input_names:
-            suffix = f"[{c}]" if n_inputs > 1 else ""
-            names.extend(f"b{k + 1}{suffix}" for k in range(int(self.nb)))
+        self._output_terms = resolved.source == 0
+        names = []
+        count: dict[int, int] = {}
+        for source, channel, lag in zip(
+            resolved.source, resolved.channel, resolved.lag, strict=True
+        ):
+            if source == 0:
+                names.append(f"a{int(lag)}")
+                continue
+            count[int(channel)] = count.get(int(channel), 0) + 1
+            suffix = (
+                f"[{resolved.input_names[int(channel)]}]" if len(resolved.input_names) > 1 else ""
+            )
+            names.append(f"b{count[int(channel)]}{suffix}")
         self.parameter_names_ = tuple(names)
         self._lambda = lam
         self._f0 = f0
@@ -455,11 +433,8 @@ class RecursiveARX(NarxModel):
                 f"RecursiveARX identifies one output; data has {first.n_outputs} outputs"
                 f" {list(first.output_names)}; use data.select(outputs=[...])"
             )
-        if first.n_inputs == 0 and int(self.nb) > 0:
-            raise ValueError("data has no input channel but nb > 0")
-        self._check_params(first.n_inputs)
-        resolved = self._arx_lags().resolve(experiments)
-        self._start(resolved, first.ts, first.n_inputs)
+        resolved = self._lags().resolve(experiments)
+        self._start(resolved, first)
         for experiment in experiments:
             self._run_batch(experiment)
         return self
@@ -472,7 +447,7 @@ class RecursiveARX(NarxModel):
         if not hasattr(self, "theta_"):
             return self.fit(data)
         for experiment in as_experiments(data):
-            self.lags_.check_compatible(experiment)
+            self._check_inputs(experiment)
             self._online = None
             self._run_batch(experiment)
         return self
@@ -556,7 +531,7 @@ class RecursiveARX(NarxModel):
         if not hasattr(self, "theta_"):
             names = ("u",) if u_now.size == 1 else tuple(f"u{i + 1}" for i in range(u_now.size))
             template = IOData(np.zeros((1, u_now.size)), np.zeros(1), ts=1.0, input_names=names)
-            self._start(self._arx_lags().resolve(template), 1.0, u_now.size)
+            self._start(self._lags().resolve(template), template)
         if u_now.size != self.n_inputs_:
             raise ValueError(
                 f"u must have {self.n_inputs_} values (one per input); got {u_now.size}"
@@ -569,20 +544,14 @@ class RecursiveARX(NarxModel):
         m = self.lags_.max_lag
         error = math.nan
         if len(hist_u) > m:
-            phi = np.empty(self.theta_.size)
-            k = 0
-            for lag in range(1, int(self.na) + 1):
-                phi[k] = -hist_y[-lag]
-                k += 1
-            for c in range(self.n_inputs_):
-                for lag in range(int(self.delay), int(self.delay) + int(self.nb)):
-                    phi[k] = hist_u[-1 - lag][c]
-                    k += 1
+            y_rows = np.array([*hist_y, 0.0])[:, None]
+            phi = self.lags_.regressor_from_history(y_rows, np.vstack(hist_u), len(hist_u) - 1)
+            phi[self._output_terms] *= -1.0
             history = np.empty((1, phi.size))
             errors = np.empty(1)
             resets = np.empty(1, dtype=np.int64)
             n_resets = _rls_kernel(
-                phi[None, :],
+                np.ascontiguousarray(phi[None, :]),
                 y_now,
                 self.theta_,
                 self.covariance_,
@@ -610,7 +579,7 @@ class RecursiveARX(NarxModel):
     @property
     def theta_history_(self) -> FloatArray:
         """``θ̂`` after every sample seen, shape ``(n_samples, n_params)``."""
-        check_is_fitted(self, "theta_")
+        check_is_fitted(self)
         if len(self._history_rows) != 1:
             self._history_rows = [np.vstack(self._history_rows)]
         return self._history_rows[0]
@@ -618,7 +587,7 @@ class RecursiveARX(NarxModel):
     @property
     def prediction_errors_(self) -> FloatArray:
         """A priori errors ``ε(t)`` for every sample seen (NaN on initial-condition rows)."""
-        check_is_fitted(self, "theta_")
+        check_is_fitted(self)
         if len(self._error_rows) != 1:
             self._error_rows = [np.concatenate(self._error_rows)]
         return self._error_rows[0]
@@ -653,8 +622,8 @@ class RecursiveARX(NarxModel):
         ValueError
             If ``window < 1`` or a tolerance is negative.
         """
-        check_is_fitted(self, "theta_")
-        window = _check_order(window, "window", 1)
+        check_is_fitted(self)
+        window = check_number(window, "window", low=1, integer=True)
         if not (tolerance >= 0) or not (atol >= 0):
             raise ValueError(
                 f"tolerance and atol must be >= 0; got tolerance={tolerance!r}, atol={atol!r}"
@@ -674,27 +643,17 @@ class RecursiveARX(NarxModel):
     @property
     def coef_(self) -> FloatArray:
         """Coefficients on the :class:`~neckid.Lags` regressor ``[y(t−1)…, u(t−d)…]``: ``[−a, b]``."""
-        check_is_fitted(self, "theta_")
+        check_is_fitted(self)
         coef = self.theta_.copy()
-        coef[: int(self.na)] *= -1.0
+        coef[self._output_terms] *= -1.0
         return coef[:, None]
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_, dtype=np.float64)
 
-    def predict(self, data: IOData) -> ModelResult:
-        """One-step-ahead prediction with the final estimate ``theta_`` (a :class:`ModelResult`)."""
-        check_is_fitted(self, "theta_")
-        return super().predict(data)
-
-    def simulate(self, data: IOData) -> ModelResult:
-        """Free-run simulation with the final estimate ``theta_`` (a :class:`ModelResult`)."""
-        check_is_fitted(self, "theta_")
-        return super().simulate(data)
-
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        check_is_fitted(self, "theta_")
+        check_is_fitted(self)
         arrays = {
             "theta": self.theta_,
             "theta_history": self.theta_history_,
@@ -706,9 +665,6 @@ class RecursiveARX(NarxModel):
             arrays["initial_parameters"] = np.asarray(self.initial_parameters, dtype=np.float64)
         meta = {
             "params": {
-                "na": int(self.na),
-                "nb": int(self.nb),
-                "delay": int(self.delay),
                 "forgetting_factor": float(self.forgetting_factor),
                 "max_covariance_trace": None
                 if self.max_covariance_trace is None
@@ -739,13 +695,25 @@ class RecursiveARX(NarxModel):
             if "initial_parameters" in arrays
             else None
         )
+        params = dict(meta["params"])
+        legacy = {k: params.pop(k) for k in ("na", "nb", "delay") if k in params}  # format 1 files
         model = cls(
-            **meta["params"],
+            None,
+            **params,
             initial_covariance=initial_covariance,
             initial_parameters=initial_parameters,
         )
         resolved = ResolvedLags.from_dict(meta["lags"])
-        model._start(resolved, float(meta["ts"]), len(resolved.input_names))
+        model.lags = resolved.to_lags() if not legacy else Lags.arx(**legacy)
+        template = IOData(
+            np.zeros((1, len(resolved.input_names))),
+            np.zeros((1, len(resolved.output_names))),
+            ts=float(meta["ts"]),
+            input_names=resolved.input_names,
+            output_names=resolved.output_names,
+            output_units=meta.get("output_units"),
+        )
+        model._start(resolved, template)
         model.n_samples_ = int(meta["n_samples"])
         model.theta_ = np.asarray(arrays["theta"], dtype=np.float64).copy()
         model.covariance_ = np.asarray(arrays["covariance"], dtype=np.float64).copy()

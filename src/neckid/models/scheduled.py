@@ -3,32 +3,46 @@
 At each operating point the seed paper (section IV) identifies, by CFF-RLS, the first-order model
 ``G(z) = N / (z − P)`` from motor velocity to inclination rate, then fits straight lines
 ``N(i)`` and ``P(i)`` through the points against the inclination ``i``. This module holds that
-scheduled (LPV) model: fitting the lines, simulating it in free run with the scheduling variable
-taken from its own simulated inclination, a step-by-step simulator, and the frozen transfer function
-at a given inclination. :func:`neckid.experiments.operating_points.identify_operating_points` gives
-the points.
+scheduled (LPV) model: identifying the points on records (:func:`identify_point`), fitting the
+lines, simulating it in free run with the scheduling variable taken from its own simulated
+inclination, a step-by-step simulator, and the frozen transfer function at a given inclination.
+:func:`neckid.experiments.operating_points.identify_operating_points` runs the protocol on a plant.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Literal
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from sklearn.base import BaseEstimator
 
-from neckid.data import IOData, check_finite
-from neckid.models.base import ModelResult, check_is_fitted
-from neckid.models.io import ModelFile, register_model
+from neckid.data import IOData, as_experiments
+from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.rls import RecursiveARX
+from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import (
+    Interval,
+    check_finite,
+    check_number,
+    check_time_vector,
+    check_ts,
+    check_vector,
+)
 
 if TYPE_CHECKING:
     import control
 
-    from neckid.experiments.operating_points import OperatingPointResult
-
-__all__ = ["GainScheduledModel", "GainScheduledSimulator"]
+__all__ = [
+    "DEFAULT_SEGMENTS",
+    "GainScheduledModel",
+    "GainScheduledSimulator",
+    "OperatingPoint",
+    "default_window",
+    "identify_point",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -38,22 +52,143 @@ PAPER_GAIN_COEFFICIENTS = (-0.059, 1.857)
 PAPER_POLE_COEFFICIENTS = (0.01175, -0.4797)
 
 
-def _vector(values: ArrayLike, argument: str) -> FloatArray:
-    try:
-        array = np.asarray(values, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{argument} must be a sequence of numbers; got {values!r}") from exc
-    check_finite(array[:, None], argument)
-    return array
+#: Operating points a single record is cut into when ``segments`` is not given.
+DEFAULT_SEGMENTS = 8
 
 
-@register_model
-class GainScheduledModel(BaseEstimator, ModelFile):
+class OperatingPoint(NamedTuple):
+    """One operating point identified by CFF-RLS (see :func:`identify_point`).
+
+    ``inclination`` [deg] is the mean over the last ``window`` samples; ``gain`` (``N``,
+    (deg/s)/(rad/s)) and ``pole`` (``P``) are the means of the estimates over those samples;
+    ``settled_at`` is -1 when the estimate never settled; ``model`` is the fitted estimator.
+    """
+
+    inclination: float
+    gain: float
+    pole: float
+    converged: bool
+    settled_at: int
+    n_samples: int
+    model: RecursiveARX
+
+
+def default_window(forgetting_factor: float) -> int:
+    """Five memories of the estimator, ``5 / (1 − λ)`` samples (500 when ``λ = 1``)."""
+    if forgetting_factor >= 1.0:
+        return 500
+    return max(10, round(5.0 / (1.0 - forgetting_factor)))
+
+
+def identify_point(
+    command: ArrayLike,
+    inclination: ArrayLike,
+    ts: float,
+    *,
+    delay: int = 1,
+    forgetting_factor: float = 0.98,
+    initial_covariance: float = 1e4,
+    window: int | None = None,
+    tolerance: float = 0.3,
+    atol: float = 0.1,
+    input_name: str = "velocity_command",
+    output_name: str = "inclination",
+    input_unit: str = "rad/s",
+    output_unit: str = "deg",
+    label: str | None = None,
+) -> OperatingPoint:
+    """CFF-RLS estimate of ``r(t) = P r(t−1) + N u(t−d)`` on one record held at one inclination.
+
+    Parameters
+    ----------
+    command, inclination : array_like, shape (n_samples,)
+        Velocity command ``u`` [rad/s] and inclination ``i`` [deg]; the rate is
+        ``r(t) = (i(t) − i(t−1)) / ts``.
+    ts : float
+        Sampling period [s].
+    delay, forgetting_factor, initial_covariance
+        Input delay ``d`` >= 1 [samples], ``λ`` in (0, 1], ``F(0) = initial_covariance · I``.
+    window : int, optional
+        Convergence window and samples averaged; default :func:`default_window`.
+    tolerance, atol : float
+        Convergence band ``atol + tolerance · |θ̄|`` (:meth:`RecursiveARX.converged`).
+
+    Raises
+    ------
+    ValueError
+        If the record is shorter than ``window + 3`` samples.
+
+    Notes
+    -----
+    :class:`RecursiveARX` on ``Lags.arx(1, 1, d)`` estimates ``θ = [a1, b1]`` in
+    ``r(t) = −a1 r(t−1) + b1 u(t−d)``, so ``P = −a1`` and ``N = b1`` (seed paper, section IV).
+    The gain and pole kept are the means over the last ``window`` samples: with ``λ = 0.98`` the
+    estimate keeps fluctuating with a memory of about 50 samples, and the mean of the settled
+    part is less noisy than the last value.
+    """
+    u = np.asarray(command, dtype=np.float64).reshape(-1)
+    incl = np.asarray(inclination, dtype=np.float64).reshape(-1)
+    lam = float(forgetting_factor)
+    if window is None:
+        window = default_window(lam) if 0 < lam <= 1 else 1
+    if incl.size < window + 3:
+        raise ValueError(
+            f"{label or 'the record'} has {incl.size} samples after the skipped ones; an operating"
+            f" point needs at least window + 3 = {window + 3}"
+        )
+    rate = np.diff(incl) / ts
+    rls_data = IOData(
+        u[1:],
+        rate,
+        ts=ts,
+        input_names=[input_name],
+        output_names=[f"{output_name}_rate"],
+        input_units=[input_unit],
+        output_units=[f"{output_unit or 'deg'}/s"],
+        name=label,
+    )
+    model = RecursiveARX(
+        Lags.arx(1, 1, delay),
+        forgetting_factor=forgetting_factor,
+        initial_covariance=initial_covariance,
+    ).fit(rls_data)
+    ok, settled = model.converged(window=window, tolerance=tolerance, atol=atol)
+    settled_part = model.theta_history_[-window:]
+    return OperatingPoint(
+        inclination=float(np.mean(incl[-window:])),
+        gain=float(np.mean(settled_part[:, 1])),
+        pole=float(-np.mean(settled_part[:, 0])),
+        converged=bool(ok),
+        settled_at=-1 if settled is None else int(settled),
+        n_samples=int(rls_data.n_samples),
+        model=model,
+    )
+
+
+def _first_order_terms(resolved: ResolvedLags) -> tuple[int, int]:
+    """``(input channel, delay)`` of a first-order regressor ``[i(t−1), u_c(t−d)]``."""
+    out_terms = resolved.lag[resolved.source == 0]
+    in_terms = np.flatnonzero(resolved.source == 1)
+    if (
+        len(resolved.output_names) != 1
+        or out_terms.tolist() != [1]
+        or in_terms.size != 1
+        or int(resolved.lag[in_terms[0]]) < 1
+    ):
+        raise ValueError(
+            "GainScheduledModel is first order in one output: lags must be Lags.arx(1, 1, d) with"
+            " d >= 1, or Lags(outputs=[1], inputs={'<command>': [d]}) to pick the command among"
+            f" several inputs; got {resolved.to_lags()!r} on outputs {list(resolved.output_names)}"
+        )
+    return int(resolved.channel[in_terms[0]]), int(resolved.lag[in_terms[0]])
+
+
+class GainScheduledModel(Estimator):
     """First-order inclination-scheduled model ``G(z, i) = N(i) / (z − P(i))``, integrated.
 
     From the velocity command ``u`` [rad/s] to the inclination rate ``r`` [deg/s]:
 
-    ``r(t) = P(i(t−1)) · r(t−1) + N(i(t−1)) · u(t−1)``
+    ``r(t) = P(i(t−1)) · r(t−1) + N(i(t−1)) · u(t−d)``
 
     and the inclination [deg] is its backward-Euler integral ``i(t) = i(t−1) + ts · r(t)``, the exact
     inverse of the rate ``r(t) = (i(t) − i(t−1)) / ts`` that the operating-point protocol identifies.
@@ -61,25 +196,35 @@ class GainScheduledModel(BaseEstimator, ModelFile):
     paper) fitted by least squares to operating points. In free run the scheduling variable is the
     model's own simulated inclination of the previous sample.
 
+    ``fit(data)`` finds the operating points itself: each experiment, or each segment of one, is
+    held near one inclination; CFF-RLS (:func:`identify_point`) gives its ``N`` and ``P``. Points
+    identified elsewhere (:func:`neckid.identify_operating_points` on a plant) give a model through
+    :meth:`from_points`.
+
     Parameters
     ----------
+    lags : Lags
+        ``Lags.arx(1, 1, d)``: the input delay ``d`` >= 1 of ``G(z, i) = N(i) z^{-(d-1)} / (z − P(i))``
+        (the seed paper's ``d = 1``; a sensor with a few samples of latency is better described
+        with ``d`` = latency + 1). With several inputs, ``Lags(outputs=[1], inputs={name: [d]})``
+        picks the velocity command.
     degree : int, default 1
         Degree of the polynomials ``N(i)`` and ``P(i)`` (1: straight lines).
-    ts : float, optional
-        Sampling period in seconds. Taken from the operating-point result when fitted on one;
-        required when fitting on plain arrays.
-    input : str, default "velocity_command"
-        Name of the input channel read from an :class:`~neckid.IOData` by :meth:`simulate` (the
-        simulated neck's :func:`~neckid.plant.closed_loop` log calls it so). A log with a single
-        input channel is used whatever its name.
-    output : str, default "inclination"
-        Name of the inclination channel [deg] (initial condition and name of the result).
-    delay : int, optional
-        Input delay ``d`` >= 1 in samples: ``r(t) = P r(t−1) + N u(t−d)``, i.e.
-        ``G(z, i) = N(i) z^{-(d-1)} / (z − P(i))``. Default: the delay the operating points were
-        identified with (``OperatingPointResult.settings["delay"]``), or 1 (the seed paper's model)
-        when fitting on plain arrays. A sensor with a few samples of latency is better described
-        with ``d`` = latency + 1.
+    forgetting_factor : float, default 0.98
+        CFF-RLS ``λ`` at each operating point (the seed paper's value).
+    segments : int or array_like of float, optional
+        How records are cut into operating points: an int ``n`` cuts every experiment into ``n``
+        equal parts; an array gives boundaries in seconds from each experiment's start (the
+        stairs of a staircase log). Default: one point per experiment when several are given,
+        :data:`DEFAULT_SEGMENTS` equal parts of a single one.
+    skip : int, default 0
+        Samples left out at the start of every point (its transient).
+    window : int, optional
+        Convergence window of the RLS estimate and samples averaged per point, default
+        ``5 / (1 − λ)``.
+    converged_only : bool, default True
+        Fit the lines through the converged points only (all points when fewer than
+        ``degree + 1`` converged would be left, the fit refuses).
 
     Attributes
     ----------
@@ -92,10 +237,13 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         The operating points the lines were fitted to (inclination in degrees).
     gain_rmse_, pole_rmse_ : float
         Root-mean-square residual of each fit.
-    ts_ : float
-        Sampling period in seconds.
     delay_ : int
         Input delay used, in samples.
+    max_lag_ : int
+        1: a simulation starts from the first inclination, at rest (rate 0).
+    lags_ : ResolvedLags
+    ts_ : float
+    n_inputs_, n_outputs_ : int
 
     Notes
     -----
@@ -104,6 +252,10 @@ class GainScheduledModel(BaseEstimator, ModelFile):
     ``N = −0.059 i + 1.857`` and ``P = 0.01175 i − 0.4797`` (``PAPER_GAIN_COEFFICIENTS``,
     ``PAPER_POLE_COEFFICIENTS``). Whether the paper's rate is per second or per sample is not
     stated; here it is per second, so ``N`` scales with ``1 / ts`` if the other is meant.
+
+    One-step prediction (:meth:`predict`) uses the measured inclination ``i(t−1)``, the measured
+    rate ``(i(t−1) − i(t−2)) / ts`` (0 at the first sample) and the command ``u(t−d)`` (the
+    first command before the record starts).
 
     References
     ----------
@@ -115,50 +267,72 @@ class GainScheduledModel(BaseEstimator, ModelFile):
     >>> import numpy as np
     >>> from neckid.models.scheduled import GainScheduledModel
     >>> i = np.array([5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0])
-    >>> model = GainScheduledModel(ts=0.02).fit(i, -0.059 * i + 1.857, 0.01175 * i - 0.4797)
+    >>> model = GainScheduledModel.from_points(i, -0.059 * i + 1.857, 0.01175 * i - 0.4797, ts=0.02)
     >>> np.round(model.gain_coefficients_, 4), np.round(model.pole_coefficients_, 5)
     (array([-0.059,  1.857]), array([ 0.01175, -0.4797 ]))
     >>> model.transfer_function(20.0).dt
     0.02
-    >>> result = model.simulate(np.full(100, 0.5), y0=20.0)
+    >>> from neckid import IOData
+    >>> result = model.simulate(IOData(np.full(100, 0.5), ts=0.02), initial=20.0)
     >>> result.kind, result.y.shape
     ('simulation', (100, 1))
     """
 
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "degree": [Interval("int", 0, None)],
+        "forgetting_factor": [Interval("real", 0, 1, closed="right")],
+        "segments": [None, Interval("int", 1, None), "array-like"],
+        "skip": [Interval("int", 0, None)],
+        "window": [None, Interval("int", 2, None)],
+        "converged_only": ["boolean"],
+    }
+
     def __init__(
         self,
+        lags: Lags | None = None,
+        *,
         degree: int = 1,
-        ts: float | None = None,
-        input: str = "velocity_command",
-        output: str = "inclination",
-        delay: int | None = None,
+        forgetting_factor: float = 0.98,
+        segments: int | ArrayLike | None = None,
+        skip: int = 0,
+        window: int | None = None,
+        converged_only: bool = True,
     ) -> None:
+        self.lags = lags
         self.degree = degree
-        self.ts = ts
-        self.input = input
-        self.output = output
-        self.delay = delay
+        self.forgetting_factor = forgetting_factor
+        self.segments = segments
+        self.skip = skip
+        self.window = window
+        self.converged_only = converged_only
 
     # ------------------------------------------------------------------ fit
-    def fit(
-        self,
-        inclinations: ArrayLike | OperatingPointResult,
-        gains: ArrayLike | None = None,
-        poles: ArrayLike | None = None,
-        *,
-        converged_only: bool = True,
-    ) -> GainScheduledModel:
-        """Fit ``N(i)`` and ``P(i)`` by least squares to operating points.
+    def _pieces(self, experiments: Sequence[IOData]) -> list[IOData]:
+        segments = self.segments
+        if segments is None:
+            segments = 1 if len(experiments) > 1 else DEFAULT_SEGMENTS
+        pieces: list[IOData] = []
+        for data in experiments:
+            if isinstance(segments, int | np.integer):
+                bounds = np.linspace(0, data.n_samples, int(segments) + 1).round().astype(int)
+                pieces.extend(data[a:b] for a, b in itertools.pairwise(bounds) if b > a)
+                continue
+            edges = check_time_vector(segments, "segments", increasing=True)
+            for start, stop in itertools.pairwise(edges):
+                if data.t0 + start >= data.time[-1]:
+                    break
+                pieces.append(data.time_slice(data.t0 + start, data.t0 + stop))
+        return pieces
+
+    def fit(self, data: IOData | Sequence[IOData]) -> GainScheduledModel:
+        """Identify one operating point per experiment or segment and fit ``N(i)``, ``P(i)``.
 
         Parameters
         ----------
-        inclinations : array_like of shape (n_points,), or OperatingPointResult
-            Inclination of each point [deg], or the result of the operating-point protocol (then
-            ``gains`` and ``poles`` are taken from it, and ``ts`` too when not set).
-        gains, poles : array_like of shape (n_points,)
-            ``N`` and ``P`` at each point; required with plain arrays.
-        converged_only : bool, default True
-            With an :class:`OperatingPointResult`, use only the points whose estimate converged.
+        data : IOData or sequence of IOData
+            Velocity command [rad/s] (the input with a lag in ``lags``) and inclination [deg]
+            (the one output).
 
         Returns
         -------
@@ -168,58 +342,60 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         Raises
         ------
         ValueError
-            If there are fewer distinct inclinations than ``degree + 1``, the lengths differ, a value
-            is not finite, ``degree < 0`` or ``ts`` is missing or not positive.
+            If ``lags`` is not first order, a segment is shorter than ``skip + window + 3``
+            samples, or fewer than ``degree + 1`` distinct inclinations remain.
         """
-        from neckid.experiments.operating_points import OperatingPointResult
-
-        ts = self.ts
-        delay = self.delay
-        if isinstance(inclinations, OperatingPointResult):
-            if delay is None:
-                delay = int(inclinations.settings.get("delay", 1))
-            if gains is not None or poles is not None:
-                raise ValueError(
-                    "give either an OperatingPointResult or the arrays inclinations, gains and"
-                    " poles, not both"
+        self._validate_params()
+        experiments = as_experiments(data)
+        if self.lags is None:
+            raise ValueError("GainScheduledModel needs lags=Lags.arx(1, 1, d); got None")
+        resolved = self.lags.resolve(experiments)
+        channel, delay = _first_order_terms(resolved)
+        first = experiments[0]
+        command, output = first.input_names[channel], first.output_names[0]
+        skip = int(self.skip)
+        points = []
+        for k, piece in enumerate(self._pieces(experiments)):
+            points.append(
+                identify_point(
+                    piece.u[skip:, channel],
+                    piece.y[skip:, 0],
+                    piece.ts,
+                    delay=delay,
+                    forgetting_factor=self.forgetting_factor,
+                    window=self.window,
+                    input_name=command,
+                    output_name=output,
+                    input_unit=piece.input_units[channel],
+                    output_unit=piece.output_units[0],
+                    label=f"operating point {k} ({piece.name or 'segment'})",
                 )
-            table = inclinations.table
-            if converged_only:
-                table = table[table["converged"]]
-            i_values = table["inclination"].to_numpy(dtype=np.float64)
-            n_values = table["gain"].to_numpy(dtype=np.float64)
-            p_values = table["pole"].to_numpy(dtype=np.float64)
-            if ts is None:
-                ts = inclinations.ts
-        else:
-            if gains is None or poles is None:
-                raise ValueError("gains and poles are required with an array of inclinations")
-            i_values = _vector(inclinations, "inclinations")
-            n_values = _vector(gains, "gains")
-            p_values = _vector(poles, "poles")
-        if not (i_values.size == n_values.size == p_values.size):
-            raise ValueError(
-                f"inclinations, gains and poles must have the same length; got {i_values.size},"
-                f" {n_values.size} and {p_values.size}"
             )
-        degree = self.degree
-        if isinstance(degree, bool) or not isinstance(degree, int | np.integer) or degree < 0:
-            raise ValueError(f"degree must be a whole number >= 0; got {degree!r}")
+        keep = [p for p in points if p.converged or not self.converged_only]
+        self.points_ = tuple(points)
+        self._fit_lines(
+            np.array([p.inclination for p in keep]),
+            np.array([p.gain for p in keep]),
+            np.array([p.pole for p in keep]),
+        )
+        self.lags_ = resolved
+        self._set_channels(first)
+        self.delay_ = delay
+        self.max_lag_ = 1
+        return self
+
+    def _fit_lines(self, i_values: FloatArray, n_values: FloatArray, p_values: FloatArray) -> None:
+        degree = int(self.degree)
         distinct = np.unique(i_values).size
         if distinct < degree + 1:
             raise ValueError(
                 f"a polynomial of degree {degree} needs at least {degree + 1} distinct inclinations;"
                 f" got {distinct} (of {i_values.size} points"
-                f"{', converged only' if converged_only and ts is not None else ''})"
+                f"{', converged only' if self.converged_only else ''}); give more operating"
+                " points, converged_only=False or a lower degree"
             )
-        if ts is None:
-            raise ValueError("ts is required: GainScheduledModel(ts=...) in seconds")
-        ts_value = float(ts)
-        if not math.isfinite(ts_value) or ts_value <= 0:
-            raise ValueError(f"ts must be a positive number of seconds; got {ts!r}")
-
-        self.gain_coefficients_ = np.polyfit(i_values, n_values, int(degree))
-        self.pole_coefficients_ = np.polyfit(i_values, p_values, int(degree))
+        self.gain_coefficients_ = np.polyfit(i_values, n_values, degree)
+        self.pole_coefficients_ = np.polyfit(i_values, p_values, degree)
         self.inclinations_ = i_values
         self.gains_ = n_values
         self.poles_ = p_values
@@ -229,13 +405,63 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         self.pole_rmse_ = float(
             np.sqrt(np.mean((np.polyval(self.pole_coefficients_, i_values) - p_values) ** 2))
         )
-        if delay is None:
-            delay = 1
-        if isinstance(delay, bool) or not isinstance(delay, int | np.integer) or delay < 1:
-            raise ValueError(f"delay must be a whole number of samples >= 1; got {delay!r}")
-        self.ts_ = ts_value
-        self.delay_ = int(delay)
-        return self
+
+    def _bind_channels(
+        self, ts: float, delay: int, input_name: str, output_name: str, output_unit: str
+    ) -> None:
+        ts_value = check_ts(ts)
+        delay = check_number(delay, "delay", low=1, integer=True)
+        template = IOData(
+            np.zeros(1), np.zeros(1), ts=ts_value, input_names=[input_name],
+            output_names=[output_name], output_units=[output_unit],
+        )  # fmt: skip
+        self.lags = Lags.arx(1, 1, delay)
+        self.lags_ = self.lags.resolve(template)
+        self._set_channels(template)
+        self.delay_ = delay
+        self.max_lag_ = 1
+
+    @classmethod
+    def from_points(
+        cls,
+        inclinations: ArrayLike,
+        gains: ArrayLike,
+        poles: ArrayLike,
+        *,
+        ts: float,
+        delay: int = 1,
+        degree: int = 1,
+        input_name: str = "velocity_command",
+        output_name: str = "inclination",
+    ) -> GainScheduledModel:
+        """A model whose lines ``N(i)``, ``P(i)`` are fitted to given operating points.
+
+        Parameters
+        ----------
+        inclinations, gains, poles : array_like, shape (n_points,)
+            Inclination [deg], ``N`` and ``P`` of each point.
+        ts : float
+            Sampling period [s].
+        delay : int, default 1
+            Input delay ``d`` [samples] the points were identified with.
+        degree : int, default 1
+            Polynomial degree.
+        input_name, output_name : str
+            Channel names of the velocity command and the inclination.
+        """
+        i_values = check_vector(inclinations, "inclinations")
+        n_values = check_vector(gains, "gains")
+        p_values = check_vector(poles, "poles")
+        if not (i_values.size == n_values.size == p_values.size):
+            raise ValueError(
+                f"inclinations, gains and poles must have the same length; got {i_values.size},"
+                f" {n_values.size} and {p_values.size}"
+            )
+        model = cls(degree=degree, converged_only=False)
+        model._validate_params()
+        model._fit_lines(i_values, n_values, p_values)
+        model._bind_channels(ts, delay, input_name, output_name, "deg")
+        return model
 
     @classmethod
     def from_coefficients(
@@ -243,7 +469,10 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         gain_coefficients: ArrayLike = PAPER_GAIN_COEFFICIENTS,
         pole_coefficients: ArrayLike = PAPER_POLE_COEFFICIENTS,
         ts: float = 0.02,
-        **params: Any,
+        *,
+        delay: int = 1,
+        input_name: str = "velocity_command",
+        output_name: str = "inclination",
     ) -> GainScheduledModel:
         """A fitted model from given polynomial coefficients (highest power first).
 
@@ -255,14 +484,14 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         >>> round(float(paper.gain(20.0)), 3), round(float(paper.pole(20.0)), 4)
         (0.677, -0.2447)
         """
-        gain = _vector(gain_coefficients, "gain_coefficients")
-        pole = _vector(pole_coefficients, "pole_coefficients")
+        gain = check_vector(gain_coefficients, "gain_coefficients")
+        pole = check_vector(pole_coefficients, "pole_coefficients")
         if gain.size != pole.size or gain.size == 0:
             raise ValueError(
                 "gain_coefficients and pole_coefficients must be non-empty and of the same length;"
                 f" got {gain.size} and {pole.size}"
             )
-        model = cls(degree=gain.size - 1, ts=ts, **params)
+        model = cls(degree=gain.size - 1)
         model.gain_coefficients_ = gain
         model.pole_coefficients_ = pole
         model.inclinations_ = np.zeros(0)
@@ -270,24 +499,20 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         model.poles_ = np.zeros(0)
         model.gain_rmse_ = math.nan
         model.pole_rmse_ = math.nan
-        model.ts_ = float(ts)
-        delay = 1 if model.delay is None else model.delay
-        if isinstance(delay, bool) or not isinstance(delay, int | np.integer) or delay < 1:
-            raise ValueError(f"delay must be a whole number of samples >= 1; got {delay!r}")
-        model.delay_ = int(delay)
+        model._bind_channels(ts, delay, input_name, output_name, "deg")
         return model
 
     # ------------------------------------------------------------------ the model
     def gain(self, inclination: ArrayLike) -> FloatArray:
         """``N(i)`` at inclination(s) ``i`` [deg]."""
-        check_is_fitted(self, "gain_coefficients_")
+        check_is_fitted(self)
         return np.asarray(
             np.polyval(self.gain_coefficients_, np.asarray(inclination, dtype=np.float64))
         )
 
     def pole(self, inclination: ArrayLike) -> FloatArray:
         """``P(i)`` at inclination(s) ``i`` [deg]."""
-        check_is_fitted(self, "pole_coefficients_")
+        check_is_fitted(self)
         return np.asarray(
             np.polyval(self.pole_coefficients_, np.asarray(inclination, dtype=np.float64))
         )
@@ -313,7 +538,7 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         """
         import control
 
-        check_is_fitted(self, "gain_coefficients_")
+        check_is_fitted(self)
         value = float(inclination)
         if not math.isfinite(value):
             raise ValueError(f"inclination must be a finite number of degrees; got {inclination!r}")
@@ -330,26 +555,26 @@ class GainScheduledModel(BaseEstimator, ModelFile):
 
     # ------------------------------------------------------------------ simulation
     def simulator(self) -> GainScheduledSimulator:
-        """A stateful simulator with ``reset(y0, rate0, u0)`` and ``step(u) -> inclination``."""
-        check_is_fitted(self, "gain_coefficients_")
+        """A stateful simulator with ``reset(y0, u0, rate0)`` and ``step(u) -> inclination``."""
+        check_is_fitted(self)
         return GainScheduledSimulator(self)
 
+    @property
+    def _channel(self) -> int:
+        return int(self.lags_.channel[self.lags_.source == 1][0])
+
     def simulate(
-        self,
-        data: IOData | ArrayLike,
-        y0: float | None = None,
-        *,
-        rate0: float = 0.0,
+        self, data: IOData, initial: ArrayLike | None = None, *, rate0: float = 0.0
     ) -> ModelResult:
-        """Free run from a velocity-command sequence; the schedule follows the simulated inclination.
+        """Free run from the velocity command; the schedule follows the simulated inclination.
 
         Parameters
         ----------
-        data : IOData or array_like of shape (n_samples,) or (n_samples, 1)
-            Velocity command [rad/s]. From an IOData the channel named ``input`` is used (or its only
-            input), and the first sample of the channel named ``output`` is the initial inclination.
-        y0 : float, optional
-            Initial inclination [deg]; overrides the one from ``data``. Required with an array.
+        data : IOData
+            The inputs (the command is the one with a lag in ``lags``) and, unless ``initial`` is
+            given, the measured inclination whose first sample starts the run.
+        initial : float or array_like of shape (1,) or (1, 1), optional
+            The initial inclination [deg] (then ``data`` may hold inputs only).
         rate0 : float, default 0.0
             Initial inclination rate [deg/s] (0: the neck at rest).
 
@@ -358,79 +583,56 @@ class GainScheduledModel(BaseEstimator, ModelFile):
         ModelResult
             ``kind="simulation"``, inclination [deg] in ``y``, ``n_initial = 1`` (sample 0 is the
             initial condition); ``extras`` holds ``"rate"``, ``"gain"`` and ``"pole"`` per sample.
-
-        Raises
-        ------
-        ValueError
-            If ``y0`` is missing with an array, or the input has several channels.
-        KeyError
-            If the IOData has several inputs and none named ``input``.
         """
-        check_is_fitted(self, "gain_coefficients_")
-        if isinstance(data, IOData):
-            u = self._input_of(data)
-            time = data.time
-            if y0 is None:
-                y0 = float(data.channel(self._output_name(data))[0])
-        else:
-            u = np.asarray(data, dtype=np.float64)
-            if u.ndim == 2 and u.shape[1] == 1:
-                u = u[:, 0]
-            if u.ndim != 1:
-                raise ValueError(
-                    f"u must be one velocity-command channel, shape (n_samples,); got {np.shape(data)}"
-                )
-            check_finite(u[:, None], "u")
-            time = self.ts_ * np.arange(u.size, dtype=np.float64)
-            if y0 is None:
-                raise ValueError(
-                    "y0 (the initial inclination in degrees) is required with an array u"
-                )
+        check_is_fitted(self)
+        y0 = self._initial_outputs(data, initial)
+        u = data.u
         sim = GainScheduledSimulator(self)
-        sim.reset(y0=y0, rate0=rate0, u0=u[0] if u.size else 0.0)
-        y = np.empty(u.size)
-        rate = np.empty(u.size)
-        gain = np.empty(u.size)
-        pole = np.empty(u.size)
+        sim.reset(y0=y0[:1], u0=u[:1], rate0=rate0)
+        n = data.n_samples
+        y = np.empty(n)
+        rate = np.empty(n)
+        gain = np.empty(n)
+        pole = np.empty(n)
         y[0], rate[0] = sim.inclination, sim.rate
         gain[0], pole[0] = math.nan, math.nan
-        for t in range(1, u.size):
+        for t in range(1, n):
             gain[t] = sim.current_gain
             pole[t] = sim.current_pole
             y[t] = sim.step(u[t])[0]
             rate[t] = sim.rate
-        return ModelResult(
-            "simulation",
-            time,
-            y[:, None],
-            (self.output,),
-            1,
-            extras={"rate": rate, "gain": gain, "pole": pole},
+        return self._result(
+            "simulation", data, y[:, None], extras={"rate": rate, "gain": gain, "pole": pole}
         )
 
-    def _input_of(self, data: IOData) -> FloatArray:
-        if self.input in data.input_names:
-            return np.asarray(data.channel(self.input))
-        if data.n_inputs == 1:
-            return np.asarray(data.u[:, 0])
-        raise KeyError(
-            f"data has no input named {self.input!r} and several inputs {list(data.input_names)};"
-            " set GainScheduledModel(input=...) to the velocity-command channel"
-        )
+    def predict(self, data: IOData) -> ModelResult:
+        """One-step-ahead prediction from the measured inclination, its rate and the command.
 
-    def _output_name(self, data: IOData) -> str:
-        if self.output in data.output_names or self.output in data.input_names:
-            return self.output
-        if data.n_outputs == 1:
-            return data.output_names[0]
-        raise KeyError(
-            f"data has no channel named {self.output!r}; set GainScheduledModel(output=...) to the"
-            f" inclination channel (outputs are {list(data.output_names)})"
-        )
+        ``î(t) = i(t−1) + ts [P(i(t−1)) r(t−1) + N(i(t−1)) u(t−d)]`` with the measured rate
+        ``r(t−1) = (i(t−1) − i(t−2)) / ts`` (0 at ``t = 1``); commands before the record are
+        taken equal to its first one. Sample 0 is the measured inclination.
+        """
+        check_is_fitted(self)
+        self._check_inputs(data)
+        if data.n_outputs == 0:
+            raise ValueError("predict needs the measured inclination; data holds inputs only")
+        incl = data.y[:, 0]
+        u = data.u[:, self._channel]
+        n = incl.size
+        y = np.array(data.y, dtype=np.float64)
+        if n > 1:
+            previous = incl[:-1]
+            rate = np.zeros(n - 1)
+            rate[1:] = np.diff(previous) / self.ts_
+            command = u[np.maximum(np.arange(1, n) - self.delay_, 0)]
+            y[1:, 0] = previous + self.ts_ * (
+                self.pole(previous) * rate + self.gain(previous) * command
+            )
+        return self._result("prediction", data, y)
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        check_is_fitted(self, "gain_coefficients_")
+        check_is_fitted(self)
         arrays = {
             "gain_coefficients": self.gain_coefficients_,
             "pole_coefficients": self.pole_coefficients_,
@@ -438,18 +640,24 @@ class GainScheduledModel(BaseEstimator, ModelFile):
             "gains": self.gains_,
             "poles": self.poles_,
         }
+        segments = self.segments
+        if segments is not None and not isinstance(segments, int | np.integer):
+            segments = np.asarray(segments, dtype=np.float64).tolist()
         meta = {
             "params": {
                 "degree": int(self.degree),
-                "ts": None if self.ts is None else float(self.ts),
-                "input": str(self.input),
-                "output": str(self.output),
-                "delay": None if self.delay is None else int(self.delay),
+                "forgetting_factor": float(self.forgetting_factor),
+                "segments": None if segments is None else segments,
+                "skip": int(self.skip),
+                "window": None if self.window is None else int(self.window),
+                "converged_only": bool(self.converged_only),
             },
+            "lags": self.lags_.to_dict(),
             "ts": self.ts_,
             "delay": self.delay_,
             "gain_rmse": self.gain_rmse_,
             "pole_rmse": self.pole_rmse_,
+            **self._channels_meta(),
         }
         return arrays, meta
 
@@ -457,24 +665,41 @@ class GainScheduledModel(BaseEstimator, ModelFile):
     def _from_state(
         cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]
     ) -> GainScheduledModel:
-        model = cls(**meta["params"])
-        model.gain_coefficients_ = np.asarray(arrays["gain_coefficients"], dtype=np.float64)
-        model.pole_coefficients_ = np.asarray(arrays["pole_coefficients"], dtype=np.float64)
+        params = dict(meta["params"])
+        if "lags" not in meta:  # format-1 files of the first release: ts/input/output/delay
+            model = cls.from_coefficients(
+                arrays["gain_coefficients"],
+                arrays["pole_coefficients"],
+                float(meta["ts"]),
+                delay=int(meta.get("delay", 1)),
+                input_name=str(params.get("input", "velocity_command")),
+                output_name=str(params.get("output", "inclination")),
+            )
+            model.degree = int(params["degree"])
+        else:
+            model = cls(None, **params)
+            model.lags_ = ResolvedLags.from_dict(meta["lags"])
+            model.lags = model.lags_.to_lags()
+            model._restore_channels(meta, model.lags_)
+            model.ts_ = float(meta["ts"])
+            model.delay_ = int(meta["delay"])
+            model.max_lag_ = 1
+            model.gain_coefficients_ = np.asarray(arrays["gain_coefficients"], dtype=np.float64)
+            model.pole_coefficients_ = np.asarray(arrays["pole_coefficients"], dtype=np.float64)
         model.inclinations_ = np.asarray(arrays["inclinations"], dtype=np.float64)
         model.gains_ = np.asarray(arrays["gains"], dtype=np.float64)
         model.poles_ = np.asarray(arrays["poles"], dtype=np.float64)
         model.gain_rmse_ = float(meta["gain_rmse"])
         model.pole_rmse_ = float(meta["pole_rmse"])
-        model.ts_ = float(meta["ts"])
-        model.delay_ = int(meta.get("delay", 1))
         return model
 
 
 class GainScheduledSimulator:
     """Step-by-step free run of a :class:`GainScheduledModel`, for a closed loop beside a controller.
 
-    ``step(u)`` takes the velocity command at the current time ``t`` [rad/s] and returns the
-    inclination ``i(t)`` [deg], which depends on the commands up to ``t − d`` (``d = delay_``):
+    ``step(u)`` takes the inputs at the current time ``t`` (the velocity command [rad/s] among
+    them; a scalar when the model has one input) and returns the inclination ``i(t)`` [deg],
+    which depends on the commands up to ``t − d`` (``d = delay_``):
     ``r(t) = P(i(t−1)) r(t−1) + N(i(t−1)) u(t−d)``, ``i(t) = i(t−1) + ts r(t)``.
     """
 
@@ -483,15 +708,26 @@ class GainScheduledSimulator:
         self._pole = np.asarray(model.pole_coefficients_, dtype=np.float64)
         self.ts = float(model.ts_)
         self.delay = int(model.delay_)
-        self.n_inputs = 1
+        self.n_inputs = model.n_inputs_
         self.n_outputs = 1
+        self._channel = model._channel
         self.reset()
 
-    def reset(self, y0: float = 0.0, rate0: float = 0.0, u0: float = 0.0) -> None:
-        """Start again at inclination ``y0`` [deg], rate ``rate0`` [deg/s], past commands ``u0``."""
-        values = np.array([y0, rate0, u0], dtype=np.float64).reshape(-1)
-        if values.size != 3:
-            raise ValueError(f"y0, rate0 and u0 must be scalars; got {y0!r}, {rate0!r}, {u0!r}")
+    def reset(
+        self, y0: ArrayLike | None = None, u0: ArrayLike | None = None, rate0: float = 0.0
+    ) -> None:
+        """Start again at inclination ``y0`` [deg] (default 0), rate ``rate0`` [deg/s], past inputs ``u0``.
+
+        ``y0`` and ``u0`` may be one row or a history of rows (oldest first): the last row is
+        used, and the past commands ``u(t−d) … u(t−1)`` are all taken equal to it.
+        """
+        y_array = np.zeros(1) if y0 is None else np.asarray(y0, dtype=np.float64).reshape(-1)
+        if y_array.size == 0:
+            raise ValueError("y0 must hold the initial inclination; got an empty array")
+        y_row = y_array[-1:]
+        u_array = np.zeros(self.n_inputs) if u0 is None else np.asarray(u0, dtype=np.float64)
+        u_row = u_array.reshape(-1, self.n_inputs)[-1] if u_array.size else np.zeros(self.n_inputs)
+        values = np.array([float(y_row[0]), float(rate0), float(u_row[self._channel])])
         check_finite(values[None, :], "initial state", ["y0", "rate0", "u0"])
         self.inclination = float(values[0])
         self.rate = float(values[1])
@@ -508,14 +744,14 @@ class GainScheduledSimulator:
         return float(np.polyval(self._pole, self.inclination))
 
     def step(self, u: float | ArrayLike) -> FloatArray:
-        """Advance one sample with command ``u`` [rad/s]; return the inclination, shape ``(1,)``."""
+        """Advance one sample with inputs ``u``; return the inclination, shape ``(1,)``."""
         u_now = np.asarray(u, dtype=np.float64).reshape(-1)
-        if u_now.size != 1:
-            raise ValueError(f"u must be one velocity command; got {u!r}")
+        if u_now.size != self.n_inputs:
+            raise ValueError(f"u must have {self.n_inputs} value(s) (one per input); got {u!r}")
         check_finite(u_now[None, :], "u")
         gain = self.current_gain
         pole = self.current_pole
         self.rate = pole * self.rate + gain * self._past_u[0]
         self.inclination = self.inclination + self.ts * self.rate
-        self._past_u = [*self._past_u[1:], float(u_now[0])]
+        self._past_u = [*self._past_u[1:], float(u_now[self._channel])]
         return np.array([self.inclination])

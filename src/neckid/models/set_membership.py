@@ -9,21 +9,20 @@ estimate. See :class:`SetMembership` for the equations, the choice of ε and γ 
 from __future__ import annotations
 
 import logging
-import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, NamedTuple
+from typing import Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid.data import IOData, as_experiments, check_finite
+from neckid.data import IOData, as_experiments
 from neckid.models._sm_kernels import SMTree, free_run, gamma_star
 from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
-from neckid.models.io import register_model
 from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import Interval, Options, check_finite
 
 __all__ = [
     "DEFAULT_GAMMA_MARGIN",
@@ -92,26 +91,6 @@ class GammaCurve:
                 for c in range(self.gamma.shape[1])
             ]
         )
-
-    def plot(self, ax: Any = None) -> Any:
-        """Plot γ*(ε) per output with the knee marked; returns the figure."""
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            fig, ax = plt.subplots(figsize=(6, 4))
-        else:
-            fig = ax.figure
-        knees = self.knee()
-        for c, name in enumerate(self.output_names):
-            finite = np.isfinite(self.gamma[:, c])
-            (line,) = ax.plot(self.epsilons[finite, c], self.gamma[finite, c], ".-", label=name)
-            k = choose_epsilon(self.epsilons[:, c], self.gamma[:, c])
-            ax.plot([knees[c]], [self.gamma[k, c]], "o", mfc="none", ms=10, color=line.get_color())
-        ax.set_xlabel("noise bound ε")
-        ax.set_ylabel("γ*(ε)")
-        ax.set_yscale("log")
-        ax.legend(title="output (circle: chosen ε)")
-        return fig
 
 
 @dataclass(frozen=True)
@@ -264,20 +243,10 @@ def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
     return weights.copy()
 
 
-def _input_weight(value: Any) -> float:
-    """Check ``input_weight``: a finite number > 0."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"input_weight must be a number; got {value!r}")
-    weight = float(value)
-    if not math.isfinite(weight) or weight <= 0:
-        raise ValueError(f"input_weight must be finite and > 0; got {value!r}")
-    return weight
-
-
 def _term_weights(scaling: Any, input_weight: Any, x: FloatArray, lags: ResolvedLags) -> FloatArray:
     """The weights of :func:`_weights`, with the input terms' multiplied by ``input_weight``."""
     weights = _weights(scaling, x, lags.names)
-    return np.where(lags.source == 1, _input_weight(input_weight) * weights, weights)
+    return np.where(lags.source == 1, float(input_weight) * weights, weights)
 
 
 def _default_epsilons(targets: FloatArray) -> FloatArray:
@@ -376,7 +345,6 @@ def _check_duplicates(
 
 
 # ====================================================================================== estimator
-@register_model
 class SetMembership(NarxModel):
     r"""Nonlinear Set Membership identification of a NARX model (Milanese & Novara, 2004).
 
@@ -521,9 +489,22 @@ class SetMembership(NarxModel):
     True
     """
 
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "epsilon": [None, Interval("real", 0, None), "array-like"],
+        "gamma": [None, Interval("real", 0, None, closed="neither"), "array-like"],
+        "gamma_margin": [Interval("real", 1, None)],
+        "scaling": [Options(("std", "none")), "array-like"],
+        "linear_part": ["boolean"],
+        "epsilons": [None, "array-like"],
+        "progress": [None, "boolean", "callable"],
+        "input_weight": [Interval("real", 0, None, closed="neither")],
+    }
+
     def __init__(
         self,
         lags: Lags | None = None,
+        *,
         epsilon: float | ArrayLike | None = None,
         gamma: float | ArrayLike | None = None,
         gamma_margin: float = DEFAULT_GAMMA_MARGIN,
@@ -554,10 +535,6 @@ class SetMembership(NarxModel):
                 f" (lags up to {self.lags_.max_lag}); use a longer record"
             )
         margin = float(self.gamma_margin)
-        if not math.isfinite(margin) or margin < 1:
-            raise ValueError(
-                f"gamma_margin must be a finite number >= 1; got {self.gamma_margin!r}"
-            )
         epsilon = None if self.epsilon is None else _per_output(self.epsilon, n_out, "epsilon")
         if epsilon is not None and np.any(epsilon < 0):
             raise ValueError(f"epsilon must be >= 0 (a noise bound); got {epsilon.tolist()}")
@@ -570,8 +547,6 @@ class SetMembership(NarxModel):
                 f"output {names[int(constant[0])]!r} is constant over the training data; there is"
                 " nothing to identify"
             )
-        if not isinstance(self.linear_part, bool | np.bool_):
-            raise TypeError(f"linear_part must be True or False; got {self.linear_part!r}")
 
         weights = _term_weights(self.scaling, self.input_weight, x, self.lags_)
         if self.linear_part:
@@ -679,7 +654,7 @@ class SetMembership(NarxModel):
         ValueError
             If the shape is wrong or a value is NaN or inf.
         """
-        check_is_fitted(self, "gamma_")
+        check_is_fitted(self)
         x = np.asarray(regressors, dtype=np.float64)
         if x.ndim == 1:
             x = x[None, :]
@@ -698,7 +673,8 @@ class SetMembership(NarxModel):
         The first ``max_lag`` samples are the measured outputs (initial conditions) and their
         bounds are NaN.
         """
-        check_is_fitted(self, "gamma_")
+        check_is_fitted(self)
+        self._check_inputs(data)
         x, _ = self.lags_.build_one(data)
         m = self.lags_.max_lag
         result = self._bounds_rows(x)
@@ -706,29 +682,24 @@ class SetMembership(NarxModel):
         lower = np.full(y.shape, np.nan)
         upper = np.full(y.shape, np.nan)
         y[m:], lower[m:], upper[m:] = result.central, result.lower, result.upper
-        return ModelResult("prediction", data.time, y, data.output_names, m, lower, upper)
+        return self._result("prediction", data, y, lower, upper)
 
-    def simulate(self, data: IOData) -> ModelResult:
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation (compiled loop): the regressor holds the model's own past outputs.
 
-        The first ``max_lag`` measured outputs of ``data`` are the initial conditions (bounds NaN
-        there); from then on only ``data.u`` is used. The bounds at each step are those of
-        ``f_o`` at the simulated regressor.
+        The first ``max_lag`` outputs of ``data`` (or ``initial``, shape ``(n_outputs,)`` or
+        ``(max_lag, n_outputs)``, when ``data`` holds inputs only) are the initial conditions
+        (bounds NaN there); from then on only ``data.u`` is used. The bounds at each step are
+        those of ``f_o`` at the simulated regressor.
         """
-        check_is_fitted(self, "gamma_")
-        self.lags_.check_compatible(data)
-        m = self.lags_.max_lag
-        if data.n_samples <= m:
-            raise ValueError(
-                f"data has {data.n_samples} samples, too few for lags up to {m}: it needs at least"
-                f" {m + 1}"
-            )
+        check_is_fitted(self)
+        y0 = self._initial_outputs(data, initial)
         r = self.lags_
         y, lower, upper = free_run(
-            self._tree, data.u, data.y, r.source, r.channel, r.lag, m, self.weights_,
+            self._tree, data.u, y0, r.source, r.channel, r.lag, r.max_lag, self.weights_,
             self.coef_, self.intercept_, self.epsilon_, self.gamma_,
         )  # fmt: skip
-        return ModelResult("simulation", data.time, y, data.output_names, m, lower, upper)
+        return self._result("simulation", data, y, lower, upper)
 
     def simulator(self) -> SetMembershipSimulator:
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``.
@@ -736,7 +707,7 @@ class SetMembership(NarxModel):
         After each step, ``lower`` and ``upper`` hold that step's bounds; ``step_bounds(u)``
         returns ``(y, lower, upper)`` at once.
         """
-        check_is_fitted(self, "gamma_")
+        check_is_fitted(self)
         return SetMembershipSimulator(self)
 
     def invalidation(self, data: IOData | Sequence[IOData]) -> Invalidation | list[Invalidation]:
@@ -752,7 +723,7 @@ class SetMembership(NarxModel):
         Invalidation or list of Invalidation
             One per experiment (a list when a list was given).
         """
-        check_is_fitted(self, "gamma_")
+        check_is_fitted(self)
         experiments = as_experiments(data)
         results = []
         for d in experiments:
@@ -769,7 +740,7 @@ class SetMembership(NarxModel):
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        check_is_fitted(self, "gamma_")
+        check_is_fitted(self)
         arrays: dict[str, NDArray[Any]] = {
             "x_train": self._x_train,
             "y_train": self._y_train,
@@ -808,7 +779,7 @@ class SetMembership(NarxModel):
     def _from_state(
         cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]
     ) -> SetMembership:
-        model = cls(lags=None, **meta["params"])
+        model = cls(None, **meta["params"])
         model._restore_narx_meta(meta)
         x = np.ascontiguousarray(arrays["x_train"], dtype=np.float64)
         y = np.ascontiguousarray(arrays["y_train"], dtype=np.float64)

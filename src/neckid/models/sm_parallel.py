@@ -33,18 +33,22 @@ not one-step, bounds matter).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from sklearn.base import BaseEstimator
 
 from neckid.data import IOData, as_experiments
 from neckid.models.arx import LinearARX
-from neckid.models.base import ModelResult, check_is_fitted, history_rows
-from neckid.models.io import ModelFile, register_model
-from neckid.models.set_membership import GammaCurve, Invalidation, SetMembership
+from neckid.models.base import Estimator, ModelResult, check_is_fitted, history_rows
+from neckid.models.set_membership import (
+    DEFAULT_GAMMA_MARGIN,
+    GammaCurve,
+    Invalidation,
+    SetMembership,
+)
 from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import check_lag_list
 
 __all__ = ["ParallelSetMembership", "ParallelSetMembershipSimulator"]
 
@@ -54,26 +58,7 @@ FloatArray = NDArray[np.float64]
 LINEAR_SUFFIX = "_linear"
 
 
-def _lag_tuple(value: Any, argument: str) -> tuple[int, ...]:
-    """An int or a sequence of ints >= 0 (no repeats), as a sorted tuple."""
-    values = [value] if isinstance(value, int | np.integer) else value
-    try:
-        items = list(values)
-    except TypeError as exc:
-        raise TypeError(f"{argument} must be a list of ints >= 0; got {value!r}") from exc
-    if any(isinstance(v, bool) or not isinstance(v, int | np.integer) for v in items):
-        raise TypeError(f"{argument} must be a list of ints >= 0; got {value!r}")
-    lags = [int(v) for v in items]
-    negative = [v for v in lags if v < 0]
-    if negative:
-        raise ValueError(f"{argument} must be >= 0; got {negative[0]} in {value!r}")
-    if len(set(lags)) != len(lags):
-        raise ValueError(f"{argument} has repeated lags: {value!r}")
-    return tuple(sorted(lags))
-
-
-@register_model
-class ParallelSetMembership(BaseEstimator, ModelFile):
+class ParallelSetMembership(Estimator):
     r"""Set Membership identification of the map from a linear model's simulation to the output.
 
     Fitting (1) identifies a linear ARX on ``lags`` by least squares, (2) simulates it in free
@@ -91,10 +76,11 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
         Lags (>= 0) of the linear model's simulated output(s) in the SM regressor.
     input_lags : sequence of int, default ()
         Lags (>= 0) of every measured input in the SM regressor.
-    epsilon, gamma, gamma_margin, scaling, linear_part, epsilons, progress
-        As for :class:`~neckid.SetMembership`, applied to the SM map (``linear_part`` adds a
-        least-squares linear map of ``v`` under the SM residual; by default the SM map is the
-        whole correction).
+    epsilon, gamma, gamma_margin, scaling, input_weight, linear_part, epsilons, progress
+        As for :class:`~neckid.SetMembership` (same defaults and rules), applied to the SM map
+        (``linear_part`` adds a least-squares linear map of ``v`` under the SM residual; by
+        default the SM map is the whole correction; ``input_weight`` weighs the measured-input
+        terms of ``v`` against the linear model's outputs).
 
     Attributes
     ----------
@@ -123,7 +109,8 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
     Notes
     -----
     ``predict`` and ``simulate`` give the same values: the model is of output-error type, so its
-    one-step predictor is its simulation (the measured outputs only set the initial conditions).
+    one-step predictor is its simulation (the measured outputs only set the initial conditions);
+    the result of ``predict`` says so with ``kind="simulation"``.
 
     Examples
     --------
@@ -145,15 +132,36 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
     [73, 89]
     """
 
+    #: The SM map's hyper-parameters: SetMembership's, with the same rules and defaults.
+    _SM_PARAMETERS = (
+        "epsilon",
+        "gamma",
+        "gamma_margin",
+        "scaling",
+        "input_weight",
+        "linear_part",
+        "epsilons",
+        "progress",
+    )
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "linear_lags": ["lag-list"],
+        "input_lags": ["lag-list"],
+        **{k: SetMembership._parameter_constraints[k] for k in _SM_PARAMETERS},
+    }
+    predicts_by_simulation = True
+
     def __init__(
         self,
         lags: Lags | None = None,
+        *,
         linear_lags: Sequence[int] = (0, 1),
         input_lags: Sequence[int] = (),
         epsilon: float | ArrayLike | None = None,
         gamma: float | ArrayLike | None = None,
-        gamma_margin: float = 1.1,
+        gamma_margin: float = DEFAULT_GAMMA_MARGIN,
         scaling: str | ArrayLike = "std",
+        input_weight: float = 1.0,
         linear_part: bool = False,
         epsilons: ArrayLike | None = None,
         progress: Any = None,
@@ -165,14 +173,15 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
         self.gamma = gamma
         self.gamma_margin = gamma_margin
         self.scaling = scaling
+        self.input_weight = input_weight
         self.linear_part = linear_part
         self.epsilons = epsilons
         self.progress = progress
 
     # ------------------------------------------------------------------ fit
     def _sm_lags(self, input_names: Sequence[str], output_names: Sequence[str]) -> Lags:
-        linear = _lag_tuple(self.linear_lags, "linear_lags")
-        inputs = _lag_tuple(self.input_lags, "input_lags")
+        linear = check_lag_list(self.linear_lags, "linear_lags")
+        inputs = check_lag_list(self.input_lags, "input_lags")
         spec: dict[str, list[int]] = {name: list(inputs) for name in input_names}
         for name in output_names:
             spec[name + LINEAR_SUFFIX] = list(linear)
@@ -217,6 +226,7 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
             ``self``.
         """
         experiments = as_experiments(data)
+        self._validate_params()
         first = experiments[0]
         if first.n_outputs == 0:
             raise ValueError("data has no output channel to identify")
@@ -234,70 +244,65 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
         augmented = [
             self._linear_run(d, f"training experiment {i}") for i, d in enumerate(experiments)
         ]
-        self.sm_ = SetMembership(
-            sm_lags,
-            epsilon=self.epsilon,
-            gamma=self.gamma,
-            gamma_margin=self.gamma_margin,
-            scaling=self.scaling,
-            linear_part=self.linear_part,
-            epsilons=self.epsilons,
-            progress=self.progress,
-        ).fit(augmented)
+        self.sm_ = SetMembership(sm_lags, **{k: getattr(self, k) for k in self._SM_PARAMETERS}).fit(
+            augmented
+        )
+        self._set_channels(first)
         self._set_fitted_attributes()
         return self
 
     def _set_fitted_attributes(self) -> None:
         self.lags_: ResolvedLags = self.linear_.lags_
         self.max_lag_ = max(self.linear_.lags_.max_lag, self.sm_.lags_.max_lag)
-        self.n_inputs_ = self.linear_.n_inputs_
-        self.n_outputs_ = self.linear_.n_outputs_
         self.n_samples_ = self.sm_.n_samples_
-        self.ts_ = self.linear_.ts_
         self.epsilon_ = self.sm_.epsilon_
         self.gamma_ = self.sm_.gamma_
 
     @property
     def gamma_curve_(self) -> GammaCurve | None:
         """The SM map's γ*(ε) curve (see :attr:`SetMembership.gamma_curve_`)."""
-        check_is_fitted(self, "sm_")
+        check_is_fitted(self)
         return self.sm_.gamma_curve_
 
     # ------------------------------------------------------------------ evaluation
-    def _run(self, data: IOData, kind: Any) -> ModelResult:
-        check_is_fitted(self, "sm_")
-        self.lags_.check_compatible(data)
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
+        """Free-run simulation with the SM bounds of each step.
+
+        The first ``max_lag_`` outputs of ``data`` (or ``initial``, shape ``(n_outputs,)`` or
+        ``(max_lag_, n_outputs)``, when ``data`` holds inputs only) are the initial conditions
+        (bounds NaN there); from then on only ``data.u`` is used. ``lower``/``upper`` bound the
+        noise-free output ``f_o(v(t))``; a measurement consistent with the prior lies within ε of
+        them.
+        """
+        check_is_fitted(self)
+        y = self._initial_outputs(data, initial)
+        with_initial = IOData(
+            data.u,
+            y,
+            ts=data.ts,
+            input_names=data.input_names,
+            output_names=self.output_names_,
+            input_units=data.input_units,
+            output_units=self.output_units_,
+            t0=data.t0,
+            name=data.name,
+        )
+        result = self.sm_.predict(self._linear_run(with_initial, "data"))
         m = self.max_lag_
-        if data.n_samples <= m:
-            raise ValueError(
-                f"data has {data.n_samples} samples, too few for lags up to {m}: it needs at least"
-                f" {m + 1}"
-            )
-        result = self.sm_.predict(self._linear_run(data, "data"))
-        y = np.array(data.y, dtype=np.float64)
         lower = np.full(y.shape, np.nan)
         upper = np.full(y.shape, np.nan)
         y[m:] = result.y[m:]
         assert result.lower is not None and result.upper is not None
         lower[m:], upper[m:] = result.lower[m:], result.upper[m:]
-        return ModelResult(kind, data.time, y, data.output_names, m, lower, upper)
-
-    def simulate(self, data: IOData) -> ModelResult:
-        """Free-run simulation with the SM bounds of each step.
-
-        The first ``max_lag_`` measured outputs are the initial conditions (bounds NaN there);
-        from then on only ``data.u`` is used. ``lower``/``upper`` bound the noise-free output
-        ``f_o(v(t))``; a measurement consistent with the prior lies within ε of them.
-        """
-        return self._run(data, "simulation")
+        return self._result("simulation", data, y, lower, upper)
 
     def predict(self, data: IOData) -> ModelResult:
-        """The same values as :meth:`simulate` (an output-error model predicts by simulating)."""
-        return self._run(data, "prediction")
+        """The free run of :meth:`simulate`, with ``kind="simulation"``.
 
-    def fit_percent(self, data: IOData) -> FloatArray:
-        """Free-run NRMSE fit [%] per output on ``data`` (MATLAB ``compare``)."""
-        return self.simulate(data).fit_percent(data)
+        An output-error model's one-step predictor is its simulation: no measured output enters
+        its regressor.
+        """
+        return self.simulate(data)
 
     def invalidation(self, data: IOData | Sequence[IOData]) -> Invalidation | list[Invalidation]:
         """Which samples of new data fall outside ``[f_l − ε, f_u + ε]`` of the *simulation*.
@@ -305,7 +310,7 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
         See :meth:`SetMembership.invalidation`; here the regressor is the linear model's free
         run, so a sample outside the band falsifies the prior along the whole simulated record.
         """
-        check_is_fitted(self, "sm_")
+        check_is_fitted(self)
         experiments = as_experiments(data)
         augmented = [self._linear_run(d, f"experiment {i}") for i, d in enumerate(experiments)]
         result = self.sm_.invalidation(augmented)
@@ -314,21 +319,22 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
 
     def simulator(self) -> ParallelSetMembershipSimulator:
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""
-        check_is_fitted(self, "sm_")
+        check_is_fitted(self)
         return ParallelSetMembershipSimulator(self)
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        check_is_fitted(self, "sm_")
+        check_is_fitted(self)
         linear_arrays, linear_meta = self.linear_._get_state()
         sm_arrays, sm_meta = self.sm_._get_state()
         arrays = {f"linear__{k}": v for k, v in linear_arrays.items()}
         arrays.update({f"sm__{k}": v for k, v in sm_arrays.items()})
         meta = {
             "params": {
-                "linear_lags": list(_lag_tuple(self.linear_lags, "linear_lags")),
-                "input_lags": list(_lag_tuple(self.input_lags, "input_lags")),
+                "linear_lags": list(check_lag_list(self.linear_lags, "linear_lags")),
+                "input_lags": list(check_lag_list(self.input_lags, "input_lags")),
             },
+            **self._channels_meta(),
             "linear": linear_meta,
             "sm": sm_meta,
         }
@@ -341,13 +347,15 @@ class ParallelSetMembership(BaseEstimator, ModelFile):
         def part(prefix: str) -> dict[str, NDArray[Any]]:
             return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
 
-        model = cls(lags=None, **meta["params"])
+        model = cls(None, **meta["params"])
         model.linear_ = LinearARX._from_state(part("linear__"), meta["linear"])
         model.sm_ = SetMembership._from_state(part("sm__"), meta["sm"])
         model.lags = model.linear_.lags
         sm_params = model.sm_.get_params()
-        for name in ("epsilon", "gamma", "gamma_margin", "scaling", "linear_part", "epsilons"):
+        for name in model._SM_PARAMETERS:
             setattr(model, name, sm_params[name])
+        model.ts_ = model.linear_.ts_
+        model._restore_channels(meta, model.linear_.lags_)
         model._set_fitted_attributes()
         return model
 

@@ -9,28 +9,20 @@ identified model's ``simulator()``) and logs everything in one :class:`~neckid.d
 from __future__ import annotations
 
 import math
-from typing import Any, Literal, Protocol
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid.data import IOData, check_finite, check_ts
+from neckid.data import IOData
+from neckid.plant.protocols import Controller, Plant
+from neckid.validation import check_finite, check_ts
 
-__all__ = ["InclinationController", "Plant", "closed_loop"]
+__all__ = ["InclinationController", "closed_loop"]
 
 FloatArray = NDArray[np.float64]
 
 _TENDON_ANGLES = np.radians([0.0, 120.0, 240.0])
-
-
-class Plant(Protocol):
-    """What :func:`closed_loop` needs from a plant: ``reset()`` and ``step(u) -> y``."""
-
-    def reset(self) -> None:  # pragma: no cover - protocol
-        """Back to the initial state."""
-
-    def step(self, u: ArrayLike) -> Any:  # pragma: no cover - protocol
-        """Apply input ``u`` for one sample; return the output of this sample."""
 
 
 class InclinationController:
@@ -154,7 +146,7 @@ def _names_for(prefix: str, count: int) -> list[str]:
 
 def closed_loop(
     plant: Plant,
-    controller: InclinationController | Any,
+    controller: Controller,
     reference: ArrayLike,
     ts: float,
     excitation: ArrayLike | None = None,

@@ -46,7 +46,7 @@ def plot_gain_schedule(
     """
     import matplotlib.pyplot as plt
 
-    check_is_fitted(model, "gain_coefficients_")
+    check_is_fitted(model)
     if ax is None:
         fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
     else:

@@ -1,0 +1,61 @@
+"""What a closed-loop experiment needs from a plant and from a controller.
+
+Structural types (:class:`typing.Protocol`): any object with the two methods fits, with no base
+class to inherit. The simulated neck (:class:`~neckid.plant.SoftNeck`), an identified model's
+``simulator()`` and a real rig's driver are plants; :class:`~neckid.plant.InclinationController`
+is a controller. :func:`~neckid.plant.closed_loop` and
+:func:`~neckid.experiments.operating_points.identify_operating_points` take them.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from numpy.typing import ArrayLike
+
+__all__ = ["Controller", "Plant"]
+
+
+class Plant(Protocol):
+    """A discrete-time plant: ``reset()``, then ``step(u) -> y`` once per sample.
+
+    ``step`` applies the command of sample ``k`` and returns the output of sample ``k``, which
+    must not depend on that command (no direct feedthrough), so that a loop can compute the next
+    command from it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> class Integrator:
+    ...     def reset(self):
+    ...         self.y = 0.0
+    ...     def step(self, u):
+    ...         y, self.y = self.y, self.y + float(np.ravel(u)[0])
+    ...         return np.array([y])
+    >>> def first_outputs(plant: Plant, n: int) -> list[float]:
+    ...     plant.reset()
+    ...     return [float(plant.step([1.0])[0]) for _ in range(n)]
+    >>> first_outputs(Integrator(), 3)
+    [0.0, 1.0, 2.0]
+    """
+
+    def reset(self) -> object:  # pragma: no cover - protocol
+        """Go back to the initial state."""
+
+    def step(self, u: ArrayLike) -> ArrayLike:  # pragma: no cover - protocol
+        """Apply the input ``u`` (shape ``(n_inputs,)``) for one sample; return this sample's output."""
+
+
+class Controller(Protocol):
+    """A discrete-time controller: ``reset()``, then ``step(reference, measurement) -> command``.
+
+    For the neck, ``reference`` and ``measurement`` are the inclination in degrees (or
+    inclination and orientation with three tendons) and the command is the motor velocity in
+    rad/s, one value per motor.
+    """
+
+    def reset(self) -> object:  # pragma: no cover - protocol
+        """Clear the controller's state (integrals, filters)."""
+
+    def step(self, reference: ArrayLike, measurement: ArrayLike) -> ArrayLike:  # pragma: no cover
+        """One control period: the command(s) from the reference and the last measurement."""

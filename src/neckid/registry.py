@@ -1,0 +1,176 @@
+"""The one registry of identification methods: a name, a label, and a factory of unfitted estimators.
+
+The command line, :func:`~neckid.select_lags`, the benchmark, the demo and the contract test all
+find methods here, by one spelling. A new model is added by registering it in :data:`_METHODS`
+(and nowhere else): the contract test then runs over it, ``neckid identify --method`` offers it,
+and ``neckid.load_model`` reads its files (model classes are found through this table, see
+:func:`model_classes`).
+
+Examples
+--------
+>>> import neckid
+>>> sorted(neckid.methods())
+['arx', 'nn', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-parallel']
+>>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
+>>> type(model).__name__, model.linear_part
+('SetMembership', True)
+"""
+
+from __future__ import annotations
+
+import importlib
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from neckid.regressors import Lags
+
+__all__ = ["DEPRECATED_NAMES", "Method", "get_method", "methods", "model_classes"]
+
+
+@dataclass(frozen=True)
+class Method:
+    """One identification method of the registry.
+
+    Attributes
+    ----------
+    name : str
+        The one spelling used everywhere (``"sm-linear"``).
+    label : str
+        How tables and figures name it (``"Set Membership + linear part"``).
+    estimator : str
+        ``"module:Class"`` of the estimator class.
+    defaults : mapping
+        Hyper-parameters that make this method out of its class (``{"linear_part": True}``);
+        :meth:`make` applies them before the caller's.
+    quick : mapping
+        Settings for a fast smoke run (tests, ``--quick``): fewer iterations, smaller networks.
+    summary : str
+        One line for ``--help`` and the README.
+    """
+
+    name: str
+    label: str
+    estimator: str
+    summary: str
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    quick: Mapping[str, Any] = field(default_factory=dict)
+
+    def estimator_class(self) -> type:
+        """The estimator class (its module is imported on first use)."""
+        module, _, name = self.estimator.partition(":")
+        cls: type = getattr(importlib.import_module(module), name)
+        return cls
+
+    def make(self, lags: Lags | None = None, *, quick: bool = False, **params: Any) -> Any:
+        """An unfitted estimator of this method with regressor ``lags``.
+
+        Parameters
+        ----------
+        lags : Lags, optional
+            The regressor (for ``sm-parallel``: its linear model's; for ``scheduled``:
+            ``Lags.arx(1, 1, d)``). ``None`` leaves it to be set later with ``set_params``.
+        quick : bool, default False
+            Apply :attr:`quick` (smoke-run settings) before ``params``.
+        **params
+            Any other hyper-parameter of the class, keyword-only.
+        """
+        settings = {**self.defaults, **(self.quick if quick else {}), **params}
+        return self.estimator_class()(lags, **settings)
+
+    __call__ = make
+
+
+_METHODS: tuple[Method, ...] = (
+    Method(
+        "arx",
+        "Linear ARX",
+        "neckid.models.arx:LinearARX",
+        "linear ARX by batch least squares",
+    ),
+    Method(
+        "rls",
+        "CFF-RLS ARX",
+        "neckid.models.rls:RecursiveARX",
+        "ARX by recursive least squares with a constant forgetting factor (0.98)",
+    ),
+    Method(
+        "sm",
+        "Set Membership",
+        "neckid.models.set_membership:SetMembership",
+        "Set Membership NARX (Milanese & Novara 2004), bounds and central estimate",
+    ),
+    Method(
+        "sm-linear",
+        "Set Membership + linear",
+        "neckid.models.set_membership:SetMembership",
+        "Set Membership on the residual of a linear ARX part",
+        defaults={"linear_part": True},
+    ),
+    Method(
+        "sm-parallel",
+        "Set Membership parallel",
+        "neckid.models.sm_parallel:ParallelSetMembership",
+        "Set Membership on the free run of a parallel linear ARX (output-error form)",
+    ),
+    Method(
+        "nn",
+        "Neural NARX 2x25",
+        "neckid.models.neural:NeuralNARX",
+        "neural-network NARX, 2 hidden layers of 25 (tanh)",
+        defaults={"random_state": 0},
+        quick={"hidden_layer_sizes": (8,), "max_iter": 50},
+    ),
+    Method(
+        "scheduled",
+        "Scheduled CFF-RLS",
+        "neckid.models.scheduled:GainScheduledModel",
+        "first-order model N(i)/(z - P(i)) scheduled on the inclination, from CFF-RLS",
+        quick={"window": 30},
+    ),
+)
+
+#: Spellings of earlier releases, accepted by the command line with a deprecation message.
+DEPRECATED_NAMES: Mapping[str, str] = MappingProxyType(
+    {"sm_linear": "sm-linear", "sm_parallel": "sm-parallel", "neural": "nn"}
+)
+
+_BY_NAME = MappingProxyType({m.name: m for m in _METHODS})
+
+
+def methods() -> Mapping[str, Method]:
+    """The registered methods, by name, in a fixed order (read-only mapping)."""
+    return _BY_NAME
+
+
+def get_method(name: str, *, allow_deprecated: bool = True) -> Method:
+    """The method called ``name``; a deprecated spelling warns (``FutureWarning``) and maps over.
+
+    Raises
+    ------
+    ValueError
+        If no method has that name (the message lists the names).
+    """
+    if allow_deprecated and name in DEPRECATED_NAMES:
+        new = DEPRECATED_NAMES[name]
+        warnings.warn(
+            f"method name {name!r} is deprecated and will be removed in the next release;"
+            f" use {new!r}",
+            FutureWarning,
+            stacklevel=2,
+        )
+        name = new
+    if name not in _BY_NAME:
+        raise ValueError(f"method must be one of {list(_BY_NAME)}; got {name!r}")
+    return _BY_NAME[name]
+
+
+def model_classes() -> Mapping[str, str]:
+    """Model-file class name -> module, for :func:`neckid.load_model` (derived from the methods)."""
+    classes: dict[str, str] = {}
+    for method in _METHODS:
+        module, _, name = method.estimator.partition(":")
+        classes[name] = module
+    return MappingProxyType(classes)

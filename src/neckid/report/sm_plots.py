@@ -1,0 +1,44 @@
+"""Figures of Set Membership identification: the γ*(ε) curve."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from neckid.models.set_membership import GammaCurve, choose_epsilon
+
+__all__ = ["plot_gamma_curve"]
+
+
+def plot_gamma_curve(curve: GammaCurve, ax: Any = None) -> Any:
+    """Plot γ*(ε) per output with the chosen ε (the knee) circled; returns the figure.
+
+    Parameters
+    ----------
+    curve : GammaCurve
+        From :func:`neckid.gamma_curve` or ``SetMembership.gamma_curve_``.
+    ax : matplotlib Axes, optional
+        Where to draw; a new figure when omitted.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6, 4))
+    else:
+        fig = ax.figure
+    knees = curve.knee()
+    for c, name in enumerate(curve.output_names):
+        finite = np.isfinite(curve.gamma[:, c])
+        (line,) = ax.plot(curve.epsilons[finite, c], curve.gamma[finite, c], ".-", label=name)
+        k = choose_epsilon(curve.epsilons[:, c], curve.gamma[:, c])
+        ax.plot([knees[c]], [curve.gamma[k, c]], "o", mfc="none", ms=10, color=line.get_color())
+    ax.set_xlabel("noise bound ε [output unit]")
+    ax.set_ylabel("γ*(ε) [output unit per unit of scaled regressor]")
+    ax.set_yscale("log")
+    ax.legend(title="output (circle: chosen ε)")
+    return fig
