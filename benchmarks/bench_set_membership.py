@@ -25,10 +25,9 @@ import numpy as np
 from neckid import IOData, Lags
 from neckid.models._sm_kernels import (
     SMTree,
-    bounds_reference,
     gamma_star,
-    gamma_star_reference,
 )
+from neckid.models._sm_reference import bounds_reference, gamma_star_reference
 from neckid.models.set_membership import SetMembership, _default_epsilons
 
 LAGS = Lags(outputs=3, inputs=[8, 9, 10])

@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from neckid import Lags, LinearARX, ParallelSetMembership
-from neckid.experiments.benchmark import _free_run, _load_softneck
+from neckid.experiments.benchmark import load_softneck_benchmark
 from neckid.metrics import fit_percent
+from neckid.selection import free_run
 
 #: The regressor the benchmark's selection chose for the ARX on the training log.
 ARX_LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
@@ -27,7 +28,7 @@ ARX_LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
 
 def free_run_fit(model, record) -> float:
     """Free-run fit [%] as in the benchmark (the model's own initial samples skipped)."""
-    y, skip = _free_run(model, record, None)
+    y, skip = free_run(model, record)
     return float(fit_percent(record.y, y, skip=skip)[0]) if np.isfinite(y).all() else -np.inf
 
 
@@ -37,7 +38,7 @@ def main() -> None:
     parser.add_argument("softneck", type=Path, help="folder of the real soft-neck logs")
     args = parser.parse_args()
     warnings.filterwarnings("ignore")
-    bench = _load_softneck(args.softneck, quick=False)
+    bench = load_softneck_benchmark(args.softneck)
     cross = LinearARX(ARX_LAGS).fit(bench.train)
     rows = []
     for name, record in bench.tests.items():

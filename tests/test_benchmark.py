@@ -1,19 +1,44 @@
 from __future__ import annotations
 
+import itertools
 import json
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from typer.testing import CliRunner
 
-from neckid import IOData, Lags, LinearARX
+from neckid import IOData, Lags, LinearARX, methods
+from neckid.cli import app
 from neckid.experiments.benchmark import (
-    PUBLISHED,
+    BENCHMARK_METHODS,
+    BENCHMARKS,
+    LAG_GRIDS,
+    SOFTNECK_STAIR_EDGES,
     SOFTNECK_TRAINING_LOG,
-    _free_run,
+    candidates,
+    load_benchmark,
+    published_frame,
+    published_table,
+    published_units,
     run_benchmark,
     softneck_protocol,
+)
+from neckid.registry import DEPRECATED_NAMES
+from neckid.selection import free_run, score_candidates, select_lags
+
+#: The shared data folder, beside the repository (``../shared/data`` from its root).
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+needs_softneck = pytest.mark.skipif(
+    not (SHARED_DATA / "softneck").is_dir(),
+    reason=f"the real soft-neck logs are not at {SHARED_DATA / 'softneck'}",
+)
+needs_tanks = pytest.mark.skipif(
+    not (SHARED_DATA / "benchmarks" / "cascaded_tanks").is_dir(),
+    reason=f"the cascaded-tanks benchmark file is not at {SHARED_DATA / 'benchmarks'}",
 )
 
 
@@ -63,14 +88,16 @@ def data_dir(tmp_path: Path) -> Path:
     return root
 
 
+# ---------------------------------------------------------------------------- a quick run
 def test_quick_benchmark_on_written_data(data_dir, tmp_path):
     out = tmp_path / "out"
     report = run_benchmark(
-        data_dir, methods=["arx", "sm", "sm_parallel"], quick=True, errors="raise", output_dir=out
+        data_dir, methods=["arx", "sm", "sm-parallel"], quick=True, errors="raise", output_dir=out
     )
     table = report.table
     assert set(table["benchmark"]) == {"softneck", "cascaded_tanks"}
     assert set(report.details["missing"]) == {"silverbox", "bouc_wen", "robot_arm"}
+    assert set(table["method"]) == {"arx", "sm", "sm-parallel"}  # the registry's names
     neck = table[table["benchmark"] == "softneck"]
     # Two validation logs with a raw inclination (the 3-column log is left out), plus the mean.
     assert set(neck["test"]) == {
@@ -83,23 +110,42 @@ def test_quick_benchmark_on_written_data(data_dir, tmp_path):
     arx = neck[(neck["method"] == "arx") & (neck["test"] != "mean")]
     assert (arx["fit_percent"] > 90).all()
     assert (table["train_time_s"] >= 0).all()
-    assert "sm_minus_arx" in report.details["benchmarks"]["softneck"]
-    assert "sm_parallel_minus_arx" in report.details["benchmarks"]["softneck"]
+    margins = report.details["benchmarks"]["softneck"]
+    assert set(margins["sm-parallel_minus_arx"]) == {
+        "stair/fra200response.csv",
+        "step/int000stepresponse.csv",
+    }
+    assert "sm_minus_arx" in margins
     assert set(report.published["benchmark"]) == {"cascaded_tanks"}
     written = {p.name for p in out.iterdir()}
     assert written == {"benchmark.csv", "published.csv", "benchmark.json"}
     content = json.loads((out / "benchmark.json").read_text())
     assert len(content["table"]) == len(table)
+    assert content["details"]["settings"]["methods"] == ["arx", "sm", "sm-parallel"]
     assert report.rich_table().row_count == len(table)
 
 
-def test_failures_are_recorded_or_raised(data_dir, monkeypatch):
-    import neckid.experiments.benchmark as bench
+def test_scheduled_runs_on_the_soft_neck_only(data_dir):
+    # The synthetic training log is 22.5 s long: its stairs at 0-20 and 20-22.5 s give two
+    # operating points, enough for the lines with converged_only=False.
+    report = run_benchmark(data_dir, methods="scheduled", quick=True)
+    assert set(report.table["benchmark"]) == {"softneck"}
+    assert report.table["settings"].str.contains("window=50").all()
 
-    def broken(*args, **kwargs):
+
+@pytest.mark.parametrize(("old", "new"), sorted(DEPRECATED_NAMES.items()))
+def test_deprecated_method_names_warn_and_map(data_dir, old, new):
+    with pytest.warns(FutureWarning, match=f"{old!r} is deprecated.*{new!r}"):
+        report = run_benchmark(data_dir, methods=[old], benchmarks=["cascaded_tanks"], quick=True)
+    assert set(report.table["method"]) == {new}
+    assert report.details["settings"]["methods"] == [new]
+
+
+def test_failures_are_recorded_or_raised(data_dir, monkeypatch):
+    def broken(self, data):
         raise RuntimeError("model exploded")
 
-    monkeypatch.setattr(bench, "_select", broken)
+    monkeypatch.setattr(LinearARX, "fit", broken)
     report = run_benchmark(data_dir, methods=["arx"], benchmarks=["cascaded_tanks"], quick=True)
     assert report.table["note"].str.contains("model exploded").all()
     assert report.table["rmse"].isna().all()
@@ -113,6 +159,7 @@ def test_failures_are_recorded_or_raised(data_dir, monkeypatch):
     ("kwargs", "error", "match"),
     [
         ({"methods": ["lstm"]}, ValueError, r"methods must be among .*\['lstm'\]"),
+        ({"methods": ["rls"]}, ValueError, r"methods must be among .*\['rls'\]"),
         ({"benchmarks": ["wiener"]}, ValueError, r"benchmarks must be among .*\['wiener'\]"),
         ({"errors": "ignore"}, ValueError, "errors must be"),
     ],
@@ -127,6 +174,60 @@ def test_missing_data_dir(tmp_path):
         run_benchmark(tmp_path / "nowhere")
 
 
+# ---------------------------------------------------------------------------- the split
+def test_benchmark_methods_are_registry_names():
+    assert set(BENCHMARK_METHODS) <= set(methods())
+    assert list(BENCHMARK_METHODS) == [m for m in methods() if m in BENCHMARK_METHODS]
+    assert set(LAG_GRIDS) == set(BENCHMARKS)
+
+
+def test_candidates_are_made_by_the_registry(data_dir):
+    train = load_benchmark("softneck", data_dir).train
+    for name in BENCHMARK_METHODS:
+        method = methods()[name]
+        options = candidates(name, "softneck", train)
+        assert options, name
+        for settings, estimator in options:
+            assert isinstance(settings, str) and settings
+            assert type(estimator) is method.estimator_class()
+            params = estimator.get_params(deep=False)
+            assert all(params[k] == v for k, v in method.defaults.items()), name
+            assert not hasattr(estimator, "max_lag_")  # unfitted
+    sm_linear = candidates("sm-linear", "softneck", train)
+    assert len(sm_linear) == 5 * 3 * 3  # lags x epsilon x input_weight
+    assert len(candidates("sm", "softneck", train, quick=True)) == 1
+    with pytest.raises(ValueError, match=r"method must be one of .*'rls'"):
+        candidates("rls", "softneck", train)
+
+
+def test_published_json_is_package_data_and_matches_units():
+    text = resources.files("neckid.experiments.benchmark").joinpath("published.json").read_text()
+    raw = json.loads(text)
+    assert set(raw) == {"cascaded_tanks", "silverbox", "bouc_wen"}
+    assert published_units() == {"cascaded_tanks": "V", "silverbox": "mV", "bouc_wen": "m"}
+    table = published_table()
+    assert table["silverbox"]["multisine"]["LSTM"] == 1.50
+    assert table["cascaded_tanks"]["validation"]["GP-NARX"] == 0.622
+    assert table["bouc_wen"]["multisine"]["dynoNet"] == 4.52e-5
+    frame = published_frame()
+    n_figures = sum(len(m) for tests in table.values() for m in tests.values())
+    assert len(frame) == n_figures == 22
+    for name, unit in published_units().items():
+        assert (frame.loc[frame["benchmark"] == name, "rmse_unit"] == unit).all()
+        assert frame.loc[frame["benchmark"] == name, "source"].str.len().gt(0).all()
+    assert published_frame(["softneck", "robot_arm"]).empty
+
+
+@needs_tanks
+def test_published_units_are_those_of_the_loaders():
+    for name, unit in published_units().items():
+        bench = load_benchmark(name, SHARED_DATA)
+        if bench is None:  # pragma: no cover - a partial copy of the shared data
+            pytest.skip(f"{name} is not under {SHARED_DATA}")
+        assert bench.rmse_unit == unit
+
+
+# ---------------------------------------------------------------------------- evaluation
 def test_protocol_initial_samples_are_the_last_before_evaluation():
     # A noiseless ARX system: with the protocol's 50 initial samples the free run starts from the
     # measured outputs just before sample 50, so it is exact from there on.
@@ -137,13 +238,70 @@ def test_protocol_initial_samples_are_the_last_before_evaluation():
         y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + u[t - 1]
     data = IOData(u, y, ts=1.0)
     model = LinearARX(Lags.arx(2, 1, 1), fit_intercept=False).fit(data)
-    simulated, skip = _free_run(model, data, n_initial=50)
+    simulated, skip = free_run(model, data, n_initial=50)
     assert skip == 50
+    np.testing.assert_array_equal(simulated[:48], y[:48, None])  # measured before the start
     np.testing.assert_allclose(simulated[50:], y[50:, None], atol=1e-8)
-    simulated, skip = _free_run(model, data, n_initial=None)
-    assert skip == 2
+    simulated, skip = free_run(model, data, n_initial=None)
+    assert skip == model.max_lag_ == 2
 
 
+def test_free_run_needs_a_fitted_model():
+    with pytest.raises(ValueError, match="not fitted"):
+        free_run(LinearARX(Lags.arx(1, 1, 1)), IOData(np.zeros(10), np.zeros(10), ts=1.0))
+
+
+def test_select_lags_and_score_candidates_agree():
+    # select_lags is score_candidates over clones with the lags set: the same fits, row by row.
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=500)
+    y = np.zeros(500)
+    for t in range(2, 500):
+        y[t] = 0.7 * y[t - 1] + np.tanh(u[t - 2])
+    data = IOData(u, y, ts=0.02)
+    grid = [Lags.arx(na, nb, d) for na, nb, d in itertools.product([1, 2], [1, 2], [1, 2])]
+    selection = select_lags(data[:350], data[350:], grid, "arx", progress=False)
+    scores = score_candidates(
+        [(repr(lags), methods()["arx"].make(lags)) for lags in grid], data[:350], data[350:]
+    )
+    by_candidate = selection.table.set_index("candidate").sort_index()
+    for kind in ("prediction", "simulation"):
+        np.testing.assert_array_equal(by_candidate[f"fit_{kind}"], scores[f"fit_{kind}"])
+    assert selection.best_lags == grid[int(scores["fit_simulation"].idxmax())]
+    assert (scores["rmse_simulation"] > 0).all() and (scores["error"] == "").all()
+
+
+def test_score_candidates_marks_a_diverging_free_run():
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=300)
+    y = np.cumsum(u) * 0.1
+    data = IOData(u, y, ts=1.0)
+    unstable = LinearARX(Lags.arx(1, 1, 1))
+    table = score_candidates(
+        [("stable", LinearARX(Lags.arx(2, 2, 1))), ("x", unstable)], data, data
+    )
+    assert list(table["name"]) == ["stable", "x"]
+    assert not hasattr(unstable, "max_lag_")  # the estimators given are not fitted
+    with pytest.raises(TypeError, match=r"candidates\[0\] must be a \(name, estimator\) pair"):
+        score_candidates([LinearARX()], data, data)
+    with pytest.raises(ValueError, match="criteria must hold"):
+        score_candidates([("a", LinearARX())], data, data, criteria=["one-step"])
+
+
+def test_select_lags_takes_a_registry_name():
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=300)
+    y = np.zeros(300)
+    for t in range(1, 300):
+        y[t] = 0.5 * y[t - 1] + u[t - 1]
+    data = IOData(u, y, ts=1.0)
+    result = select_lags(data[:200], data[200:], [Lags.arx(1, 1, 1)], "arx", progress=False)
+    assert result.best_lags == Lags.arx(1, 1, 1)
+    with pytest.raises(ValueError, match="method must be one of"):
+        select_lags(data[:200], data[200:], [Lags.arx(1, 1, 1)], "lstm", progress=False)
+
+
+# ---------------------------------------------------------------------------- the soft neck
 def test_softneck_protocol_needs_the_raw_inclination():
     log = IOData(
         u=np.ones((5, 1)),
@@ -156,6 +314,57 @@ def test_softneck_protocol_needs_the_raw_inclination():
         softneck_protocol(log)
 
 
-def test_published_figures_are_those_of_the_source():
-    assert PUBLISHED["silverbox"]["multisine"]["LSTM"] == 1.50
-    assert PUBLISHED["cascaded_tanks"]["validation"]["GP-NARX"] == 0.622
+@needs_softneck
+def test_scheduled_candidate_is_one_point_per_stair():
+    # The scheduled candidate fits from the training log itself; it must find the operating
+    # points the stairs give when identified one by one (the benchmark's former ScheduledFromStairs).
+    from neckid.experiments.operating_points import operating_points_from_logs
+    from neckid.models.scheduled import GainScheduledModel
+
+    train = load_benchmark("softneck", SHARED_DATA).train
+    [(_, estimator)] = candidates("scheduled", "softneck", train)
+    model = estimator.fit(train)
+    stairs = [
+        train.time_slice(train.t0 + a, train.t0 + b)
+        for a, b in itertools.pairwise(SOFTNECK_STAIR_EDGES)
+        if train.t0 + a < train.time[-1]
+    ]
+    points = operating_points_from_logs(
+        stairs, input="motor_velocity", output="inclination", skip=40, window=100
+    ).table
+    assert len(points) == len(model.inclinations_) == 8
+    np.testing.assert_allclose(model.inclinations_, points["inclination"], rtol=1e-12)
+    np.testing.assert_allclose(model.gains_, points["gain"], rtol=1e-12)
+    np.testing.assert_allclose(model.poles_, points["pole"], rtol=1e-12)
+    reference = GainScheduledModel.from_points(
+        points["inclination"], points["gain"], points["pole"], ts=train.ts
+    )
+    np.testing.assert_allclose(model.gain_coefficients_, reference.gain_coefficients_, rtol=1e-12)
+    np.testing.assert_allclose(model.pole_coefficients_, reference.pole_coefficients_, rtol=1e-12)
+
+
+@needs_tanks
+def test_arx_on_cascaded_tanks_matches_the_documented_figure():
+    # docs/benchmarks.md: linear ARX 0.644 V on the validation record (least squares: no
+    # randomness; the lags are chosen on the training record by the benchmark's own rule).
+    report = run_benchmark(SHARED_DATA, methods=["arx"], benchmarks=["cascaded_tanks"])
+    [row] = report.table.to_dict(orient="records")
+    assert row["rmse"] == pytest.approx(0.644, abs=5e-4)
+    assert row["settings"] == "lags=Lags(outputs=[1, 2, 3, 4], inputs=[1, 2, 3, 4])"
+
+
+# ---------------------------------------------------------------------------- the command line
+def test_cli_lists_registry_names_and_maps_deprecated_ones(data_dir, tmp_path):
+    runner = CliRunner()
+    help_text = runner.invoke(app, ["benchmark", "--help"], terminal_width=200).output
+    for name in BENCHMARK_METHODS:
+        assert name in help_text
+    result = runner.invoke(
+        app,
+        ["benchmark", "--data-dir", str(data_dir), "--methods", "neural", "--only",
+         "cascaded_tanks", "--quick", "--out", str(tmp_path / "out")],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "deprecated" in result.output and "'nn'" in result.output
+    table = pd.read_csv(tmp_path / "out" / "benchmark.csv")
+    assert set(table["method"]) == {"nn"}

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 from scipy.io import savemat
 
-from neckid.data import IOData, as_experiments, ts_from_time
+from neckid.data import IOData, as_experiments
+from neckid.validation import check_uniform_time
 
 
 @pytest.fixture
@@ -140,9 +141,30 @@ def test_list_of_experiments(log: IOData) -> None:
         as_experiments([])
 
 
-def test_ts_from_time_uniform() -> None:
-    ts, t0 = ts_from_time(2.0 + 0.1 * np.arange(100))
+def test_uniform_time_gives_mean_step_and_start() -> None:
+    ts, t0 = check_uniform_time(2.0 + 0.1 * np.arange(100))
     assert ts == pytest.approx(0.1) and t0 == 2.0
+    # Jitter within 5 % is accepted; ts is the mean step (t[-1] - t[0]) / (n - 1).
+    jittered = 0.02 * np.arange(11) + 1e-4 * np.array([0, 1, -1] * 3 + [0, 0])
+    assert check_uniform_time(jittered)[0] == pytest.approx(0.02, rel=1e-12)
+
+
+def test_uniform_time_with_repeats_and_a_given_period() -> None:
+    stamps = [0.0, 0.1, 0.2, 0.2, 0.3]
+    assert check_uniform_time(stamps, allow_repeats=True) == (pytest.approx(0.1), 0.0)
+    assert check_uniform_time(stamps, ts=0.1, allow_repeats=True) == (0.1, 0.0)
+    with pytest.raises(ValueError, match=r"where ts is 0.2 s"):
+        check_uniform_time(stamps, ts=0.2, allow_repeats=True)
+    with pytest.raises(ValueError, match=r"'time' has the same time stamp 1.0 on every row"):
+        check_uniform_time([1.0, 1.0, 1.0], allow_repeats=True)
+
+
+def test_from_frame_reads_the_time_column() -> None:
+    frame = pd.DataFrame({"clock": 3.0 + 0.05 * np.arange(6), "a": np.arange(6.0)})
+    data = IOData.from_frame(frame, ["a"], time="clock")
+    assert data.ts == pytest.approx(0.05) and data.t0 == 3.0
+    with pytest.raises(ValueError, match=r"time column 'clock' is not uniformly sampled"):
+        IOData.from_frame(frame.drop(index=3), ["a"], time="clock")
 
 
 BAD = [
@@ -199,22 +221,22 @@ BAD = [
     (lambda: IOData(u=np.zeros((2, 2, 2))), ValueError, r"u must be 1-D or 2-D.*\(2, 2, 2\)"),
     (lambda: IOData(u=["a", "b"]), TypeError, r"u must be numeric"),
     (
-        lambda: ts_from_time([0.0, 0.1, 0.05, 0.2]),
+        lambda: check_uniform_time([0.0, 0.1, 0.05, 0.2]),
         ValueError,
         r"time column 'time' is not sorted: row 2 has t=0.05 after t=0.1",
     ),
     (
-        lambda: ts_from_time([0.0, 0.1, 0.1, 0.2]),
+        lambda: check_uniform_time([0.0, 0.1, 0.1, 0.2]),
         ValueError,
         r"repeats the time stamp 0.1 at rows 1 and 2",
     ),
     (
-        lambda: ts_from_time([0.0, 0.1, 0.2, 0.5, 0.6]),
+        lambda: check_uniform_time([0.0, 0.1, 0.2, 0.5, 0.6]),
         ValueError,
         r"not uniformly sampled: the step before row 3",
     ),
     (
-        lambda: ts_from_time([0.0, np.nan, 0.2]),
+        lambda: check_uniform_time([0.0, np.nan, 0.2]),
         ValueError,
         r"time column 'time' has a non-finite value nan at row 1",
     ),

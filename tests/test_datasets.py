@@ -112,9 +112,16 @@ def test_trailing_comma_and_blank_lines_are_accepted(tmp_path):
         (["0, 1, 2", "0.025, 1, 2, 3"], r"line 2: 4 fields"),
         (["0, 1, 2", "0.025, abc, 2"], r"line 2, column 2 \(inclination_filtered\): 'abc'"),
         (["0, 1, 2", "0.025, 1, nan"], r"line 2, column 3 \(motor_position\): non-finite"),
-        (["0, 1, 2", "0.025, 1, 2", "0.01, 1, 2"], r"time goes back at data row 2"),
-        (["0, 1, 2", "0.025, 1, 2", "0.1, 1, 2"], r"time step before data row 2 is 0.075"),
-        (["0, 1, 2", "0, 1, 2"], r"same time stamp"),
+        (
+            ["0, 1, 2", "0.025, 1, 2", "0.01, 1, 2"],
+            r"bad.csv: time column 'time' is not sorted: row 2 has t=0.01 after t=0.025",
+        ),
+        (
+            ["0, 1, 2", "0.025, 1, 2", "0.1, 1, 2"],
+            r"bad.csv: .*not uniformly sampled: the step before row 2 is 0.075 s",
+        ),
+        (["0, 1, 2", "0, 1, 2"], r"same time stamp 0.0 on every row"),
+        (["0, 1, 2"], r"bad.csv: time column 'time' needs at least 2 time stamps.*; got 1"),
         ([], r"no data row"),
     ],
 )
@@ -144,8 +151,13 @@ def test_repeated_time_stamps(tmp_path):
 
 def test_ts_can_be_inferred(tmp_path):
     rows = [[0.01 * k, k, k] for k in range(6)]
-    data = load_softneck_log(write_log(tmp_path / "log.csv", rows), ts=None)
+    path = write_log(tmp_path / "log.csv", rows)
+    data = load_softneck_log(path, ts=None)
     assert data.ts == pytest.approx(0.01)
+    with pytest.raises(ValueError, match=r"log.csv: .*step before row 1 is 0.01 s .* where ts is"):
+        load_softneck_log(path)  # the bench's 0.025 s
+    with pytest.raises(ValueError, match=r"ts must be a positive number of seconds; got 0\.0"):
+        load_softneck_log(path, ts=0.0)
 
 
 def test_directory_loader(tmp_path):

@@ -94,6 +94,16 @@ BAD = [
         r"skip must be a whole number >= 0; got -1",
     ),
     (
+        lambda: mae([0.0, 1.0], [0.0, 1.0], skip=1.0),
+        TypeError,
+        r"skip must be a whole number >= 0; got 1.0",
+    ),
+    (
+        lambda: residual_autocorrelation(np.ones((5, 2))),
+        ValueError,
+        r"residuals must be 1-D .*got shape \(5, 2\)",
+    ),
+    (
         lambda: residual_autocorrelation([0.0, 1.0, np.nan, 2.0]),
         ValueError,
         r"residuals has a non-finite value nan at row 2",
@@ -102,12 +112,12 @@ BAD = [
     (
         lambda: residual_autocorrelation(np.arange(10.0), max_lag=10),
         ValueError,
-        r"max_lag must be in \[1, 9\]; got 10",
+        r"max_lag must be a whole number in \[1, 9\]; got 10",
     ),
     (
         lambda: residual_autocorrelation(np.arange(10.0), max_lag=2, confidence=1.5),
         ValueError,
-        r"confidence must be in \(0, 1\); got 1.5",
+        r"confidence must be a number in \(0, 1\); got 1.5",
     ),
     (
         lambda: residual_input_correlation(np.arange(10.0), np.arange(9.0)),

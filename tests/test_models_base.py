@@ -35,7 +35,8 @@ def test_model_result_metrics_skip_initial_conditions(arx_data: IOData, model: L
     np.testing.assert_allclose(result.fit_percent(arx_data), [100.0], atol=1e-6)
     assert result.rmse(arx_data)[0] < 1e-8 and result.mae(arx_data.y)[0] < 1e-8
     frame = result.to_frame()
-    assert list(frame.columns) == ["time", "incl"] and frame.attrs["kind"] == "simulation"
+    assert list(frame.columns) == ["time", "m1", "m2", "incl"]
+    assert frame.attrs["kind"] == "simulation" and frame.attrs["units"]["time"] == "s"
     bounded = ModelResult(
         "simulation", result.time, result.y, ("incl",), 2, lower=result.y - 1, upper=result.y + 1
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from neckid import IOData
@@ -10,9 +11,9 @@ from neckid.experiments.operating_points import (
     OperatingPointResult,
     identify_operating_points,
     operating_points_from_logs,
-    prbs,
 )
 from neckid.models.scheduled import GainScheduledModel
+from neckid.signals import random_binary
 
 TRUE_GAIN = (-0.02, 1.5)
 TRUE_POLE = (0.01, 0.3)
@@ -88,9 +89,10 @@ def test_fit_schedule_uses_converged_points_only(stand_in_result: OperatingPoint
     edited = OperatingPointResult(
         table, stand_in_result.logs, stand_in_result.models, stand_in_result.ts
     )
-    schedule = GainScheduledModel().fit(edited)
+    schedule = edited.fit_schedule()
+    assert isinstance(schedule, GainScheduledModel)
     assert abs(schedule.gain_coefficients_[1] - TRUE_GAIN[1]) < 0.05
-    everything = GainScheduledModel().fit(edited, converged_only=False)
+    everything = edited.fit_schedule(converged_only=False)
     assert everything.gain_coefficients_[1] > 10
 
 
@@ -112,14 +114,35 @@ def test_on_the_simulated_neck() -> None:
     assert result.logs[0].input_names[:2] == ("reference", "velocity_command")
 
 
-def test_prbs() -> None:
-    x = prbs(1000, 0.7, clock=4, seed=3)
-    assert set(np.unique(x)) == {-0.7, 0.7}
-    assert np.all(x.reshape(-1, 4) == x[::4, None])
-    np.testing.assert_array_equal(x, prbs(1000, 0.7, clock=4, seed=3))
-    assert abs(x.mean()) < 0.1
-    with pytest.raises(ValueError, match="clock must be a whole number of samples >= 1; got 0"):
-        prbs(10, 1.0, clock=0)
+def test_excitation_is_random_binary_drawn_point_after_point(monkeypatch) -> None:
+    """With a controller that commands nothing, the logged command is the excitation itself."""
+    import neckid.experiments.operating_points as protocol
+
+    class Silent:
+        def reset(self) -> None:
+            pass
+
+        def step(self, reference: float, measurement: np.ndarray) -> np.ndarray:
+            return np.zeros(1)
+
+    def logs_only(logs, **options) -> OperatingPointResult:  # skip the identification
+        return OperatingPointResult(pd.DataFrame(), tuple(logs), (), logs[0].ts)
+
+    monkeypatch.setattr(protocol, "operating_points_from_logs", logs_only)
+    result = identify_operating_points(
+        stand_in_plant(),
+        Silent(),
+        [10.0, 20.0],
+        settle_time=1.0,
+        hold_time=2.0,
+        excitation_amplitude=0.5,
+        excitation_clock=3,
+        seed=11,
+    )
+    rng = np.random.default_rng(11)
+    for log in result.logs:
+        expected = random_binary(100, 0.5, 3, seed=rng)
+        np.testing.assert_array_equal(log.channel("velocity_command"), expected)
 
 
 def test_bad_input_refused() -> None:
@@ -128,8 +151,12 @@ def test_bad_input_refused() -> None:
         identify_operating_points(plant, ctrl, [])
     with pytest.raises(ValueError, match="inclinations must be finite"):
         identify_operating_points(plant, ctrl, [10.0, np.nan])
-    with pytest.raises(ValueError, match="hold_time must be a positive finite number; got -1"):
+    with pytest.raises(ValueError, match="hold_time must be a number > 0; got -1"):
         identify_operating_points(plant, ctrl, [10.0], hold_time=-1)
+    with pytest.raises(ValueError, match=r"ts must be a positive number of seconds; got 0\.0"):
+        identify_operating_points(plant, ctrl, [10.0], ts=0.0)
+    with pytest.raises(ValueError, match="clock must be a whole number >= 1; got 0"):
+        identify_operating_points(plant, ctrl, [10.0], excitation_clock=0)
     with pytest.raises(ValueError, match="motor must index one of the 1 motor"):
         identify_operating_points(plant, ctrl, [10.0], motor=2)
     log = IOData(np.ones(50), np.arange(50.0), ts=0.02, input_names=["cmd"], output_names=["incl"])
@@ -139,5 +166,5 @@ def test_bad_input_refused() -> None:
         operating_points_from_logs([log], input="cmd", output="incl")
     with pytest.raises(ValueError, match="targets has 2 values for 1 logs"):
         operating_points_from_logs([log], input="cmd", output="incl", targets=[1, 2], window=10)
-    with pytest.raises(ValueError, match="forgetting_factor must be in"):
+    with pytest.raises(ValueError, match=r"forgetting_factor must be a number in \(0, 1\]"):
         operating_points_from_logs([log], input="cmd", output="incl", forgetting_factor=2.0)

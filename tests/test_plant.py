@@ -258,8 +258,12 @@ def test_bad_commands_and_ts():
         SoftNeck(ts=-0.02)
     with pytest.raises(ValueError, match="configuration"):
         SoftNeck(configuration="spherical")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="kp must be"):
+    with pytest.raises(ValueError, match=r"kp must be a number >= 0; got -1\.0"):
         InclinationController(kp=-1.0)
+    with pytest.raises(TypeError, match=r"ki must be a number >= 0; got '0\.6'"):
+        InclinationController(ki="0.6")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"command_limit must be a number > 0; got 0"):
+        InclinationController(command_limit=0)
     with pytest.raises(ValueError, match=r"ts is 0\.01 s but the plant runs at ts=0\.02"):
         closed_loop(SoftNeck(), InclinationController(ts=0.01), np.zeros(5), ts=0.01)
     with pytest.raises(ValueError, match="reference"):

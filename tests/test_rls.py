@@ -25,7 +25,7 @@ def arx_data(n: int, a: list[float], b: list[float], noise: float, seed: int) ->
 
 def test_forgetting_factor_one_equals_batch_least_squares() -> None:
     data = arx_data(2000, [-1.2, 0.5], [0.5, 0.3], noise=0.1, seed=1)
-    model = RecursiveARX(na=2, nb=2, forgetting_factor=1.0, initial_covariance=1e8).fit(data)
+    model = RecursiveARX(Lags.arx(2, 2), forgetting_factor=1.0, initial_covariance=1e8).fit(data)
     batch = LinearARX(Lags.arx(na=2, nb=2), fit_intercept=False).fit(data).coef_.ravel()
     np.testing.assert_allclose(model.coef_.ravel(), batch, rtol=1e-8)
     # Exactly: the least-squares solution regularised by F(0)^-1.
@@ -40,7 +40,7 @@ def test_regularised_equivalence_with_prior() -> None:
     f0 = np.array([[0.5, 0.1], [0.1, 0.2]])
     theta0 = np.array([0.3, -1.0])
     model = RecursiveARX(
-        na=1, nb=1, forgetting_factor=1.0, initial_covariance=f0, initial_parameters=theta0
+        Lags.arx(1, 1), forgetting_factor=1.0, initial_covariance=f0, initial_parameters=theta0
     ).fit(data)
     phi, y = model._regressor(data)
     inv = np.linalg.inv(f0)
@@ -51,7 +51,7 @@ def test_regularised_equivalence_with_prior() -> None:
 def test_recovers_known_arx_from_noisy_data() -> None:
     a, b = [-1.5, 0.7], [1.0, 0.5]
     data = arx_data(20_000, a, b, noise=0.3, seed=3)
-    model = RecursiveARX(na=2, nb=2, forgetting_factor=1.0).fit(data)
+    model = RecursiveARX(Lags.arx(2, 2), forgetting_factor=1.0).fit(data)
     np.testing.assert_allclose(model.theta_, [*a, *b], atol=0.02)
     assert model.parameter_names_ == ("a1", "a2", "b1", "b2")
     assert model.theta_history_.shape == (20_000, 4)
@@ -68,7 +68,7 @@ def test_tracks_a_step_change_within_order_one_over_one_minus_lambda() -> None:
     for t in range(1, n):
         pole, gain = (0.5, 1.0) if t < change else (-0.3, 2.0)
         y[t] = pole * y[t - 1] + gain * u[t - 1] + 0.01 * rng.normal()
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=lam).fit(IOData(u, y, ts=0.02))
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=lam).fit(IOData(u, y, ts=0.02))
     history = model.theta_history_
     np.testing.assert_allclose(history[change - 1], [-0.5, 1.0], atol=0.05)
     memory = round(1 / (1 - lam))
@@ -85,7 +85,10 @@ def test_tracks_a_step_change_within_order_one_over_one_minus_lambda() -> None:
 def test_compiled_kernel_agrees_with_numpy_reference(lam: float) -> None:
     data = arx_data(1500, [-0.9, 0.2], [0.4, -0.1], noise=0.05, seed=5)
     model = RecursiveARX(
-        na=2, nb=2, forgetting_factor=lam, initial_covariance=100.0, initial_parameters=[0, 0, 1, 0]
+        Lags.arx(2, 2),
+        forgetting_factor=lam,
+        initial_covariance=100.0,
+        initial_parameters=[0, 0, 1, 0],
     ).fit(data)
     phi, y = model._regressor(data)
     history, covariance, errors, resets = rls_reference(
@@ -101,8 +104,8 @@ def test_compiled_kernel_agrees_with_numpy_reference(lam: float) -> None:
 
 def test_online_update_equals_fit() -> None:
     data = arx_data(400, [-0.6], [0.8, 0.2], noise=0.1, seed=6)
-    batch = RecursiveARX(na=1, nb=2, delay=2).fit(data)
-    online = RecursiveARX(na=1, nb=2, delay=2)
+    batch = RecursiveARX(Lags.arx(1, 2, 2)).fit(data)
+    online = RecursiveARX(Lags.arx(1, 2, 2))
     errors = [online.update(y, u) for y, u in zip(data.y[:, 0], data.u[:, 0], strict=True)]
     np.testing.assert_allclose(online.theta_history_, batch.theta_history_, rtol=1e-12)
     np.testing.assert_allclose(errors, batch.prediction_errors_, rtol=1e-12, equal_nan=True)
@@ -116,10 +119,10 @@ def test_delay_zero_and_two_inputs() -> None:
     for t in range(1, 3000):
         y[t] = 0.5 * y[t - 1] + 1.0 * u[t, 0] - 2.0 * u[t, 1]
     data = IOData(u, y, ts=0.1, input_names=["left", "right"], output_names=["incl"])
-    model = RecursiveARX(na=1, nb=1, delay=0, forgetting_factor=1.0).fit(data)
+    model = RecursiveARX(Lags.arx(1, 1, 0), forgetting_factor=1.0).fit(data)
     np.testing.assert_allclose(model.theta_, [-0.5, 1.0, -2.0], atol=1e-6)
     assert model.parameter_names_ == ("a1", "b1[left]", "b1[right]")
-    online = RecursiveARX(na=1, nb=1, delay=0, forgetting_factor=1.0)
+    online = RecursiveARX(Lags.arx(1, 1, 0), forgetting_factor=1.0)
     for t in range(3000):
         online.update(y[t], u[t])
     np.testing.assert_allclose(online.theta_, model.theta_, rtol=1e-10)
@@ -128,18 +131,18 @@ def test_delay_zero_and_two_inputs() -> None:
 def test_several_experiments_carry_the_estimate_but_not_the_regressor() -> None:
     data = arx_data(1000, [-0.8], [0.5], noise=0.0, seed=8)
     parts = [data[:500], data[500:]]
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=1.0).fit(parts)
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0).fit(parts)
     assert model.theta_history_.shape == (1000, 2)
     # The first row of the second experiment only fills the regressor.
     assert np.isnan(model.prediction_errors_[500])
     np.testing.assert_allclose(model.theta_, [-0.8, 0.5], atol=1e-5)
-    again = RecursiveARX(na=1, nb=1, forgetting_factor=1.0).fit(parts[0]).partial_fit(parts[1])
+    again = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0).fit(parts[0]).partial_fit(parts[1])
     np.testing.assert_allclose(again.theta_history_, model.theta_history_)
 
 
 def test_predict_and_simulate_use_final_theta() -> None:
     data = arx_data(2000, [-0.8], [0.5], noise=0.0, seed=9)
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=1.0).fit(data)
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0).fit(data)
     simulated = model.simulate(data)
     predicted = model.predict(data)
     assert simulated.kind == "simulation" and predicted.kind == "prediction"
@@ -154,7 +157,7 @@ def test_predict_and_simulate_use_final_theta() -> None:
 
 def test_save_load_round_trip(tmp_path) -> None:  # type: ignore[no-untyped-def]
     data = arx_data(500, [-0.8], [0.5], noise=0.1, seed=10)
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=0.99, initial_parameters=[0.1, 0.2]).fit(
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=0.99, initial_parameters=[0.1, 0.2]).fit(
         data
     )
     path = model.save(tmp_path / "rls")
@@ -174,7 +177,7 @@ def test_blow_up_guard_warns_and_resets_covariance() -> None:
     # No excitation: with λ < 1, F grows as λ^-t until the guard resets it.
     u = np.zeros(2000)
     y = np.zeros(2000)
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=0.9, max_covariance_trace=1e6)
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=0.9, max_covariance_trace=1e6)
     with pytest.warns(RuntimeWarning, match="blew up.*first at sample"):
         model.fit(IOData(u, y, ts=0.02))
     assert model.n_covariance_resets_ >= 10
@@ -183,13 +186,13 @@ def test_blow_up_guard_warns_and_resets_covariance() -> None:
     # The guard does not fire on a healthy, excited run.
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        RecursiveARX(na=1, nb=1, forgetting_factor=0.9).fit(
+        RecursiveARX(Lags.arx(1, 1), forgetting_factor=0.9).fit(
             arx_data(2000, [-0.5], [1.0], 0.1, seed=11)
         )
 
 
 def test_blow_up_guard_online() -> None:
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=0.5, max_covariance_trace=1e5)
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=0.5, max_covariance_trace=1e5)
     with pytest.warns(RuntimeWarning, match="blew up"):
         for _ in range(40):
             model.update(0.0, 0.0)
@@ -198,19 +201,19 @@ def test_blow_up_guard_online() -> None:
 
 def test_convergence_test() -> None:
     data = arx_data(3000, [-0.8], [0.5], noise=0.0, seed=12)
-    model = RecursiveARX(na=1, nb=1, forgetting_factor=1.0).fit(data)
+    model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0).fit(data)
     ok, settled = model.converged(window=100, tolerance=1e-6)
     assert ok and settled < 500
     # A window longer than the record cannot be met.
     assert not model.converged(window=5000).converged
     # Still drifting at the end: not converged.
     ramp = IOData(np.random.default_rng(0).normal(size=300), np.linspace(0, 30, 300), ts=0.02)
-    drifting = RecursiveARX(na=1, nb=1, forgetting_factor=0.9).fit(ramp)
+    drifting = RecursiveARX(Lags.arx(1, 1), forgetting_factor=0.9).fit(ramp)
     assert not drifting.converged(window=100, tolerance=1e-3).converged
 
 
 def test_not_fitted() -> None:
-    model = RecursiveARX()
+    model = RecursiveARX(Lags.arx(1, 1))
     assert not hasattr(model, "theta_history_")
     with pytest.raises(NotFittedError):
         model.converged()
@@ -224,40 +227,57 @@ GOOD = arx_data(50, [-0.5], [1.0], 0.0, 0)
 @pytest.mark.parametrize(
     ("params", "error", "match"),
     [
-        ({"forgetting_factor": 1.2}, ValueError, r"forgetting_factor must be in \(0, 1\]; got 1.2"),
-        ({"forgetting_factor": 0.0}, ValueError, r"forgetting_factor must be in \(0, 1\]; got 0.0"),
-        ({"forgetting_factor": np.nan}, ValueError, "forgetting_factor must be in"),
+        (
+            {"forgetting_factor": 1.2},
+            ValueError,
+            r"forgetting_factor must be a number in \(0, 1\]; got 1.2",
+        ),
+        (
+            {"forgetting_factor": 0.0},
+            ValueError,
+            r"forgetting_factor must be a number in \(0, 1\]; got 0.0",
+        ),
+        ({"forgetting_factor": np.nan}, ValueError, "forgetting_factor must be a number in"),
         ({"forgetting_factor": "0.98"}, TypeError, "forgetting_factor must be a number"),
-        ({"na": -1}, ValueError, "na must be >= 0; got -1"),
-        ({"nb": -2}, ValueError, "nb must be >= 0; got -2"),
-        ({"delay": -1}, ValueError, "delay must be >= 0; got -1"),
-        ({"na": 1.5}, TypeError, "na must be an int; got 1.5"),
-        ({"na": 0, "nb": 0}, ValueError, "na \\+ nb must be >= 1"),
-        ({"initial_covariance": -1.0}, ValueError, "initial_covariance must be a positive"),
+        ({"lags": 3}, TypeError, "lags must be None or a neckid.Lags; got 3"),
+        (
+            {"initial_covariance": -1.0},
+            ValueError,
+            "initial_covariance must be a number > 0 or a positive",
+        ),
         ({"initial_covariance": np.eye(3)}, ValueError, r"\(2, 2\) matrix for 2 parameters"),
         ({"initial_covariance": [[1.0, 2.0], [0.0, 1.0]]}, ValueError, "must be symmetric"),
         ({"initial_covariance": [[1.0, 2.0], [2.0, 1.0]]}, ValueError, "positive definite"),
         ({"initial_parameters": [1.0]}, ValueError, "initial_parameters must have 2 values"),
+        (
+            {"initial_parameters": [1.0, np.inf]},
+            ValueError,
+            "initial_parameters must be None or an array of finite",
+        ),
         ({"max_covariance_trace": 1.0}, ValueError, "max_covariance_trace must exceed"),
     ],
 )
 def test_bad_parameters_refused(params: dict, error: type, match: str) -> None:
     with pytest.raises(error, match=match):
-        RecursiveARX(**params).fit(GOOD)
+        RecursiveARX(**{"lags": Lags.arx(1, 1), **params}).fit(GOOD)
 
 
 def test_bad_data_refused() -> None:
     with pytest.raises(ValueError, match="needs at least 4"):
-        RecursiveARX(na=3, nb=1).fit(GOOD[:3])
+        RecursiveARX(Lags.arx(3, 1)).fit(GOOD[:3])
     with pytest.raises(ValueError, match="one output; data has 2 outputs"):
-        RecursiveARX().fit(IOData(np.ones(10), np.ones((10, 2)), ts=1.0))
+        RecursiveARX(Lags.arx(1, 1)).fit(IOData(np.ones(10), np.ones((10, 2)), ts=1.0))
     with pytest.raises(ValueError, match=r"non-finite value .*nan.* at row 3"):
-        RecursiveARX().fit(IOData(np.ones(10), [0, 1, 2, np.nan, 4, 5, 6, 7, 8, 9], ts=1.0))
-    model = RecursiveARX()
+        RecursiveARX(Lags.arx(1, 1)).fit(
+            IOData(np.ones(10), [0, 1, 2, np.nan, 4, 5, 6, 7, 8, 9], ts=1.0)
+        )
+    with pytest.raises(ValueError, match="needs lags=Lags"):
+        RecursiveARX().fit(GOOD)
+    model = RecursiveARX(Lags.arx(1, 1))
     with pytest.raises(ValueError, match=r"non-finite value .*nan"):
         model.update(np.nan, 1.0)
     model.update(0.0, [1.0])
     with pytest.raises(ValueError, match="u must have 1 values"):
         model.update(0.0, [1.0, 2.0])
-    with pytest.raises(ValueError, match="window must be >= 1; got 0"):
+    with pytest.raises(ValueError, match="window must be a whole number >= 1; got 0"):
         model.converged(window=0)

@@ -10,7 +10,7 @@ import control
 import numpy as np
 import pytest
 
-from neckid import IOData
+from neckid import IOData, Lags
 from neckid.models.base import NotFittedError
 from neckid.models.io import load_model
 from neckid.models.scheduled import (
@@ -23,10 +23,15 @@ from neckid.report.scheduled_plots import plot_gain_schedule
 INCLINATIONS = np.array([5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0])
 
 
+def commands(u: np.ndarray, ts: float = 0.02) -> IOData:
+    """A velocity-command record [rad/s] without measured output."""
+    return IOData(u, ts=ts, input_names=["velocity_command"], input_units=["rad/s"])
+
+
 def test_recovers_the_paper_lines_from_exact_points() -> None:
     n = np.polyval(PAPER_GAIN_COEFFICIENTS, INCLINATIONS)
     p = np.polyval(PAPER_POLE_COEFFICIENTS, INCLINATIONS)
-    model = GainScheduledModel(ts=0.02).fit(INCLINATIONS, n, p)
+    model = GainScheduledModel.from_points(INCLINATIONS, n, p, ts=0.02)
     np.testing.assert_allclose(model.gain_coefficients_, PAPER_GAIN_COEFFICIENTS, rtol=1e-10)
     np.testing.assert_allclose(model.pole_coefficients_, PAPER_POLE_COEFFICIENTS, rtol=1e-10)
     assert model.gain_rmse_ < 1e-12 and model.pole_rmse_ < 1e-12
@@ -37,7 +42,7 @@ def test_recovers_lines_from_noisy_points() -> None:
     i = np.repeat(INCLINATIONS, 20)
     n = -0.05 * i + 1.8 + 0.02 * rng.normal(size=i.size)
     p = 0.012 * i - 0.5 + 0.01 * rng.normal(size=i.size)
-    model = GainScheduledModel(ts=0.02).fit(i, n, p)
+    model = GainScheduledModel.from_points(i, n, p, ts=0.02)
     assert abs(model.gain_coefficients_[0] + 0.05) < 1e-3
     assert abs(model.gain_coefficients_[1] - 1.8) < 0.02
     assert abs(model.pole_coefficients_[0] - 0.012) < 1e-3
@@ -48,7 +53,7 @@ def test_recovers_lines_from_noisy_points() -> None:
 def test_polynomial_degree_option() -> None:
     n = 0.001 * INCLINATIONS**2 - 0.05 * INCLINATIONS + 1.5
     p = 0.01 * INCLINATIONS
-    model = GainScheduledModel(degree=2, ts=0.02).fit(INCLINATIONS, n, p)
+    model = GainScheduledModel.from_points(INCLINATIONS, n, p, ts=0.02, degree=2)
     np.testing.assert_allclose(model.gain_coefficients_, [0.001, -0.05, 1.5], atol=1e-10)
     np.testing.assert_allclose(model.pole_coefficients_, [0.0, 0.01, 0.0], atol=1e-10)
     np.testing.assert_allclose(model.gain(12.0), 0.001 * 144 - 0.6 + 1.5)
@@ -70,20 +75,20 @@ def reference_loop(model: GainScheduledModel, u: np.ndarray, y0: float) -> np.nd
 def test_simulate_follows_its_own_inclination() -> None:
     model = GainScheduledModel.from_coefficients([-0.02, 1.5], [0.01, 0.3], ts=0.02)
     u = np.random.default_rng(1).normal(size=400)
-    result = model.simulate(u, y0=15.0)
+    result = model.simulate(commands(u), initial=15.0)
     assert result.kind == "simulation" and result.n_initial == 1
     np.testing.assert_allclose(result.y[:, 0], reference_loop(model, u, 15.0), rtol=1e-12)
     np.testing.assert_allclose(result.extras["gain"][1:], model.gain(result.y[:-1, 0]), rtol=1e-12)
     # Scheduling matters: a frozen model at the initial inclination gives another answer.
     frozen = GainScheduledModel.from_coefficients([1.2], [0.45], ts=0.02)
-    assert not np.allclose(frozen.simulate(u, y0=15.0).y, result.y, atol=1e-3)
+    assert not np.allclose(frozen.simulate(commands(u), initial=15.0).y, result.y, atol=1e-3)
 
 
 def test_constant_gain_model_matches_transfer_function() -> None:
     """With N and P constant the model is LTI: python-control gives the same response."""
     model = GainScheduledModel.from_coefficients([0.8], [0.6], ts=0.05)
     u = np.random.default_rng(2).normal(size=200)
-    sim = model.simulate(u, y0=0.0).y[:, 0]
+    sim = model.simulate(commands(u), initial=0.0).y[:, 0]
     tf = model.transfer_function(10.0, to="inclination")
     assert tf.dt == 0.05
     response = control.forced_response(tf, U=u).outputs
@@ -96,9 +101,9 @@ def test_constant_gain_model_matches_transfer_function() -> None:
 def test_simulator_matches_simulate_and_closed_loop_conventions() -> None:
     model = GainScheduledModel.from_coefficients([-0.02, 1.5], [0.01, 0.3], ts=0.02)
     u = np.sin(np.linspace(0, 10, 300))
-    expected = model.simulate(u, y0=5.0).y[:, 0]
+    expected = model.simulate(commands(u), initial=5.0).y[:, 0]
     sim = model.simulator()
-    sim.reset(y0=5.0)
+    sim.reset(y0=5.0, u0=u[0])
     out = [sim.step(value)[0] for value in u]
     # step(u(t)) returns y(t), which depends on commands up to t - 1 only (as SoftNeck.step).
     np.testing.assert_allclose(out, expected, rtol=1e-12)
@@ -107,7 +112,7 @@ def test_simulator_matches_simulate_and_closed_loop_conventions() -> None:
 def test_simulate_an_iodata_log() -> None:
     model = GainScheduledModel.from_coefficients([-0.02, 1.5], [0.01, 0.3], ts=0.02)
     u = np.random.default_rng(3).normal(size=100)
-    truth = model.simulate(u, y0=12.0).y[:, 0]
+    truth = model.simulate(commands(u), initial=12.0).y[:, 0]
     log = IOData(
         np.column_stack([np.full(100, 12.0), u]),
         truth,
@@ -115,31 +120,38 @@ def test_simulate_an_iodata_log() -> None:
         input_names=["reference", "velocity_command"],
         output_names=["inclination"],
     )
-    result = model.simulate(log)
+    with_reference = GainScheduledModel.from_coefficients([-0.02, 1.5], [0.01, 0.3], ts=0.02)
+    with_reference._bind_channels(0.02, 1, "velocity_command", "inclination", "deg")
+    result = model.simulate(log.select(inputs=["velocity_command"]))
     np.testing.assert_allclose(result.y[:, 0], truth)
     assert result.output_names == ("inclination",)
     assert result.fit_percent(log)[0] > 99.999
-    with pytest.raises(KeyError, match="no input named 'cmd'"):
-        GainScheduledModel.from_coefficients(input="cmd").simulate(log)
+    with pytest.raises(ValueError, match=r"data has inputs \['reference', 'velocity_command'\]"):
+        model.simulate(log)
 
 
 def test_save_load_round_trip(tmp_path) -> None:  # type: ignore[no-untyped-def]
     n = np.polyval(PAPER_GAIN_COEFFICIENTS, INCLINATIONS)
     p = np.polyval(PAPER_POLE_COEFFICIENTS, INCLINATIONS)
-    model = GainScheduledModel(ts=0.02, input="cmd").fit(INCLINATIONS, n, p)
+    model = GainScheduledModel.from_points(INCLINATIONS, n, p, ts=0.02, input_name="cmd")
     loaded = load_model(model.save(tmp_path / "schedule.npz"))
+    assert loaded.input_names_ == ("cmd",)
     assert isinstance(loaded, GainScheduledModel)
-    assert loaded.get_params() == model.get_params()
+    params = {k: v for k, v in model.get_params().items() if k != "lags"}
+    assert {k: v for k, v in loaded.get_params().items() if k != "lags"} == params
+    assert loaded.lags_.to_dict() == model.lags_.to_dict()
     np.testing.assert_array_equal(loaded.gain_coefficients_, model.gain_coefficients_)
     np.testing.assert_array_equal(loaded.inclinations_, model.inclinations_)
-    u = np.ones(50)
-    np.testing.assert_array_equal(loaded.simulate(u, y0=1.0).y, model.simulate(u, y0=1.0).y)
+    u = IOData(np.ones(50), ts=0.02, input_names=["cmd"])
+    np.testing.assert_array_equal(
+        loaded.simulate(u, initial=1.0).y, model.simulate(u, initial=1.0).y
+    )
 
 
 def test_plot_gain_schedule() -> None:
     n = np.polyval(PAPER_GAIN_COEFFICIENTS, INCLINATIONS)
     p = np.polyval(PAPER_POLE_COEFFICIENTS, INCLINATIONS)
-    model = GainScheduledModel(ts=0.02).fit(INCLINATIONS, n, p)
+    model = GainScheduledModel.from_points(INCLINATIONS, n, p, ts=0.02)
     fig = plot_gain_schedule(model, title="Fig. 6")
     ax = fig.axes[0]
     assert len(ax.collections) == 2  # the points of N and of P
@@ -153,39 +165,89 @@ def test_plot_gain_schedule() -> None:
 
 def test_not_fitted_and_bad_input() -> None:
     with pytest.raises(NotFittedError):
-        GainScheduledModel().simulate(np.ones(3), y0=0.0)
-    model = GainScheduledModel(ts=0.02)
+        GainScheduledModel(Lags.arx(1, 1)).simulate(commands(np.ones(3)), initial=0.0)
     with pytest.raises(ValueError, match="needs at least 2 distinct inclinations; got 1"):
-        model.fit([10.0, 10.0], [1.0, 1.1], [0.1, 0.2])
+        GainScheduledModel.from_points([10.0, 10.0], [1.0, 1.1], [0.1, 0.2], ts=0.02)
     with pytest.raises(ValueError, match="same length; got 3, 2 and 3"):
-        model.fit([1.0, 2.0, 3.0], [1.0, 2.0], [1.0, 2.0, 3.0])
+        GainScheduledModel.from_points([1.0, 2.0, 3.0], [1.0, 2.0], [1.0, 2.0, 3.0], ts=0.02)
     with pytest.raises(ValueError, match=r"inclinations.*non-finite value .*nan.* at row 1"):
-        model.fit([1.0, np.nan], [1.0, 2.0], [1.0, 2.0])
+        GainScheduledModel.from_points([1.0, np.nan], [1.0, 2.0], [1.0, 2.0], ts=0.02)
     with pytest.raises(ValueError, match="degree must be a whole number >= 0; got -1"):
-        GainScheduledModel(degree=-1, ts=0.02).fit([1.0, 2.0], [1.0, 2.0], [1.0, 2.0])
-    with pytest.raises(ValueError, match="ts is required"):
-        GainScheduledModel().fit([1.0, 2.0], [1.0, 2.0], [1.0, 2.0])
+        GainScheduledModel.from_points([1.0, 2.0], [1.0, 2.0], [1.0, 2.0], ts=0.02, degree=-1)
     with pytest.raises(ValueError, match=r"ts must be a positive number of seconds; got -0\.1"):
-        GainScheduledModel(ts=-0.1).fit([1.0, 2.0], [1.0, 2.0], [1.0, 2.0])
-    with pytest.raises(ValueError, match="gains and poles are required"):
-        model.fit([1.0, 2.0])
+        GainScheduledModel.from_points([1.0, 2.0], [1.0, 2.0], [1.0, 2.0], ts=-0.1)
+    with pytest.raises(ValueError, match="first order in one output"):
+        GainScheduledModel(Lags.arx(2, 1)).fit(staircase_log())
+    with pytest.raises(ValueError, match="needs lags=Lags.arx"):
+        GainScheduledModel().fit(staircase_log())
     fitted = GainScheduledModel.from_coefficients()
-    with pytest.raises(ValueError, match="y0"):
-        fitted.simulate(np.ones(5))
+    with pytest.raises(ValueError, match="initial"):
+        fitted.simulate(commands(np.ones(5)))
     with pytest.raises(ValueError, match="to must be 'rate' or 'inclination'"):
         fitted.transfer_function(10.0, to="angle")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="non-finite"):
         fitted.simulator().step(np.inf)
 
 
+def staircase_log(n_stairs: int = 6, per_stair: int = 600, seed: int = 0) -> IOData:
+    """A rig held at rising inclinations, PRBS on the command, true N(i) = 2 - 0.03 i, P(i) = 0.2 + 0.01 i."""
+    rng = np.random.default_rng(seed)
+    ts = 0.02
+    n = n_stairs * per_stair
+    u = rng.choice([-1.0, 1.0], size=n)
+    incl = np.zeros(n)
+    rate = 0.0
+    incl[0] = 5.0
+    for t in range(1, n):
+        level = 5.0 + 5.0 * (t // per_stair)
+        gain = 2.0 - 0.03 * incl[t - 1]
+        pole = 0.2 + 0.01 * incl[t - 1]
+        # the excitation rides on a slow pull towards the stair's level
+        rate = pole * rate + gain * u[t - 1] + 2.0 * (level - incl[t - 1])
+        incl[t] = incl[t - 1] + ts * rate
+    return IOData(
+        np.column_stack([u, rng.normal(size=n)]),
+        incl,
+        ts=ts,
+        input_names=["velocity_command", "unused"],
+        output_names=["inclination"],
+        input_units=["rad/s", "V"],
+        output_units=["deg"],
+    )
+
+
+def test_fit_from_a_staircase_log_recovers_the_schedule() -> None:
+    log = staircase_log()
+    lags = Lags(outputs=[1], inputs={"velocity_command": [1]})
+    model = GainScheduledModel(lags, segments=6, skip=100, window=200).fit(log)
+    assert len(model.points_) == 6 and model.delay_ == 1
+    # The stairs sit near 5, 10, ..., 30 deg.
+    np.testing.assert_allclose(np.sort(model.inclinations_), 5.0 + 5.0 * np.arange(6), atol=1.5)
+    # The pull towards the level biases the pole estimate; the gain line is recovered closely.
+    assert abs(model.gain_coefficients_[0] + 0.03) < 0.01
+    assert abs(model.gain_coefficients_[1] - 2.0) < 0.15
+    edges = GainScheduledModel(
+        lags, segments=[0.0, 12.0, 24.0, 36.0, 48.0, 60.0, 72.0], skip=100, window=200
+    ).fit(log)
+    np.testing.assert_allclose(edges.gains_, model.gains_, rtol=0.05)
+    one_per_log = GainScheduledModel(lags, skip=100, window=200).fit(
+        [log[k * 600 : (k + 1) * 600] for k in range(6)]
+    )
+    np.testing.assert_allclose(one_per_log.gains_, model.gains_, rtol=1e-12)
+    # Simulating needs the same inputs; the unused one is carried along.
+    assert model.simulate(log).y.shape == (log.n_samples, 1)
+    with pytest.raises(ValueError, match=r"operating point 0 .* needs at least window \+ 3"):
+        GainScheduledModel(lags, segments=6, window=700).fit(log)
+
+
 @pytest.mark.parametrize("delay", [1, 2, 4])
 def test_delay_shifts_the_response_and_matches_the_transfer_function(delay: int) -> None:
-    model = GainScheduledModel(degree=0, ts=0.02, delay=delay).fit(
-        [10.0, 20.0], [1.5, 1.5], [0.6, 0.6]
+    model = GainScheduledModel.from_points(
+        [10.0, 20.0], [1.5, 1.5], [0.6, 0.6], ts=0.02, delay=delay, degree=0
     )
     u = np.zeros(60)
     u[5:] = 1.0
-    y = model.simulate(u, y0=0.0).y[:, 0]
+    y = model.simulate(commands(u), initial=0.0).y[:, 0]
     # r(t) = P r(t-1) + N u(t-d): the first sample to move is t = 5 + d
     assert np.all(y[: 5 + delay] == 0.0)
     assert y[5 + delay] > 0.0
@@ -221,5 +283,5 @@ def test_delay_comes_from_the_operating_points_and_survives_save_load(tmp_path) 
 
 @pytest.mark.parametrize("delay", [0, -1, 1.5, True])
 def test_bad_delay_is_refused(delay: object) -> None:
-    with pytest.raises(ValueError, match="delay must be a whole number"):
-        GainScheduledModel(ts=0.02, delay=delay).fit([1.0, 2.0], [1.0, 1.0], [0.5, 0.5])  # type: ignore[arg-type]
+    with pytest.raises((TypeError, ValueError), match="delay must be a whole number"):
+        GainScheduledModel.from_points([1.0, 2.0], [1.0, 1.0], [0.5, 0.5], ts=0.02, delay=delay)  # type: ignore[arg-type]

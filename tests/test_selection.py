@@ -9,11 +9,11 @@ import pytest
 
 from neckid import IOData, Lags, LinearARX
 from neckid.models.neural import NeuralNARX
+from neckid.report.selection_plots import plot_lipschitz_index
 from neckid.selection import (
     LagSelection,
     lag_grid,
     lipschitz_quotients,
-    plot_lipschitz_index,
     select_lags,
 )
 

@@ -7,7 +7,7 @@ import pytest
 from sklearn.base import clone
 
 from neckid import IOData, Lags
-from neckid.models._sm_kernels import gamma_star_reference
+from neckid.models._sm_reference import gamma_star_reference
 from neckid.models.base import NotFittedError
 from neckid.models.set_membership import (
     GammaCurve,
@@ -288,19 +288,27 @@ def _duplicated() -> IOData:
     ("kwargs", "error", "match"),
     [
         ({"epsilon": -0.1}, ValueError, r"epsilon must be >= 0.*-0.1"),
-        ({"epsilon": float("nan")}, ValueError, "epsilon must be finite"),
+        (
+            {"epsilon": float("nan")},
+            ValueError,
+            "epsilon must be None or a number >= 0 or an array of finite numbers; got nan",
+        ),
         ({"epsilon": [0.1, 0.2]}, ValueError, "one per output"),
         ({"gamma": 0.0}, ValueError, r"gamma must be > 0.*0.0"),
         ({"gamma": -1.0}, ValueError, "gamma must be > 0"),
-        ({"gamma_margin": 0.5}, ValueError, "gamma_margin must be a finite number >= 1"),
-        ({"scaling": "minmax"}, ValueError, "scaling must be 'std', 'none'"),
+        ({"gamma_margin": 0.5}, ValueError, "gamma_margin must be a number >= 1; got 0.5"),
+        (
+            {"scaling": "minmax"},
+            ValueError,
+            "scaling must be one of 'std', 'none' or an array of finite numbers; got 'minmax'",
+        ),
         ({"scaling": [1.0]}, ValueError, "one value per regressor term"),
         ({"scaling": [1.0, -1.0]}, ValueError, "finite and > 0"),
         ({"epsilon": 0.0, "gamma": 0.01}, ValueError, r"below gamma\*\(epsilon\) = \d"),
         ({"linear_part": "yes"}, TypeError, "linear_part must be True or False"),
         ({"epsilons": [-1.0, 0.0]}, ValueError, "epsilons must be finite and >= 0"),
-        ({"input_weight": 0.0}, ValueError, r"input_weight must be finite and > 0.*0.0"),
-        ({"input_weight": float("inf")}, ValueError, "input_weight must be finite and > 0"),
+        ({"input_weight": 0.0}, ValueError, "input_weight must be a number > 0; got 0.0"),
+        ({"input_weight": float("inf")}, ValueError, "input_weight must be a number > 0; got inf"),
         ({"input_weight": "small"}, TypeError, "input_weight must be a number"),
     ],
 )
@@ -343,7 +351,7 @@ def test_bounds_refuses_bad_regressors(model: SetMembership) -> None:
         model.bounds([[0.0, 0.0], [np.nan, 0.0]])
     with pytest.raises(ValueError, match="must have 2 columns"):
         model.bounds(np.zeros((3, 3)))
-    with pytest.raises(ValueError, match="channels"):
+    with pytest.raises(ValueError, match="but the model was fitted on"):
         model.predict(IOData(np.zeros((5, 2)), np.zeros(5), ts=0.02))
 
 

@@ -382,7 +382,11 @@ BAD_CALLS = [
     (lambda: paper_chirp(np.zeros((2, 2))), ValueError, r"t must be 1-D.*\(2, 2\)"),
     (lambda: sine(T, 1.0, omega=np.nan), ValueError, r"omega must be a number; got nan"),
     (lambda: step(T, amplitude=None), TypeError, r"amplitude must be a number; got None"),
-    (lambda: staircase(T, step_duration=0.0), ValueError, r"step_duration must be a number > 0; got 0.0"),
+    (
+        lambda: staircase(T, step_duration=0.0),
+        ValueError,
+        r"step_duration must be a number > 0; got 0.0",
+    ),
     (
         lambda: staircase(T, step=5.0, initial=3.0, maximum=1.0),
         ValueError,
@@ -394,9 +398,21 @@ BAD_CALLS = [
         ValueError,
         r"duration is None.*last time stamp.*got 0.0",
     ),
-    (lambda: chirp(T, 1.0, 2.0, duration=-3.0), ValueError, r"duration must be a number > 0; got -3.0"),
-    (lambda: multisine(100, 0.0, (1.0, 2.0)), ValueError, r"ts must be a positive number of seconds; got 0.0"),
-    (lambda: multisine(100, -0.1, (1.0, 2.0)), ValueError, r"ts must be a positive number of seconds; got -0.1"),
+    (
+        lambda: chirp(T, 1.0, 2.0, duration=-3.0),
+        ValueError,
+        r"duration must be a number > 0; got -3.0",
+    ),
+    (
+        lambda: multisine(100, 0.0, (1.0, 2.0)),
+        ValueError,
+        r"ts must be a positive number of seconds; got 0.0",
+    ),
+    (
+        lambda: multisine(100, -0.1, (1.0, 2.0)),
+        ValueError,
+        r"ts must be a positive number of seconds; got -0.1",
+    ),
     (
         lambda: multisine(100, 0.01, (5.0, 1.0)),
         ValueError,
@@ -424,7 +440,11 @@ BAD_CALLS = [
         ValueError,
         r"phases must be 'schroeder' or 'random'; got 'flat'",
     ),
-    (lambda: multisine(2.5, 0.01, (1.0, 2.0)), TypeError, r"n_samples must be a whole number >= 1; got 2.5"),
+    (
+        lambda: multisine(2.5, 0.01, (1.0, 2.0)),
+        TypeError,
+        r"n_samples must be a whole number >= 1; got 2.5",
+    ),
     (
         lambda: multisine(100, 0.01, (10.0, 100.0), amplitude=0.0),
         ValueError,
@@ -440,8 +460,16 @@ BAD_CALLS = [
         ValueError,
         r"levels must be two different values; got \(1.0, 1.0\)",
     ),
-    (lambda: prbs(100, 0.02, 0.02, order=1), ValueError, r"order must be a whole number in \[2, 32\]; got 1"),
-    (lambda: prbs(100, 0.02, 0.02, order=40), ValueError, r"order must be a whole number in \[2, 32\]; got 40"),
+    (
+        lambda: prbs(100, 0.02, 0.02, order=1),
+        ValueError,
+        r"order must be a whole number in \[2, 32\]; got 1",
+    ),
+    (
+        lambda: prbs(100, 0.02, 0.02, order=40),
+        ValueError,
+        r"order must be a whole number in \[2, 32\]; got 40",
+    ),
     (lambda: prbs(0, 0.02, 0.02), ValueError, r"n_samples must be a whole number >= 1; got 0"),
     (lambda: bandwidth_from_chirp(T, C, C[:-1]), ValueError, r"same length; got 100, 100 and 99"),
     (

@@ -12,11 +12,10 @@ from hypothesis import strategies as st
 
 from neckid.models._sm_kernels import (
     SMTree,
-    bounds_reference,
     build_tree,
     gamma_star,
-    gamma_star_reference,
 )
+from neckid.models._sm_reference import bounds_reference, gamma_star_reference
 
 
 def _data(rng: np.random.Generator, n: int, dims: int, outputs: int = 1, duplicates: int = 0):

@@ -348,7 +348,10 @@ def benchmark(
     methods: str = typer.Option(
         None,
         "--methods",
-        help="Comma-separated: arx, sm, sm_linear, sm_parallel, neural, scheduled (default all).",
+        help=(
+            "Comma-separated registry names: arx, sm, sm-linear, sm-parallel, nn, scheduled"
+            " (default all)."
+        ),
     ),
     only: str = typer.Option(
         None,
@@ -370,12 +373,20 @@ def benchmark(
     Free-run simulation; RMSE in each benchmark's unit (Silverbox mV, cascaded tanks V, Bouc-Wen m,
     soft neck deg) next to the published figures; wall time of each method.
     """
-    from neckid.experiments.benchmark import METHODS, run_benchmark
+    from neckid.experiments.benchmark import BENCHMARK_METHODS, run_benchmark
+    from neckid.registry import DEPRECATED_NAMES
 
+    names = _split(methods) or list(BENCHMARK_METHODS)
+    for old in dict.fromkeys(n for n in names if n in DEPRECATED_NAMES):
+        console.print(
+            f"[yellow]deprecated:[/yellow] method name {old!r} will be removed in the next"
+            f" release; use {DEPRECATED_NAMES[old]!r}"
+        )
+    names = [DEPRECATED_NAMES.get(n, n) for n in names]
     try:
         report = run_benchmark(
             data_dir,
-            methods=_split(methods) or tuple(METHODS),
+            methods=names,
             benchmarks=_split(only),
             quick=quick,
             seed=seed,

@@ -461,7 +461,7 @@ class IOData:
         return self[:k], self[k:]
 
     # ------------------------------------------------------------------ tables and files
-    # The conversions live in neckid.data_files; it imports this module, hence the local imports.
+    # Reading and checking tables lives in neckid.data_files (imported on first use: pandas).
     def to_frame(self, time: str | None = "time") -> pd.DataFrame:
         """Return a DataFrame with a time column (seconds) and one column per channel.
 
@@ -473,9 +473,27 @@ class IOData:
         time : str or None, default "time"
             Name of the time column, ``t0 + k * ts``; ``None`` leaves it out.
         """
-        from neckid.data_files import to_frame
+        import pandas as pd
 
-        return to_frame(self, time)
+        columns: dict[str, FloatArray] = {}
+        if time is not None:
+            columns[time] = self.time
+        for i, n in enumerate(self.input_names):
+            columns[n] = self._u[:, i].copy()
+        for i, n in enumerate(self.output_names):
+            columns[n] = self._y[:, i].copy()
+        frame = pd.DataFrame(columns)
+        frame.attrs["units"] = dict(
+            zip(
+                self.input_names + self.output_names,
+                self.input_units + self.output_units,
+                strict=True,
+            )
+        )
+        frame.attrs["inputs"] = list(self.input_names)
+        frame.attrs["outputs"] = list(self.output_names)
+        frame.attrs["ts"] = self.ts
+        return frame
 
     @classmethod
     def from_frame(
@@ -515,9 +533,10 @@ class IOData:
             If not exactly one of ``time`` and ``ts`` is given, a column is not numeric, or the
             time stamps are not sorted, distinct and uniform (the message names the row).
         """
-        from neckid.data_files import from_frame
+        from neckid.data_files import frame_fields
 
-        return from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=name)
+        fields = frame_fields(frame, inputs, outputs, time=time, ts=ts, units=units)
+        return cls(**fields, name=name)
 
     @classmethod
     def from_csv(
@@ -544,9 +563,11 @@ class IOData:
         >>> IOData.from_csv(path, inputs=["cmd"], outputs=["incl"])
         IOData(n_samples=3, ts=0.02, inputs=['cmd'], outputs=['incl'], name='log.csv')
         """
-        from neckid.data_files import read_csv as read
+        from neckid.data_files import file_fields
 
-        return read(path, inputs, outputs, time=time, ts=ts, units=units, **read_csv)
+        return cls(
+            **file_fields(path, "csv", inputs, outputs, time=time, ts=ts, units=units, **read_csv)
+        )
 
     @classmethod
     def from_parquet(
@@ -560,21 +581,19 @@ class IOData:
         units: Mapping[str, str] | None = None,
     ) -> IOData:
         """Read a Parquet log (needs the ``parquet`` extra: ``pip install neckid[parquet]``)."""
-        from neckid.data_files import read_parquet
+        from neckid.data_files import file_fields
 
-        return read_parquet(path, inputs, outputs, time=time, ts=ts, units=units)
+        return cls(**file_fields(path, "parquet", inputs, outputs, time=time, ts=ts, units=units))
 
     def to_parquet(self, path: str | Path) -> None:
         """Write a Parquet file with a ``time`` column; units go in the file's metadata."""
-        from neckid.data_files import write_parquet
-
-        write_parquet(self, path)
+        frame = self.to_frame()
+        frame.attrs = {"units": frame.attrs["units"]}
+        frame.to_parquet(Path(path), index=False)
 
     def to_csv(self, path: str | Path) -> None:
         """Write a CSV file with a header row and a ``time`` column (seconds)."""
-        from neckid.data_files import write_csv
-
-        write_csv(self, path)
+        self.to_frame().to_csv(Path(path), index=False)
 
     @classmethod
     def from_mat(
@@ -597,9 +616,9 @@ class IOData:
             Variable of time stamps; otherwise give ``ts``. A scalar variable named by ``ts``
             (a string) is read as the period.
         """
-        from neckid.data_files import read_mat
+        from neckid.data_files import file_fields
 
-        return read_mat(path, inputs, outputs, time=time, ts=ts, units=units)
+        return cls(**file_fields(path, "mat", inputs, outputs, time=time, ts=ts, units=units))
 
     def to_dict(self) -> dict[str, Any]:
         """Return the metadata (everything but the arrays) as a JSON-serialisable dict."""

@@ -1,14 +1,13 @@
-"""IOData to and from tables and files: pandas DataFrames, CSV, Parquet and MATLAB ``.mat``.
+"""Reading the tables behind an IOData: named columns of a DataFrame, CSV, Parquet and ``.mat`` files.
 
-The :class:`~neckid.data.IOData` methods :meth:`~neckid.data.IOData.to_frame`,
-:meth:`~neckid.data.IOData.from_frame`, :meth:`~neckid.data.IOData.from_csv`,
-:meth:`~neckid.data.IOData.from_parquet`, :meth:`~neckid.data.IOData.from_mat`,
-:meth:`~neckid.data.IOData.to_csv` and :meth:`~neckid.data.IOData.to_parquet` are the entry points
-(their docstrings hold the details) and call the functions here, which keep the container's
-module free of file formats.
+:meth:`IOData.from_frame <neckid.data.IOData.from_frame>`, :meth:`~neckid.data.IOData.from_csv`,
+:meth:`~neckid.data.IOData.from_parquet` and :meth:`~neckid.data.IOData.from_mat` are the entry
+points (their docstrings hold the details). They call the functions here, which read and check a
+table and return the keyword arguments of the :class:`~neckid.data.IOData` constructor; this
+module does not import the container, so the dependency runs one way.
 
-A table has one row per sample, a column per channel and, optionally, a ``time`` column in
-seconds whose stamps must be sorted, distinct and uniform within 5 %
+A table has one row per sample, a column per channel and, optionally, a column of time stamps in
+seconds that must be sorted, distinct and uniform within 5 %
 (:func:`~neckid.validation.check_uniform_time`). Units travel in ``DataFrame.attrs["units"]``.
 """
 
@@ -16,52 +15,20 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from neckid.data import IOData
 from neckid.validation import check_uniform_time
 
-__all__ = [
-    "from_frame",
-    "read_csv",
-    "read_mat",
-    "read_parquet",
-    "to_frame",
-    "write_csv",
-    "write_parquet",
-]
+__all__ = ["file_fields", "frame_fields"]
 
 FloatArray = NDArray[np.float64]
 
 
-def to_frame(data: IOData, time: str | None = "time") -> pd.DataFrame:
-    """A DataFrame with a time column (seconds) and one column per channel; see :meth:`IOData.to_frame`."""
-    columns: dict[str, FloatArray] = {}
-    if time is not None:
-        columns[time] = data.time
-    for i, n in enumerate(data.input_names):
-        columns[n] = data.u[:, i].copy()
-    for i, n in enumerate(data.output_names):
-        columns[n] = data.y[:, i].copy()
-    frame = pd.DataFrame(columns)
-    frame.attrs["units"] = dict(
-        zip(
-            data.input_names + data.output_names,
-            data.input_units + data.output_units,
-            strict=True,
-        )
-    )
-    frame.attrs["inputs"] = list(data.input_names)
-    frame.attrs["outputs"] = list(data.output_names)
-    frame.attrs["ts"] = data.ts
-    return frame
-
-
-def from_frame(
+def frame_fields(
     frame: pd.DataFrame,
     inputs: Sequence[str],
     outputs: Sequence[str] = (),
@@ -69,9 +36,27 @@ def from_frame(
     time: str | None = None,
     ts: float | None = None,
     units: Mapping[str, str] | None = None,
-    name: str | None = None,
-) -> IOData:
-    """An IOData from named columns of a DataFrame; see :meth:`IOData.from_frame`.
+) -> dict[str, Any]:
+    """The IOData keyword arguments held in named columns of a DataFrame.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        One row per sample.
+    inputs, outputs : sequence of str
+        Column names of the input and output channels.
+    time : str, optional
+        Column of time stamps in seconds. Exactly one of ``time`` and ``ts`` must be given.
+    ts : float, optional
+        Sampling period in seconds, when there is no time column.
+    units : mapping of str to str, optional
+        Unit of each channel by name; ``frame.attrs["units"]`` is used when absent.
+
+    Returns
+    -------
+    dict
+        ``u``, ``y`` (shape ``(n_samples, n_channels)``), ``ts``, ``t0``, ``input_names``,
+        ``output_names``, ``input_units`` and ``output_units``.
 
     Raises
     ------
@@ -81,7 +66,14 @@ def from_frame(
         If a named column is not in the table (the message lists the columns there are).
     ValueError
         If not exactly one of ``time`` and ``ts`` is given, a column is not numeric (the message
-        names the column and row), or the time stamps are not sorted, distinct and uniform.
+        names the column and the row), or the time stamps are not sorted, distinct and uniform.
+
+    Examples
+    --------
+    >>> frame = pd.DataFrame({"time": [0.0, 0.5, 1.0], "cmd": [1.0, 2.0, 3.0]})
+    >>> fields = frame_fields(frame, ["cmd"], time="time")
+    >>> fields["ts"], fields["input_names"], fields["u"].shape
+    (0.5, ['cmd'], (3, 1))
     """
     if not isinstance(frame, pd.DataFrame):
         raise TypeError(f"frame must be a pandas DataFrame; got {type(frame).__name__}")
@@ -119,82 +111,81 @@ def from_frame(
                 ) from None
         return out
 
-    return IOData(
-        u=columns(inputs),
-        y=columns(outputs),
-        ts=ts_value,
-        input_names=list(inputs),
-        output_names=list(outputs),
-        input_units=[units.get(c, "") for c in inputs],
-        output_units=[units.get(c, "") for c in outputs],
-        t0=t0,
-        name=name,
-    )
+    return {
+        "u": columns(inputs),
+        "y": columns(outputs),
+        "ts": ts_value,
+        "t0": t0,
+        "input_names": list(inputs),
+        "output_names": list(outputs),
+        "input_units": [units.get(c, "") for c in inputs],
+        "output_units": [units.get(c, "") for c in outputs],
+    }
 
 
-def _from_file_frame(
-    path: Path,
-    frame: pd.DataFrame,
-    inputs: Sequence[str],
-    outputs: Sequence[str],
-    time: str | None,
-    ts: float | None,
-    units: Mapping[str, str] | None,
-) -> IOData:
-    """A table read from a file; an explicit ``ts`` overrides the default time column."""
-    if ts is not None and time == "time":
-        time = None
-    return from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
-
-
-def read_csv(
+def file_fields(
     path: str | Path,
-    inputs: Sequence[str],
-    outputs: Sequence[str] = (),
-    *,
-    time: str | None = "time",
-    ts: float | None = None,
-    units: Mapping[str, str] | None = None,
-    **read_csv: Any,
-) -> IOData:
-    """Read a CSV log with a header row; see :meth:`IOData.from_csv`."""
-    path = Path(path)
-    return _from_file_frame(path, pd.read_csv(path, **read_csv), inputs, outputs, time, ts, units)
-
-
-def read_parquet(
-    path: str | Path,
-    inputs: Sequence[str],
-    outputs: Sequence[str] = (),
-    *,
-    time: str | None = "time",
-    ts: float | None = None,
-    units: Mapping[str, str] | None = None,
-) -> IOData:
-    """Read a Parquet log (needs the ``parquet`` extra); see :meth:`IOData.from_parquet`."""
-    path = Path(path)
-    return _from_file_frame(path, pd.read_parquet(path), inputs, outputs, time, ts, units)
-
-
-def read_mat(
-    path: str | Path,
+    kind: Literal["csv", "parquet", "mat"],
     inputs: Sequence[str],
     outputs: Sequence[str] = (),
     *,
     time: str | None = None,
     ts: float | str | None = None,
     units: Mapping[str, str] | None = None,
-) -> IOData:
-    """Read a MATLAB ``.mat`` file (v4 to v7.2) of vectors; see :meth:`IOData.from_mat`.
+    **read_csv: Any,
+) -> dict[str, Any]:
+    """The IOData keyword arguments held in a CSV, Parquet or MATLAB file (``name``: the file's).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    kind : {"csv", "parquet", "mat"}
+        Its format: a CSV file with a header row (read by :func:`pandas.read_csv`, which gets
+        ``**read_csv``), a Parquet file (needs the ``parquet`` extra), or a MATLAB ``.mat`` file
+        (v4 to v7.2) whose variables are vectors or one-column matrices.
+    inputs, outputs : sequence of str
+        Column (or variable) names of the channels.
+    time : str, optional
+        Column (or variable) of time stamps in seconds. For CSV and Parquet, an explicit ``ts``
+        overrides the default time column ``"time"``.
+    ts : float or str, optional
+        Sampling period in seconds; for a ``.mat`` file it may name a scalar variable holding it.
+    units : mapping of str to str, optional
+        Unit of each channel by name.
+
+    Returns
+    -------
+    dict
+        What :func:`frame_fields` returns, plus ``name``, the file name.
 
     Raises
     ------
     KeyError
-        If a named variable is not in the file (the message lists the variables there are).
+        If a named column or variable is not in the file (the message lists those there are).
+    ValueError
+        As :func:`frame_fields`.
     """
+    path = Path(path)
+    if kind == "mat":
+        frame, period = _mat_frame(path, [*inputs, *outputs, *([time] if time else [])], ts)
+    else:
+        frame = pd.read_csv(path, **read_csv) if kind == "csv" else pd.read_parquet(path)
+        if isinstance(ts, str):
+            raise TypeError(f"ts must be a number of seconds for a {kind} file; got {ts!r}")
+        period = ts
+        if period is not None and time == "time":
+            time = None
+    fields = frame_fields(frame, inputs, outputs, time=time, ts=period, units=units)
+    return {**fields, "name": path.name}
+
+
+def _mat_frame(
+    path: Path, names: Sequence[str], ts: float | str | None
+) -> tuple[pd.DataFrame, float | None]:
+    """The named variables of a ``.mat`` file as columns, and ``ts`` read from it if named."""
     from scipy.io import loadmat
 
-    path = Path(path)
     content = loadmat(path, squeeze_me=True)
     variables = {k: v for k, v in content.items() if not k.startswith("__")}
     if isinstance(ts, str):
@@ -203,21 +194,8 @@ def read_mat(
                 f"variable {ts!r} (ts) is not in {path.name}; it has {sorted(variables)}"
             )
         ts = float(np.asarray(variables[ts]).ravel()[0])
-    names = [*inputs, *outputs, *([time] if time else [])]
     missing = [n for n in names if n not in variables]
     if missing:
         raise KeyError(f"variables {missing} are not in {path.name}; it has {sorted(variables)}")
     frame = pd.DataFrame({n: np.asarray(variables[n], dtype=np.float64).ravel() for n in names})
-    return from_frame(frame, inputs, outputs, time=time, ts=ts, units=units, name=path.name)
-
-
-def write_parquet(data: IOData, path: str | Path) -> None:
-    """Write a Parquet file with a ``time`` column; units go in the file's metadata."""
-    frame = to_frame(data)
-    frame.attrs = {"units": frame.attrs["units"]}
-    frame.to_parquet(Path(path), index=False)
-
-
-def write_csv(data: IOData, path: str | Path) -> None:
-    """Write a CSV file with a header row and a ``time`` column (seconds)."""
-    to_frame(data).to_csv(Path(path), index=False)
+    return frame, ts

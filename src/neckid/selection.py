@@ -4,7 +4,9 @@ Two complementary tools:
 
 - :func:`select_lags` trains a copy of any estimator (NeuralNARX, SetMembership, LinearARX, ...)
   on every candidate lag set and ranks them by one-step or free-run fit on a validation record, as
-  the seed paper chose its network's regressor.
+  the seed paper chose its network's regressor. The scoring itself is :func:`score_candidates`
+  (any list of named estimators, also what the benchmark ranks its candidates with), and a free
+  run with a protocol's initial samples is :func:`free_run`.
 - :func:`lipschitz_quotients` computes He & Asada's order index from the data alone, no model
   needed; :func:`neckid.report.selection_plots.plot_lipschitz_index` draws it against the
   order.
@@ -27,12 +29,17 @@ from numpy.typing import NDArray
 from sklearn.base import clone
 
 from neckid.data import IOData, as_experiments
+from neckid.metrics import fit_percent, rmse
+from neckid.models.base import check_is_fitted
 from neckid.regressors import Lags
+from neckid.registry import get_method
 
 __all__ = [
     "LagSelection",
+    "free_run",
     "lag_grid",
     "lipschitz_quotients",
+    "score_candidates",
     "select_lags",
 ]
 
@@ -174,43 +181,236 @@ class LagSelection:
         return self.candidates[int(row["candidate"])]
 
 
-def _score_candidate(
+def free_run(model: Any, record: IOData, n_initial: int | None = None) -> tuple[FloatArray, int]:
+    """Free-run simulation of ``record`` by a fitted ``model``, with a protocol's initial samples.
+
+    Parameters
+    ----------
+    model : fitted estimator
+        Any neckid model: ``max_lag_`` (the initial samples of a free run) and ``simulate(data)``.
+    record : IOData
+        Inputs and measured outputs.
+    n_initial : int, optional
+        Measured samples a benchmark protocol hands the model as initial conditions (Silverbox:
+        50). The simulation then starts at sample ``n_initial − max_lag_``, so that its initial
+        conditions are the last ``max_lag_`` of them, and a figure of merit starts at
+        ``n_initial``. ``None`` (or fewer than ``max_lag_``): the first ``max_lag_`` measured
+        samples are the initial conditions.
+
+    Returns
+    -------
+    y : ndarray, shape (n_samples, n_outputs)
+        The measured outputs before the simulation starts, the simulated ones from there on (a
+        free run, never a one-step prediction; non-finite where it diverged).
+    skip : int
+        Samples a figure of merit leaves out: ``n_initial``, or ``max_lag_``.
+
+    Raises
+    ------
+    NotFittedError
+        If ``model`` is not fitted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> u = np.sin(np.arange(200) / 5.0)
+    >>> y = np.zeros(200)
+    >>> for t in range(1, 200):
+    ...     y[t] = 0.5 * y[t - 1] + u[t - 1]
+    >>> data = IOData(u, y, ts=0.1)
+    >>> model = LinearARX(Lags.arx(1, 1, 1)).fit(data)
+    >>> simulated, skip = free_run(model, data, n_initial=50)
+    >>> skip, bool(np.allclose(simulated[skip:, 0], y[skip:]))
+    (50, True)
+    """
+    check_is_fitted(model)
+    lag = int(model.max_lag_)
+    if n_initial is None or n_initial < lag:
+        start, skip = 0, lag
+    else:
+        start, skip = int(n_initial) - lag, int(n_initial)
+    result = model.simulate(record[start:] if start else record)
+    y = np.array(record.y, dtype=np.float64)
+    y[start:] = result.y
+    return y, skip
+
+
+def _fit_and_score(
+    name: str,
     estimator: Any,
-    lags: Lags,
     train: list[IOData],
     validation: list[IOData],
+    criteria: Sequence[Criterion],
+    n_initial: int | None,
 ) -> dict[str, Any]:
-    """Fit one clone and score it; never raises (a failure becomes the ``error`` entry)."""
+    """Fit a clone and score it; never raises (a failure becomes the ``error`` entry)."""
     output_names = validation[0].output_names
-    row: dict[str, Any] = {"lags": repr(lags), "n_terms": np.nan, "max_lag": lags.max_lag}
-    try:
-        row["n_terms"] = lags.resolve(train).n_terms
-    except (KeyError, ValueError) as exc:
-        row["error"] = f"{type(exc).__name__}: {exc}"
-        return row
+    row: dict[str, Any] = {"name": name}
     start = time.perf_counter()
     try:
-        model = clone(estimator).set_params(lags=lags)
+        model = clone(estimator)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model.fit(train if len(train) > 1 else train[0])
         row["fit_time_s"] = time.perf_counter() - start
         with np.errstate(all="ignore"):
-            for kind in ("prediction", "simulation"):
-                fits = []
+            for kind in criteria:
+                fits, errors = [], []
                 for record in validation:
-                    result = (
-                        model.predict(record) if kind == "prediction" else model.simulate(record)
-                    )
-                    fits.append(result.fit_percent(record))
-                per_output = np.mean(fits, axis=0)
-                for name, value in zip(output_names, per_output, strict=True):
-                    row[f"fit_{kind}[{name}]"] = float(value)
-                row[f"fit_{kind}"] = float(np.mean(per_output))
+                    if kind == "prediction":
+                        result = model.predict(record)
+                        y, skip = result.y, max(result.n_initial, n_initial or 0)
+                    else:
+                        y, skip = free_run(model, record, n_initial)
+                    fits.append(fit_percent(record.y, y, skip=skip))
+                    errors.append(rmse(record.y, y, skip=skip))
+                for label, values in (("fit", fits), ("rmse", errors)):
+                    per_output = np.mean(values, axis=0)
+                    for channel, value in zip(output_names, per_output, strict=True):
+                        row[f"{label}_{kind}[{channel}]"] = float(value)
+                    row[f"{label}_{kind}"] = float(np.mean(per_output))
     except Exception as exc:  # a failing candidate must not stop the search
         row.setdefault("fit_time_s", time.perf_counter() - start)
         row["error"] = f"{type(exc).__name__}: {exc}"
     return row
+
+
+def score_candidates(
+    candidates: Sequence[tuple[str, Any]],
+    train: IOData | Sequence[IOData],
+    validation: IOData | Sequence[IOData],
+    *,
+    criteria: Sequence[Criterion] = ("prediction", "simulation"),
+    n_initial: int | None = None,
+    n_jobs: int | None = None,
+    progress: bool = False,
+) -> pd.DataFrame:
+    """Fit a copy of every candidate estimator on ``train`` and score it on ``validation``.
+
+    Each estimator is copied with ``sklearn.base.clone`` (the ones given are not changed), fitted
+    on ``train`` and scored on every validation record, per criterion: one-step-ahead prediction
+    (``"prediction"``) and free-run simulation (``"simulation"``, :func:`free_run`), by the NRMSE
+    fit ``100 (1 − ||y − ŷ|| / ||y − mean(y)||)`` and the RMSE, each per output, skipping
+    ``n_initial`` or the candidate's ``max_lag_`` initial samples, averaged over the validation
+    records (and, for the overall columns, over the outputs).
+
+    Parameters
+    ----------
+    candidates : sequence of (str, estimator)
+        A name for the table and an unfitted estimator, per candidate.
+    train, validation : IOData or list of IOData
+        Training and validation records, with the same channels.
+    criteria : sequence of {"prediction", "simulation"}, default both
+        What to score, in this order (prediction first: an unstable model keeps its one-step
+        scores).
+    n_initial : int, optional
+        Initial samples of the validation protocol (see :func:`free_run`); default the
+        candidate's own ``max_lag_``.
+    n_jobs : int or None, default None
+        Parallel workers (joblib); ``None`` means 1 unless inside a ``joblib.parallel_config``
+        context, -1 means all cores.
+    progress : bool, default False
+        Show a rich progress bar (on standard error).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per candidate, in the order given: ``candidate`` (position), ``name``, then per
+        criterion ``fit_<kind>``, ``rmse_<kind>``, ``fit_<kind>[<output>]``,
+        ``rmse_<kind>[<output>]``, and ``fit_time_s`` (seconds to train) and ``error`` (empty, or
+        the error of a failed candidate). A candidate that fails (a training error, a free run
+        that diverges) has fit ``-inf`` and RMSE ``inf`` for every score not computed.
+
+    Raises
+    ------
+    TypeError
+        If a candidate is not a ``(name, estimator)`` pair.
+    ValueError
+        If a criterion is unknown, ``n_initial`` is negative, or the records do not share
+        channels.
+
+    Notes
+    -----
+    Warnings raised while fitting (e.g. convergence warnings) are silenced.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, methods
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.normal(size=400)
+    >>> y = np.zeros(400)
+    >>> for t in range(2, 400):
+    ...     y[t] = 0.8 * y[t - 1] + u[t - 2]
+    >>> data = IOData(u, y, ts=0.02)
+    >>> options = [(f"delay {d}", methods()["arx"].make(Lags.arx(1, 1, d))) for d in (1, 2)]
+    >>> table = score_candidates(options, data[:300], data[300:], criteria=["simulation"])
+    >>> table["name"][table["rmse_simulation"].idxmin()]
+    'delay 2'
+    """
+    kinds = list(criteria)
+    if not kinds or any(k not in ("prediction", "simulation") for k in kinds):
+        raise ValueError(f"criteria must hold 'prediction' and/or 'simulation'; got {criteria!r}")
+    if n_initial is not None and (
+        isinstance(n_initial, bool) or not isinstance(n_initial, int | np.integer) or n_initial < 0
+    ):
+        raise ValueError(f"n_initial must be an int >= 0 or None; got {n_initial!r}")
+    options = list(candidates)
+    for i, option in enumerate(options):
+        if not (isinstance(option, tuple) and len(option) == 2 and isinstance(option[0], str)):
+            raise TypeError(f"candidates[{i}] must be a (name, estimator) pair; got {option!r}")
+    train_list = as_experiments(train, "train")
+    validation_list = as_experiments(validation, "validation")
+    as_experiments([train_list[0], validation_list[0]], "[train[0], validation[0]]")
+
+    jobs = (
+        delayed(_fit_and_score)(name, estimator, train_list, validation_list, kinds, n_initial)
+        for name, estimator in options
+    )
+    runner = Parallel(n_jobs=n_jobs, return_as="generator")
+    rows: list[dict[str, Any]] = []
+    if progress:
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        with Progress(
+            TextColumn("score_candidates"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        ) as bar:
+            task = bar.add_task("candidates", total=len(options))
+            for row in runner(jobs):
+                rows.append(row)
+                bar.advance(task)
+    else:
+        rows = list(runner(jobs))
+
+    output_names = validation_list[0].output_names
+    columns = ["candidate", "name"]
+    for kind in kinds:
+        columns += [f"fit_{kind}", f"rmse_{kind}"]
+        columns += [f"{label}_{kind}[{n}]" for label in ("fit", "rmse") for n in output_names]
+    columns += ["fit_time_s", "error"]
+    for i, row in enumerate(rows):
+        row["candidate"] = i
+        row.setdefault("error", "")
+        row.setdefault("fit_time_s", np.nan)
+        for name in columns:
+            if name.startswith(("fit_", "rmse_")) and name != "fit_time_s":
+                row.setdefault(name, -np.inf if name.startswith("fit_") else np.inf)
+    return pd.DataFrame(rows, columns=columns)
 
 
 def select_lags(
@@ -237,8 +437,10 @@ def select_lags(
         Validation records, with the channels of ``train``.
     candidates : sequence of Lags
         Lag sets to try, e.g. from :func:`lag_grid`.
-    estimator : estimator with a ``lags`` parameter
-        A NARX model (``NeuralNARX``, ``SetMembership``, ``LinearARX``, ...); not changed.
+    estimator : estimator with a ``lags`` parameter, or str
+        A NARX model (``NeuralNARX``, ``SetMembership``, ``LinearARX``, ...); not changed. A
+        registry name (``"nn"``, ``"sm-linear"``, see :func:`neckid.methods`) stands for that
+        method with its default hyper-parameters.
     criterion : {"simulation", "prediction"}, default "simulation"
         Rank by free-run (``"simulation"``) or one-step (``"prediction"``) fit; ties are broken by
         fewer regressor terms.
@@ -258,7 +460,8 @@ def select_lags(
     TypeError
         If ``estimator`` has no ``lags`` parameter or a candidate is not a :class:`~neckid.Lags`.
     ValueError
-        If ``criterion`` is unknown, ``candidates`` is empty, or the records do not share channels.
+        If ``estimator`` is a name no registered method has, ``criterion`` is unknown,
+        ``candidates`` is empty, or the records do not share channels.
 
     Notes
     -----
@@ -293,6 +496,8 @@ def select_lags(
     """
     if criterion not in ("prediction", "simulation"):
         raise ValueError(f"criterion must be 'simulation' or 'prediction'; got {criterion!r}")
+    if isinstance(estimator, str):
+        estimator = get_method(estimator).make()
     try:
         params = estimator.get_params(deep=False)
     except AttributeError:
@@ -315,49 +520,35 @@ def select_lags(
     validation_list = as_experiments(validation, "validation")
     as_experiments([train_list[0], validation_list[0]], "[train[0], validation[0]]")
 
-    jobs = (
-        delayed(_score_candidate)(estimator, lags, train_list, validation_list) for lags in lag_list
-    )
-    runner = Parallel(n_jobs=n_jobs, return_as="generator")
     rows: list[dict[str, Any]] = []
-    if progress:
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        with Progress(
-            TextColumn("select_lags"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=Console(stderr=True),
-            transient=True,
-        ) as bar:
-            task = bar.add_task("candidates", total=len(lag_list))
-            for row in runner(jobs):
-                rows.append(row)
-                bar.advance(task)
-    else:
-        rows = list(runner(jobs))
+    for i, lags in enumerate(lag_list):
+        row: dict[str, Any] = {"candidate": i, "lags": repr(lags), "max_lag": lags.max_lag}
+        try:
+            row["n_terms"] = lags.resolve(train_list).n_terms
+        except (KeyError, ValueError) as exc:  # not fitted: the regressor itself is impossible
+            row.update(n_terms=np.nan, fit_time_s=np.nan, error=f"{type(exc).__name__}: {exc}")
+        rows.append(row)
+    fitted = [row for row in rows if "error" not in row]
+    if fitted:
+        scores = score_candidates(
+            [(row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
+             for row in fitted],
+            train_list,
+            validation_list,
+            n_jobs=n_jobs,
+            progress=progress,
+        )  # fmt: skip
+        for row, score in zip(fitted, scores.to_dict(orient="records"), strict=True):
+            row.update({k: v for k, v in score.items() if k not in ("candidate", "name")})
 
     output_names = validation_list[0].output_names
     columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]
     columns += [f"fit_{k}[{n}]" for k in ("prediction", "simulation") for n in output_names]
     columns += ["fit_time_s", "error"]
-    for i, row in enumerate(rows):
-        row["candidate"] = i
-        row.setdefault("error", "")
+    for row in rows:
         for name in columns:
             if name.startswith("fit_") and name != "fit_time_s":
                 row.setdefault(name, -np.inf)
-        row.setdefault("fit_time_s", np.nan)
     table = pd.DataFrame(rows, columns=columns)
     table["n_terms"] = table["n_terms"].astype("Int64")
     column = f"fit_{criterion}"

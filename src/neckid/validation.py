@@ -223,8 +223,12 @@ def _right_type(accepted: Sequence[Any], value: Any) -> bool:
             type(value) is type(v) for v in constraint.values
         ):
             return True
-        if constraint in ("array-like", "lag-list", "layer-sizes") and isinstance(
-            value, Sequence | np.ndarray
+        sequence = isinstance(value, Sequence | np.ndarray) and not isinstance(value, str)
+        whole = sequence and all(
+            isinstance(v, numbers.Integral) and not isinstance(v, bool | np.bool_) for v in value
+        )
+        if (constraint == "array-like" and sequence) or (
+            constraint in ("lag-list", "layer-sizes") and whole
         ):
             return True
     return False

@@ -324,7 +324,8 @@ class Estimator(BaseEstimator, ModelFile):
 
     def simulate(
         self, data: IOData, initial: ArrayLike | None = None
-    ) -> ModelResult:  # pragma: no cover
+    ) -> ModelResult:  # pragma: no cover - every estimator implements it
+        """Free-run simulation (see the module docstring for the contract)."""
         raise NotImplementedError
 
 
@@ -372,9 +373,9 @@ class NarxModel(Estimator):
         return self.lags
 
     def _prepare_fit(self, data: IOData | Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
+        self._validate_params()
         experiments = as_experiments(data)
         lags = self._lags()
-        self._validate_params()
         resolved = lags.resolve(experiments)
         if experiments[0].n_outputs == 0:
             raise ValueError("data has no output channel to identify")

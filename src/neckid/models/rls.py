@@ -331,6 +331,11 @@ class RecursiveARX(NarxModel):
         lam = float(self.forgetting_factor)
         f0 = np.asarray(self.initial_covariance, dtype=np.float64)
         if f0.ndim == 0:
+            if not float(f0) > 0:
+                raise ValueError(
+                    "initial_covariance must be a number > 0 or a positive definite matrix; got"
+                    f" {self.initial_covariance!r}"
+                )
             f0 = float(f0) * np.eye(p)
         else:
             if f0.shape != (p, p):
@@ -426,6 +431,7 @@ class RecursiveARX(NarxModel):
             If a hyper-parameter is out of range, the data hold several outputs, or an experiment is
             shorter than ``max_lag + 1`` samples.
         """
+        self._validate_params()
         experiments = as_experiments(data)
         first = experiments[0]
         if first.n_outputs != 1:

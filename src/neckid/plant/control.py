@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData
 from neckid.plant.protocols import Controller, Plant
-from neckid.validation import check_finite, check_ts
+from neckid.validation import check_finite, check_number, check_ts
 
 __all__ = ["InclinationController", "closed_loop"]
 
@@ -74,21 +74,16 @@ class InclinationController:
         command_limit: float = 4.0,
         configuration: Literal["planar", "three_tendon"] = "planar",
     ) -> None:
-        for name, value in (("kp", kp), ("ki", ki), ("command_limit", command_limit)):
-            if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
-                raise TypeError(f"{name} must be a number; got {value!r}")
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")
-        if command_limit <= 0:
-            raise ValueError(f"command_limit must be > 0 rad/s; got {command_limit!r}")
+        self.kp: float = check_number(kp, "kp", low=0)
+        self.ki: float = check_number(ki, "ki", low=0)
+        self.command_limit: float = check_number(
+            command_limit, "command_limit", low=0, closed="neither"
+        )
         if configuration not in ("planar", "three_tendon"):
             raise ValueError(
                 f"configuration must be 'planar' or 'three_tendon'; got {configuration!r}"
             )
-        self.kp = float(kp)
-        self.ki = float(ki)
         self.ts = check_ts(ts)
-        self.command_limit = float(command_limit)
         self.configuration = configuration
         self.n_motors = 1 if configuration == "planar" else 3
         self.n_references = 1 if configuration == "planar" else 2
@@ -155,12 +150,13 @@ def closed_loop(
 
     Parameters
     ----------
-    plant : object with ``reset()`` and ``step(u) -> y``
+    plant : Plant
         A :class:`~neckid.plant.SoftNeck`, or an identified model's ``simulator()``, or anything
-        with the same two methods. ``step`` takes the command of sample ``k`` and returns the
+        with ``reset()`` and ``step(u) -> y`` (:class:`~neckid.plant.Plant`). ``step`` takes the command of sample ``k`` and returns the
         output of sample ``k`` (which must not depend on that command).
-    controller : object with ``reset()`` and ``step(reference, measurement) -> command``
-        Usually an :class:`InclinationController`.
+    controller : Controller
+        Anything with ``reset()`` and ``step(reference, measurement) -> command``
+        (:class:`~neckid.plant.Controller`); usually an :class:`InclinationController`.
     reference : array_like, shape (n_samples,) or (n_samples, 2)
         Inclination target in degrees, or (inclination, orientation) targets for three tendons.
     ts : float

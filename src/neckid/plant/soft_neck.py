@@ -52,8 +52,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+import neckid.plant._kernels as _kernels
 from neckid.data import IOData
-from neckid.plant import _kernels
 from neckid.validation import check_finite, check_ts
 
 __all__ = ["Configuration", "SoftNeck", "SoftNeckParameters"]

@@ -1,0 +1,80 @@
+"""Benchmark the identification methods on real data, next to published figures of merit.
+
+:func:`run_benchmark` runs the methods of the registry (:func:`neckid.methods`: ``arx``, ``sm``,
+``sm-linear``, ``sm-parallel``, ``nn`` and, on the soft-neck logs, ``scheduled``) on
+
+- the four public benchmarks of :mod:`neckid.datasets.benchmarks`, with the official protocol of
+  each (train on the training record, free-run simulation of every test record, the number of
+  initial samples the protocol gives, RMSE in the unit the literature uses);
+- the UC3M soft-neck logs, with the protocol of ``docs/benchmarks.md`` (identify on
+  ``stair/ada000response.csv``, validate by free run on every other log that has the raw
+  inclination; see :func:`softneck_protocol`).
+
+Hyper-parameters (lags, noise bounds, ...) are chosen per method on the training record only:
+every candidate is fitted on its first 75 % and ranked by free-run RMSE on the last 25 %, then the
+best one is refitted on the whole training record. Test records are never looked at before the
+final simulation.
+
+The package reads as the benchmark is built:
+
+- :mod:`~neckid.experiments.benchmark.datasets`: the data sets and their protocols (loaders,
+  :func:`softneck_protocol`, quick subsets);
+- :mod:`~neckid.experiments.benchmark.settings`: per-data-set lag grids and per-method candidate
+  grids, as tables; every candidate is made by the method registry;
+- :mod:`~neckid.experiments.benchmark.runner`: selection, fit, free run, :class:`BenchmarkReport`;
+- :mod:`~neckid.experiments.benchmark.published`: the published figures, read from
+  ``published.json`` (package data) with their sources.
+
+Examples
+--------
+>>> from neckid.experiments.benchmark import BENCHMARK_METHODS, BENCHMARKS
+>>> BENCHMARK_METHODS
+('arx', 'sm', 'sm-linear', 'sm-parallel', 'nn', 'scheduled')
+>>> BENCHMARKS
+('softneck', 'cascaded_tanks', 'silverbox', 'bouc_wen', 'robot_arm')
+"""
+
+from neckid.experiments.benchmark.datasets import (
+    BENCHMARKS,
+    PROTOCOLS,
+    SOFTNECK_STAIR_EDGES,
+    SOFTNECK_TRAINING_LOG,
+    Protocol,
+    load_benchmark,
+    load_softneck_benchmark,
+    quick_subset,
+    softneck_protocol,
+)
+from neckid.experiments.benchmark.published import (
+    published_frame,
+    published_table,
+    published_units,
+)
+from neckid.experiments.benchmark.runner import BenchmarkReport, run_benchmark
+from neckid.experiments.benchmark.settings import (
+    BENCHMARK_METHODS,
+    LAG_GRIDS,
+    SELECTION_FRACTION,
+    candidates,
+)
+
+__all__ = [
+    "BENCHMARKS",
+    "BENCHMARK_METHODS",
+    "LAG_GRIDS",
+    "PROTOCOLS",
+    "SELECTION_FRACTION",
+    "SOFTNECK_STAIR_EDGES",
+    "SOFTNECK_TRAINING_LOG",
+    "BenchmarkReport",
+    "Protocol",
+    "candidates",
+    "load_benchmark",
+    "load_softneck_benchmark",
+    "published_frame",
+    "published_table",
+    "published_units",
+    "quick_subset",
+    "run_benchmark",
+    "softneck_protocol",
+]

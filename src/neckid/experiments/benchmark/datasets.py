@@ -1,0 +1,251 @@
+"""The data sets of the benchmark: where each one is found, how it loads, and its quick subset.
+
+Every data set is a :class:`Protocol` in :data:`PROTOCOLS`: a loader that turns its folder into a
+:class:`~neckid.datasets.benchmarks.BenchmarkData` (training record, test records, the protocol's
+initial samples, the unit of its literature), and whether the report adds the mean over its test
+records. The four public benchmarks use the official protocol of each
+(:mod:`neckid.datasets.benchmarks`); the UC3M soft-neck logs use this project's
+(:func:`softneck_protocol`, :func:`load_softneck_benchmark`, ``docs/benchmarks.md``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+
+from neckid.data import IOData
+from neckid.datasets.benchmarks import (
+    BenchmarkData,
+    load_bouc_wen,
+    load_cascaded_tanks,
+    load_robot_arm,
+    load_silverbox,
+)
+from neckid.datasets.softneck import load_softneck_directory
+
+__all__ = [
+    "BENCHMARKS",
+    "PROTOCOLS",
+    "QUICK_TESTS",
+    "QUICK_TEST_SAMPLES",
+    "QUICK_TRAIN_SAMPLES",
+    "SOFTNECK_STAIR_EDGES",
+    "SOFTNECK_TRAINING_LOG",
+    "Protocol",
+    "load_benchmark",
+    "load_softneck_benchmark",
+    "locate",
+    "quick_subset",
+    "softneck_protocol",
+]
+
+#: The log the soft-neck model is identified on (relative to the ``softneck`` folder).
+SOFTNECK_TRAINING_LOG = "stair/ada000response.csv"
+
+#: Staircase segments of the soft-neck training log [s from its first sample]: 10 deg for 20 s,
+#: then 15, 20, 25, 30, 25, 20, 15 deg for 10 s each. Each is one operating point of the
+#: scheduled model.
+SOFTNECK_STAIR_EDGES = (0.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
+
+#: A quick (smoke) run keeps at most this many training samples, test samples and test records.
+QUICK_TRAIN_SAMPLES = 1500
+QUICK_TEST_SAMPLES = 600
+QUICK_TESTS = 3
+
+
+# ---------------------------------------------------------------------------- the soft-neck protocol
+def softneck_protocol(log: IOData) -> IOData:
+    """The channels the soft-neck benchmark identifies: motor displacement and velocity -> inclination.
+
+    Parameters
+    ----------
+    log : IOData
+        A soft-neck log from :func:`~neckid.datasets.load_softneck_log` with the raw inclination
+        (6- or 7-column layout).
+
+    Returns
+    -------
+    IOData
+        Inputs ``motor_displacement`` [rad] (the motor position minus its value at the first
+        sample: the encoder zero and the tendon slack differ between runs, while every log starts
+        with the neck at rest near 0 deg) and ``motor_velocity`` [rad/s] (measured); output
+        ``inclination`` [deg] (raw).
+
+    Raises
+    ------
+    KeyError
+        If the log lacks one of those channels (3-column logs have no raw inclination).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData
+    >>> log = IOData(u=np.column_stack([1.5 + np.arange(4.0), np.ones(4)]), y=np.arange(4.0),
+    ...              ts=0.025, input_names=["motor_position", "motor_velocity"],
+    ...              output_names=["inclination"])
+    >>> softneck_protocol(log).channel("motor_displacement")
+    array([0., 1., 2., 3.])
+    """
+    data = log.select(inputs=["motor_position", "motor_velocity"], outputs=["inclination"])
+    u = np.array(data.u)
+    u[:, 0] -= u[0, 0]
+    return IOData(
+        u,
+        data.y,
+        ts=data.ts,
+        input_names=["motor_displacement", "motor_velocity"],
+        output_names=["inclination"],
+        input_units=["rad", "rad/s"],
+        output_units=["deg"],
+        t0=data.t0,
+        name=log.name,
+    )
+
+
+def load_softneck_benchmark(folder: str | Path) -> BenchmarkData:
+    """The soft-neck logs under ``folder`` as a benchmark: :data:`SOFTNECK_TRAINING_LOG` to train.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The ``softneck`` folder (``stair/``, ``step/``, ``id/``).
+
+    Returns
+    -------
+    BenchmarkData
+        ``train``: the training log through :func:`softneck_protocol`; ``tests``: every other log
+        with a raw inclination, by its path relative to ``folder`` (3-column logs are left out);
+        ``n_initial`` None (each model takes its own ``max_lag_`` samples); RMSE in deg.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the training log, or every validation log, is missing.
+    """
+    root = Path(folder)
+    logs = load_softneck_directory(root)
+    if SOFTNECK_TRAINING_LOG not in logs:
+        raise FileNotFoundError(
+            f"the soft-neck protocol identifies on {SOFTNECK_TRAINING_LOG}; it is not under {root}"
+        )
+    usable = {
+        key: softneck_protocol(log)
+        for key, log in logs.items()
+        if "inclination" in log.output_names
+    }
+    train = usable.pop(SOFTNECK_TRAINING_LOG)
+    if not usable:
+        raise FileNotFoundError(f"no validation log with a raw inclination under {root}")
+    return BenchmarkData(
+        name="softneck",
+        train=train,
+        tests=usable,
+        n_initial=None,
+        description=(
+            f"UC3M soft-neck bench: identify on {SOFTNECK_TRAINING_LOG} (motor displacement [rad]"
+            " and measured motor velocity [rad/s] -> raw inclination [deg]); free-run validation"
+            " on every other log with a raw inclination; NRMSE fit per log and their mean."
+        ),
+        citation="github.com/munozyanez/phd_Archived @a9198c8 (see datasets.softneck)",
+        source=str(root),
+        rmse_unit="deg",
+    )
+
+
+# ---------------------------------------------------------------------------- the registry
+@dataclass(frozen=True)
+class Protocol:
+    """One data set of the benchmark.
+
+    Attributes
+    ----------
+    name : str
+        Its key (``"cascaded_tanks"``), also the name of its folder.
+    load : callable
+        ``load(folder) -> BenchmarkData`` with the official split and initial samples.
+    mean_over_tests : bool
+        The report adds, per method, a row ``test == "mean"`` over the test records and, in the
+        details, the per-test difference of fit to the linear ARX (the soft-neck logs).
+    """
+
+    name: str
+    load: Callable[[Path], BenchmarkData]
+    mean_over_tests: bool = False
+
+
+#: The data sets, by key, in the order they run.
+PROTOCOLS: Mapping[str, Protocol] = MappingProxyType(
+    {
+        p.name: p
+        for p in (
+            Protocol("softneck", load_softneck_benchmark, mean_over_tests=True),
+            Protocol("cascaded_tanks", load_cascaded_tanks),
+            Protocol("silverbox", load_silverbox),
+            Protocol("bouc_wen", load_bouc_wen),
+            Protocol("robot_arm", load_robot_arm),
+        )
+    }
+)
+
+#: The data-set keys, in the order they run.
+BENCHMARKS: tuple[str, ...] = tuple(PROTOCOLS)
+
+
+def locate(data_dir: str | Path, name: str) -> Path | None:
+    """The folder of data set ``name``: ``data_dir/benchmarks/<name>`` or ``data_dir/<name>``."""
+    root = Path(data_dir)
+    for folder in (root / "benchmarks" / name, root / name):
+        if folder.is_dir():
+            return folder
+    return None
+
+
+def quick_subset(bench: BenchmarkData) -> BenchmarkData:
+    """Short records for a smoke run: the first :data:`QUICK_TESTS` test records, shortened.
+
+    At most :data:`QUICK_TRAIN_SAMPLES` training and :data:`QUICK_TEST_SAMPLES` test samples.
+    """
+
+    def head(record: IOData, n: int) -> IOData:
+        return record[: min(n, record.n_samples)]
+
+    tests = list(bench.tests.items())[:QUICK_TESTS]
+    return dataclasses.replace(
+        bench,
+        train=head(bench.train, QUICK_TRAIN_SAMPLES),
+        tests={k: head(v, QUICK_TEST_SAMPLES) for k, v in tests},
+        description=bench.description + " (quick: shortened records)",
+    )
+
+
+def load_benchmark(
+    name: str, data_dir: str | Path, *, quick: bool = False
+) -> BenchmarkData | None:
+    """Load data set ``name`` from under ``data_dir``; ``None`` when its folder is not there.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`PROTOCOLS`.
+    data_dir : str or Path
+        The folder holding ``softneck/`` and ``benchmarks/<name>/`` (see :func:`locate`).
+    quick : bool, default False
+        Return :func:`quick_subset` of it.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not a key of :data:`PROTOCOLS`.
+    """
+    if name not in PROTOCOLS:
+        raise ValueError(f"benchmark must be one of {list(PROTOCOLS)}; got {name!r}")
+    folder = locate(data_dir, name)
+    if folder is None:
+        return None
+    bench = PROTOCOLS[name].load(folder)
+    return quick_subset(bench) if quick else bench

@@ -1,0 +1,301 @@
+"""What the benchmark tries: per-data-set lag grids and the hyper-parameter candidates of each method.
+
+Everything here is a table. A candidate is a ``(settings, estimator)`` pair: a text that names
+its hyper-parameters (it goes into the report) and an unfitted estimator made by the method
+registry, ``neckid.methods()[name].make(lags, quick=..., **params)``. :data:`CANDIDATE_GRIDS`
+maps a registry name to the small function that lists its candidates on one data set; the
+benchmark runs the methods that have one (:data:`BENCHMARK_METHODS`).
+
+The candidates are ranked on the training record only (:data:`SELECTION_FRACTION`, see
+:mod:`neckid.experiments.benchmark.runner`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Mapping
+from types import MappingProxyType
+from typing import Any
+
+from neckid.data import IOData
+from neckid.experiments.benchmark.datasets import SOFTNECK_STAIR_EDGES
+from neckid.metrics import rmse
+from neckid.regressors import Lags
+from neckid.registry import methods
+
+__all__ = [
+    "BENCHMARK_METHODS",
+    "CANDIDATE_GRIDS",
+    "LAG_GRIDS",
+    "LARGE_RECORDS",
+    "NEURAL_PARAMS",
+    "ONLY_ON",
+    "SCHEDULED_PARAMS",
+    "SELECTION_FRACTION",
+    "SM_EPSILON_FACTORS",
+    "SM_EPSILON_FACTORS_LARGE",
+    "SM_INPUT_WEIGHTS",
+    "SM_PARALLEL_EPSILON_FACTORS",
+    "SM_PARALLEL_REGRESSORS",
+    "Candidate",
+    "arx_error_scale",
+    "candidates",
+    "lag_grid",
+    "runs_on",
+]
+
+#: A hyper-parameter setting of a method: its description and an unfitted estimator.
+Candidate = tuple[str, Any]
+
+#: Share of the training record the candidates are fitted on; they are ranked by free-run RMSE on
+#: the rest.
+SELECTION_FRACTION = 0.75
+
+#: Candidate regressors per data set (ranked on the training record). A quick run takes the
+#: second (or only) one.
+LAG_GRIDS: Mapping[str, tuple[Lags, ...]] = MappingProxyType(
+    {
+        "softneck": (
+            Lags.arx(1, 1, 1),
+            Lags.arx(2, 2, 1),
+            Lags.arx(3, 3, 1),
+            Lags.arx(1, 1, 0),
+            Lags.arx(2, 2, 0),
+        ),
+        "cascaded_tanks": (Lags.arx(2, 2, 1), Lags.arx(3, 3, 1), Lags.arx(4, 4, 1)),
+        # Duffing oscillator: second order in the output, the input at t..t-3 (lag 0 included).
+        "silverbox": (Lags.arx(2, 3, 0), Lags.arx(2, 4, 0), Lags.arx(3, 4, 0)),
+        "bouc_wen": (Lags.arx(5, 5, 0),),
+        "robot_arm": (Lags.arx(2, 2, 1), Lags.arx(4, 4, 1)),
+    }
+)
+
+#: Data sets whose training records are large (Silverbox, Bouc-Wen: 65,000 and 41,000 samples):
+#: Set Membership leaves the knee rule out there (γ*(ε) on a 48-point grid over all pairs takes
+#: minutes, at one given ε seconds).
+LARGE_RECORDS = frozenset({"silverbox", "bouc_wen"})
+
+#: Candidate noise bounds of Set Membership, as multiples of the one-step residual RMS of a linear
+#: ARX on the same regressor (training record); ``None`` is SetMembership's own knee rule.
+SM_EPSILON_FACTORS: tuple[float | None, ...] = (None, 1.0, 3.0)
+
+#: The same on :data:`LARGE_RECORDS` (no knee rule).
+SM_EPSILON_FACTORS_LARGE: tuple[float | None, ...] = (0.5, 1.0)
+
+#: Candidate ``input_weight`` of SM with a linear part: the linear part carries the input
+#: dynamics, and a light input weight lets the SM residual depend mostly on the past outputs.
+SM_INPUT_WEIGHTS: tuple[float, ...] = (1.0, 0.1, 0.03)
+
+#: Candidate SM regressors of the parallel model: ``(linear_lags, input_lags)``, lags of the
+#: linear model's simulated output and of the inputs.
+SM_PARALLEL_REGRESSORS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
+    ((0,), ()),
+    ((0, 1), ()),
+    ((0, 1, 2), ()),
+    ((0, 1), (1,)),
+)
+
+#: Candidate noise bounds of the parallel model, as multiples of the RMS free-run error of the
+#: linear ARX on the training record; ``None`` is the knee rule (left out on
+#: :data:`LARGE_RECORDS`).
+SM_PARALLEL_EPSILON_FACTORS: tuple[float | None, ...] = (None, 0.25, 1.0)
+
+#: The neural network of a full run (a quick run takes the registry's ``quick`` settings).
+NEURAL_PARAMS: Mapping[str, Any] = MappingProxyType(
+    {"hidden_layer_sizes": (25, 25), "max_iter": 300}
+)
+
+#: The scheduled model on the soft-neck training log: every stair is an operating point, the
+#: first 40 samples (1 s) of each left out; CFF-RLS with the seed paper's λ; the lines go through
+#: every point. ``window`` is 100 samples (50 in a quick run).
+SCHEDULED_PARAMS: Mapping[str, Any] = MappingProxyType(
+    {
+        "forgetting_factor": 0.98,
+        "segments": SOFTNECK_STAIR_EDGES,
+        "skip": 40,
+        "window": 100,
+        "converged_only": False,
+    }
+)
+
+#: The regressor of the scheduled model: motor velocity [rad/s] at ``t − 1`` and the inclination.
+SCHEDULED_LAGS = Lags(outputs=[1], inputs={"motor_velocity": [1]})
+
+#: Methods that run on some data sets only.
+ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType({"scheduled": frozenset({"softneck"})})
+
+
+def lag_grid(benchmark: str, quick: bool = False) -> list[Lags]:
+    """The candidate regressors on data set ``benchmark`` (:data:`LAG_GRIDS`)."""
+    grid = list(LAG_GRIDS[benchmark])
+    return (grid[1:2] or grid[:1]) if quick else grid
+
+
+def runs_on(method: str, benchmark: str) -> bool:
+    """Whether the benchmark runs registry method ``method`` on data set ``benchmark``."""
+    return method not in ONLY_ON or benchmark in ONLY_ON[method]
+
+
+def arx_error_scale(lags: Lags, train: IOData, free_run: bool = False) -> float:
+    """RMS error of a linear ARX with these lags on the training record.
+
+    The one-step residual by default; with ``free_run``, the free-run error.
+
+    Raises
+    ------
+    ValueError
+        With ``free_run``, when the ARX's free run diverges on the training record.
+    """
+    model = methods()["arx"].make(lags).fit(train)
+    result = model.simulate(train) if free_run else model.predict(train)
+    value = float(rmse(train.y, result.y, skip=result.n_initial)[0])
+    if free_run and not math.isfinite(value):
+        raise ValueError(f"the linear ARX with {lags!r} diverges on the training record")
+    return value
+
+
+# ---------------------------------------------------------------------------- candidate grids
+def _epsilon(factor: float | None, scale: float) -> tuple[float | None, str]:
+    """The noise bound ``factor × scale`` and its label (``None`` and ``"knee"`` for the rule)."""
+    if factor is None:
+        return None, "knee"
+    return factor * scale, f"{factor:g} x {scale:.3g}"
+
+
+def _arx_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+    make = methods()["arx"].make
+    return [(f"lags={lags!r}", make(lags, quick=quick)) for lags in lag_grid(benchmark, quick)]
+
+
+def _set_membership_grid(
+    name: str, input_weights: tuple[float, ...]
+) -> Callable[[str, IOData, bool, int], list[Candidate]]:
+    """The grid of ``"sm"`` or ``"sm-linear"``: lags × ε × ``input_weights`` (1 when quick)."""
+    method = methods()[name]
+
+    def grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+        full = SM_EPSILON_FACTORS_LARGE if benchmark in LARGE_RECORDS else SM_EPSILON_FACTORS
+        factors: tuple[float | None, ...] = (None,) if quick else full
+        weights = (1.0,) if quick else input_weights
+        out: list[Candidate] = []
+        for lags in lag_grid(benchmark, quick):
+            noise = arx_error_scale(lags, train)
+            for factor, weight in itertools.product(factors, weights):
+                epsilon, label = _epsilon(factor, noise)
+                out.append(
+                    (
+                        f"lags={lags!r}, epsilon={label}, input_weight={weight:g}",
+                        method.make(
+                            lags, quick=quick, epsilon=epsilon, input_weight=weight, progress=False
+                        ),
+                    )
+                )
+        return out
+
+    return grid
+
+
+def _parallel_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+    make = methods()["sm-parallel"].make
+    regressors = SM_PARALLEL_REGRESSORS[1:2] if quick else SM_PARALLEL_REGRESSORS
+    factors: tuple[float | None, ...] = (
+        (None,)
+        if quick
+        else SM_PARALLEL_EPSILON_FACTORS[1:]
+        if benchmark in LARGE_RECORDS
+        else SM_PARALLEL_EPSILON_FACTORS
+    )
+    out: list[Candidate] = []
+    for lags in lag_grid(benchmark, quick):
+        try:
+            scale = arx_error_scale(lags, train, free_run=True)
+        except ValueError:
+            continue  # an unstable linear model cannot run in parallel
+        for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
+            epsilon, label = _epsilon(factor, scale)
+            out.append(
+                (
+                    f"lags={lags!r}, linear_lags={list(linear_lags)},"
+                    f" input_lags={list(input_lags)}, epsilon={label}",
+                    make(
+                        lags,
+                        quick=quick,
+                        linear_lags=linear_lags,
+                        input_lags=input_lags,
+                        epsilon=epsilon,
+                        progress=False,
+                    ),
+                )
+            )
+    return out
+
+
+def _neural_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+    make = methods()["nn"].make
+    params = {} if quick else dict(NEURAL_PARAMS)
+    out: list[Candidate] = []
+    for lags in lag_grid(benchmark, quick):
+        model = make(lags, quick=quick, random_state=seed, **params)
+        out.append((f"lags={lags!r}, hidden={tuple(model.hidden_layer_sizes)}", model))
+    return out
+
+
+def _scheduled_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+    params = {**SCHEDULED_PARAMS, "window": 50 if quick else SCHEDULED_PARAMS["window"]}
+    label = (
+        f"forgetting_factor={params['forgetting_factor']:g}, skip={params['skip']},"
+        f" window={params['window']}"
+    )
+    return [(label, methods()["scheduled"].make(SCHEDULED_LAGS, quick=quick, **params))]
+
+
+#: Registry name -> ``grid(benchmark, train, quick, seed)`` listing its candidates.
+CANDIDATE_GRIDS: Mapping[str, Callable[[str, IOData, bool, int], list[Candidate]]] = (
+    MappingProxyType(
+        {
+            "arx": _arx_grid,
+            "sm": _set_membership_grid("sm", (1.0,)),
+            "sm-linear": _set_membership_grid("sm-linear", SM_INPUT_WEIGHTS),
+            "sm-parallel": _parallel_grid,
+            "nn": _neural_grid,
+            "scheduled": _scheduled_grid,
+        }
+    )
+)
+
+#: The registry methods the benchmark runs, in the registry's order.
+BENCHMARK_METHODS: tuple[str, ...] = tuple(m for m in methods() if m in CANDIDATE_GRIDS)
+
+
+def candidates(
+    method: str, benchmark: str, train: IOData, *, quick: bool = False, seed: int = 0
+) -> list[Candidate]:
+    """The hyper-parameter candidates of registry method ``method`` on data set ``benchmark``.
+
+    Parameters
+    ----------
+    method : str
+        A name of :data:`BENCHMARK_METHODS`.
+    benchmark : str
+        A key of :data:`LAG_GRIDS`.
+    train : IOData
+        The training record (the Set Membership noise bounds scale with an ARX's error on it).
+    quick : bool, default False
+        One candidate and the registry's smoke-run settings.
+    seed : int, default 0
+        ``random_state`` of the neural networks.
+
+    Returns
+    -------
+    list of (str, estimator)
+        The settings text and an unfitted estimator, per candidate.
+
+    Raises
+    ------
+    ValueError
+        If ``method`` has no candidate grid.
+    """
+    if method not in CANDIDATE_GRIDS:
+        raise ValueError(f"method must be one of {list(BENCHMARK_METHODS)}; got {method!r}")
+    return CANDIDATE_GRIDS[method](benchmark, train, quick, seed)
