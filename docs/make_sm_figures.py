@@ -43,7 +43,7 @@ def main() -> None:
     curve = model.gamma_curve_
     if curve is None:
         raise RuntimeError("the estimator computes the curve when gamma is not given")
-    fig = plot_gamma_curve(curve)
+    fig = plot_gamma_curve(curve, unit="deg")
     fig.axes[0].set_xscale("symlog", linthresh=1e-3)
     fig.axes[0].set_xlim(left=0.0)
     fig.axes[0].set_title("γ*(ε) of the simulated neck (residual of the linear part)")

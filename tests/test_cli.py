@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+import neckid
 from neckid import load_model
 from neckid.cli import app
 from neckid.experiments.paper import EXPERIMENTS
@@ -44,14 +45,14 @@ def _plain(text: str) -> str:
     return re.sub(r"\s+", " ", text)
 
 
-@pytest.mark.parametrize("method", ["arx", "sm", "sm-linear", "sm-parallel", "nn", "rls"])
+@pytest.mark.parametrize("method", [*sorted(neckid.methods()), "sm_linear"])
 def test_identify_validate_simulate_round_trip(
     neck_logs: tuple[Path, Path], tmp_path: Path, method: str
 ) -> None:
     train, valid = neck_logs
     model_path = tmp_path / f"{method}.npz"
-    lags = "1-2/1-2" if method == "rls" else "1-2/1-3"
-    inputs = "velocity_command" if method == "rls" else "motor_position"
+    lags = {"rls": "1-2/1-2", "scheduled": "1/1"}.get(method, "1-2/1-3")
+    inputs = "velocity_command" if method in ("rls", "scheduled") else "motor_position"
     result = runner.invoke(
         app,
         [
@@ -72,6 +73,8 @@ def test_identify_validate_simulate_round_trip(
     assert result.exit_code == 0, result.output
     assert model_path.exists()
     assert "fit %" in result.output
+    if method == "sm_linear":
+        assert "deprecated" in result.output and "'sm-linear'" in result.output
     model = load_model(model_path)
     assert model.n_inputs_ == 1
 

@@ -61,9 +61,20 @@ def _fail(message: str) -> None:
 
 
 def _model_channels(model: Any) -> tuple[list[str], list[str]]:
-    if hasattr(model, "lags_"):
-        return list(model.lags_.input_names), list(model.lags_.output_names)
     return list(model.input_names_), list(model.output_names_)
+
+
+def _method_name(name: str) -> str:
+    """The registry name of a method; an old spelling prints a deprecation line and maps over."""
+    from neckid.registry import DEPRECATED_NAMES, get_method
+
+    if name in DEPRECATED_NAMES:
+        console.print(
+            f"[yellow]deprecated:[/yellow] method name {name!r} will be removed in the next"
+            f" release; use {DEPRECATED_NAMES[name]!r}"
+        )
+        return DEPRECATED_NAMES[name]
+    return get_method(name).name
 
 
 def _metrics_table(title: str, rows: list[dict[str, Any]]) -> Table:
@@ -156,7 +167,9 @@ def identify(
     inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
     outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
     method: str = typer.Option(
-        "sm", "--method", help="sm | sm-linear | sm-parallel | nn | arx | rls."
+        "sm",
+        "--method",
+        help="arx | rls | sm | sm-linear | sm-parallel | nn | scheduled (neckid.methods()).",
     ),
     lags: str = typer.Option(
         "1-3/8-10",
@@ -179,6 +192,7 @@ def identify(
 
     try:
         data = read_log(log, _split(inputs), _split(outputs), time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
+        method = _method_name(method)
         estimator = make_estimator(method, parse_lags(lags), random_state=seed)
         estimator.fit(data)
         path = estimator.save(save)

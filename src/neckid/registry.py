@@ -128,7 +128,6 @@ _METHODS: tuple[Method, ...] = (
         "Scheduled CFF-RLS",
         "neckid.models.scheduled:GainScheduledModel",
         "first-order model N(i)/(z - P(i)) scheduled on the inclination, from CFF-RLS",
-        quick={"window": 30},
     ),
 )
 

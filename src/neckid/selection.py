@@ -31,8 +31,8 @@ from sklearn.base import clone
 from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import check_is_fitted
-from neckid.regressors import Lags
 from neckid.registry import get_method
+from neckid.regressors import Lags
 
 __all__ = [
     "LagSelection",
@@ -539,7 +539,7 @@ def select_lags(
             progress=progress,
         )  # fmt: skip
         for row, score in zip(fitted, scores.to_dict(orient="records"), strict=True):
-            row.update({k: v for k, v in score.items() if k not in ("candidate", "name")})
+            row.update({str(k): v for k, v in score.items() if k not in ("candidate", "name")})
 
     output_names = validation_list[0].output_names
     columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]

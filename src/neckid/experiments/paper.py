@@ -35,13 +35,11 @@ import numpy as np
 import pandas as pd
 
 from neckid.data import IOData
-from neckid.models.arx import LinearARX
 from neckid.models.base import ModelResult
-from neckid.models.neural import NeuralNARX
 from neckid.models.scheduled import GainScheduledModel
-from neckid.models.set_membership import SetMembership
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.plant.calibration import chirp_bandwidth
+from neckid.registry import methods
 from neckid.regressors import Lags
 from neckid.selection import lag_grid, select_lags
 from neckid.signals import multisine, sine, staircase, step
@@ -62,6 +60,9 @@ PAPER_FITS: dict[str, tuple[float, float, float, float]] = {
 
 #: The seed paper's regressor with one motor: [y(t-1..t-3), u(t-8..t-10)].
 PAPER_LAGS = Lags(outputs=3, inputs=[8, 9, 10])
+#: The NARX methods of the demo (registry names), in the order of its table; the scheduled
+#: CFF-RLS model follows, identified by the operating-point protocol on the plant.
+DEMO_METHODS = ("sm", "sm-linear", "nn", "arx")
 
 NARX_INPUT = "motor_position"
 SCHEDULED_INPUT = "velocity_command"
@@ -251,7 +252,7 @@ def run_demo(
         else "regressor: the paper's"
     )
     selection_table = None
-    network = NeuralNARX(PAPER_LAGS, random_state=int(seeds[3]))
+    network = methods()["nn"].make(PAPER_LAGS, random_state=int(seeds[3]))
     if settings.paper_regressor:
         lags = PAPER_LAGS
     else:
@@ -267,12 +268,12 @@ def run_demo(
 
     # 4. models ----------------------------------------------------------------------------------
     notify("models: Set Membership, neural NARX, ARX")
-    narx_models: dict[str, Any] = {
-        "Set Membership": SetMembership(lags),
-        "Set Membership + linear": SetMembership(lags, linear_part=True),
-        "Neural NARX 2x25": NeuralNARX(lags, random_state=int(seeds[3])),
-        "Linear ARX": LinearARX(lags),
-    }
+    narx_models: dict[str, Any] = {}
+    for name in DEMO_METHODS:
+        method = methods()[name]
+        seeded = "random_state" in method.estimator_class()._parameter_constraints
+        params = {"random_state": int(seeds[3])} if seeded else {}
+        narx_models[method.label] = method.make(lags, **params)
     fit_times = {}
     for name, model in narx_models.items():
         t0 = time.perf_counter()
@@ -357,7 +358,7 @@ def run_demo(
         "set_membership": {
             name: {"epsilon": float(model.epsilon_[0]), "gamma": float(model.gamma_[0])}
             for name, model in narx_models.items()
-            if isinstance(model, SetMembership)
+            if hasattr(model, "gamma_")
         },
         "schedule": {
             "gain_coefficients": scheduled.gain_coefficients_.tolist(),
@@ -419,9 +420,9 @@ def _write_outputs(
 
     from neckid.report.html import Figure, Report, library_versions
     from neckid.report.plots import plot_simulation
-    from neckid.report.sm_plots import plot_gamma_curve
     from neckid.report.scheduled_plots import plot_gain_schedule
     from neckid.report.signal_plots import plot_bandwidth
+    from neckid.report.sm_plots import plot_gamma_curve
 
     files: dict[str, Path] = {}
     figures: list[Figure] = []
@@ -458,7 +459,7 @@ def _write_outputs(
     sm = narx_models["Set Membership"]
     if sm.gamma_curve_ is not None:
         save(
-            plot_gamma_curve(sm.gamma_curve_),
+            plot_gamma_curve(sm.gamma_curve_, unit="deg"),
             "gamma_curve",
             "γ*(ε): the smallest Lipschitz constant consistent with the data, per noise bound ε"
             " (circle: the chosen ε).",

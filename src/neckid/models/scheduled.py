@@ -221,7 +221,7 @@ class GainScheduledModel(Estimator):
         Samples left out at the start of every point (its transient).
     window : int, optional
         Convergence window of the RLS estimate and samples averaged per point, default
-        ``5 / (1 − λ)``.
+        ``5 / (1 − λ)`` (250 samples at λ = 0.98), at most half of each segment after ``skip``.
     converged_only : bool, default True
         Fit the lines through the converged points only (all points when fewer than
         ``degree + 1`` converged would be left, the fit refuses).
@@ -356,6 +356,10 @@ class GainScheduledModel(Estimator):
         skip = int(self.skip)
         points = []
         for k, piece in enumerate(self._pieces(experiments)):
+            window = self.window
+            if window is None:  # five memories of the estimator, at most half the segment
+                usable = piece.n_samples - skip
+                window = min(default_window(self.forgetting_factor), max(10, usable // 2))
             points.append(
                 identify_point(
                     piece.u[skip:, channel],
@@ -363,7 +367,7 @@ class GainScheduledModel(Estimator):
                     piece.ts,
                     delay=delay,
                     forgetting_factor=self.forgetting_factor,
-                    window=self.window,
+                    window=window,
                     input_name=command,
                     output_name=output,
                     input_unit=piece.input_units[channel],

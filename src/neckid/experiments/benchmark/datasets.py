@@ -223,9 +223,7 @@ def quick_subset(bench: BenchmarkData) -> BenchmarkData:
     )
 
 
-def load_benchmark(
-    name: str, data_dir: str | Path, *, quick: bool = False
-) -> BenchmarkData | None:
+def load_benchmark(name: str, data_dir: str | Path, *, quick: bool = False) -> BenchmarkData | None:
     """Load data set ``name`` from under ``data_dir``; ``None`` when its folder is not there.
 
     Parameters

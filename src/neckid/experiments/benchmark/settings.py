@@ -21,8 +21,8 @@ from typing import Any
 from neckid.data import IOData
 from neckid.experiments.benchmark.datasets import SOFTNECK_STAIR_EDGES
 from neckid.metrics import rmse
-from neckid.regressors import Lags
 from neckid.registry import methods
+from neckid.regressors import Lags
 
 __all__ = [
     "BENCHMARK_METHODS",
