@@ -28,7 +28,7 @@ ARX_LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
 
 def free_run_fit(model, record) -> float:
     """Free-run fit [%] as in the benchmark (the model's own initial samples skipped)."""
-    y, skip = free_run(model, record)
+    y, skip = free_run(model, record, diverged="keep")
     return float(fit_percent(record.y, y, skip=skip)[0]) if np.isfinite(y).all() else -np.inf
 
 

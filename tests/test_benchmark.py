@@ -246,6 +246,22 @@ def test_protocol_initial_samples_are_the_last_before_evaluation():
     assert skip == model.max_lag_ == 2
 
 
+def test_free_run_raises_or_keeps_a_divergence():
+    # y(t) = 1.5 y(t-1) exactly: the identified pole is 1.5 and a long free run overflows.
+    n = 100
+    model = LinearARX(Lags(outputs=[1]), fit_intercept=False).fit(
+        IOData(np.zeros(n), 1.5 ** np.arange(n), ts=1.0)
+    )
+    record = IOData(np.zeros(3000), np.ones(3000), ts=1.0)
+    with pytest.raises(ValueError, match="diverged"), np.errstate(all="ignore"):
+        free_run(model, record)
+    with np.errstate(all="ignore"):
+        y, skip = free_run(model, record, n_initial=10, diverged="keep")
+    assert skip == 10 and np.isfinite(y[:100]).all() and not np.isfinite(y[-1]).all()
+    with pytest.raises(ValueError, match="diverged must be 'raise' or 'keep'; got 'ignore'"):
+        free_run(model, record, diverged="ignore")
+
+
 def test_free_run_needs_a_fitted_model():
     with pytest.raises(ValueError, match="not fitted"):
         free_run(LinearARX(Lags.arx(1, 1, 1)), IOData(np.zeros(10), np.zeros(10), ts=1.0))

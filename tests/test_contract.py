@@ -114,7 +114,7 @@ def test_a_bad_hyper_parameter_is_refused_at_fit_naming_it(name: str) -> None:
 
 
 def test_fitted_models_know_their_channels(fitted) -> None:
-    name, model = fitted
+    _name, model = fitted
     assert model.__sklearn_is_fitted__()
     assert model.max_lag_ >= 1
     assert model.ts_ == DATA.ts
@@ -205,7 +205,7 @@ def test_save_load_round_trip(fitted, tmp_path) -> None:
 
 
 def test_clone_and_set_params_lags(fitted) -> None:
-    name, model = fitted
+    _name, model = fitted
     copy = clone(model)
     assert not copy.__sklearn_is_fitted__()
     assert repr(copy.get_params()) == repr(model.get_params())

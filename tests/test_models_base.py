@@ -97,7 +97,7 @@ def test_model_file_refusals(tmp_path) -> None:
     with pytest.raises(ValueError, match="not a neckid model file"):
         load_model(tmp_path / "plain.npz")
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
-    with pytest.raises(ValueError, match="not a readable neckid model file"):
+    with pytest.raises(ValueError, match="is not a neckid model file"):
         load_model(tmp_path / "junk.npz")
     write_model_file(tmp_path / "other.npz", "Mystery", {"a": np.zeros(1)}, {})
     with pytest.raises(ValueError, match="holds a 'Mystery', which this neckid cannot load"):

@@ -88,7 +88,7 @@ def test_constant_gain_model_matches_transfer_function() -> None:
     """With N and P constant the model is LTI: python-control gives the same response."""
     model = GainScheduledModel.from_coefficients([0.8], [0.6], ts=0.05)
     u = np.random.default_rng(2).normal(size=200)
-    sim = model.simulate(commands(u), initial=0.0).y[:, 0]
+    sim = model.simulate(commands(u, ts=0.05), initial=0.0).y[:, 0]
     tf = model.transfer_function(10.0, to="inclination")
     assert tf.dt == 0.05
     response = control.forced_response(tf, U=u).outputs
@@ -178,7 +178,7 @@ def test_not_fitted_and_bad_input() -> None:
         GainScheduledModel.from_points([1.0, 2.0], [1.0, 2.0], [1.0, 2.0], ts=-0.1)
     with pytest.raises(ValueError, match="first order in one output"):
         GainScheduledModel(Lags.arx(2, 1)).fit(staircase_log())
-    with pytest.raises(ValueError, match="needs lags=Lags.arx"):
+    with pytest.raises(ValueError, match=r"needs lags=Lags\.arx"):
         GainScheduledModel().fit(staircase_log())
     fitted = GainScheduledModel.from_coefficients()
     with pytest.raises(ValueError, match="initial"):

@@ -58,10 +58,10 @@ class Method:
     defaults: Mapping[str, Any] = field(default_factory=dict)
     quick: Mapping[str, Any] = field(default_factory=dict)
 
-    def estimator_class(self) -> type:
+    def estimator_class(self) -> type[Any]:
         """The estimator class (its module is imported on first use)."""
         module, _, name = self.estimator.partition(":")
-        cls: type = getattr(importlib.import_module(module), name)
+        cls: type[Any] = getattr(importlib.import_module(module), name)
         return cls
 
     def make(self, lags: Lags | None = None, *, quick: bool = False, **params: Any) -> Any:

@@ -30,7 +30,7 @@ from sklearn.base import clone
 
 from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
-from neckid.models.base import check_is_fitted
+from neckid.models.base import DivergenceError, check_is_fitted
 from neckid.registry import get_method
 from neckid.regressors import Lags
 
@@ -181,7 +181,13 @@ class LagSelection:
         return self.candidates[int(row["candidate"])]
 
 
-def free_run(model: Any, record: IOData, n_initial: int | None = None) -> tuple[FloatArray, int]:
+def free_run(
+    model: Any,
+    record: IOData,
+    n_initial: int | None = None,
+    *,
+    diverged: Literal["raise", "keep"] = "raise",
+) -> tuple[FloatArray, int]:
     """Free-run simulation of ``record`` by a fitted ``model``, with a protocol's initial samples.
 
     Parameters
@@ -196,12 +202,15 @@ def free_run(model: Any, record: IOData, n_initial: int | None = None) -> tuple[
         conditions are the last ``max_lag_`` of them, and a figure of merit starts at
         ``n_initial``. ``None`` (or fewer than ``max_lag_``): the first ``max_lag_`` measured
         samples are the initial conditions.
+    diverged : {"raise", "keep"}, default "raise"
+        When the run leaves the finite numbers: raise the model's ``DivergenceError``, or return
+        the run as it is, non-finite from there (a benchmark that reports where it diverged).
 
     Returns
     -------
     y : ndarray, shape (n_samples, n_outputs)
         The measured outputs before the simulation starts, the simulated ones from there on (a
-        free run, never a one-step prediction; non-finite where it diverged).
+        free run, never a one-step prediction).
     skip : int
         Samples a figure of merit leaves out: ``n_initial``, or ``max_lag_``.
 
@@ -209,6 +218,8 @@ def free_run(model: Any, record: IOData, n_initial: int | None = None) -> tuple[
     ------
     NotFittedError
         If ``model`` is not fitted.
+    DivergenceError
+        If the run diverges and ``diverged="raise"``.
 
     Examples
     --------
@@ -224,13 +235,20 @@ def free_run(model: Any, record: IOData, n_initial: int | None = None) -> tuple[
     >>> skip, bool(np.allclose(simulated[skip:, 0], y[skip:]))
     (50, True)
     """
+    if diverged not in ("raise", "keep"):
+        raise ValueError(f"diverged must be 'raise' or 'keep'; got {diverged!r}")
     check_is_fitted(model)
     lag = int(model.max_lag_)
     if n_initial is None or n_initial < lag:
         start, skip = 0, lag
     else:
         start, skip = int(n_initial) - lag, int(n_initial)
-    result = model.simulate(record[start:] if start else record)
+    try:
+        result = model.simulate(record[start:] if start else record)
+    except DivergenceError as exc:
+        if diverged == "raise":
+            raise
+        result = exc.result
     y = np.array(record.y, dtype=np.float64)
     y[start:] = result.y
     return y, skip

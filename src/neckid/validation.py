@@ -107,7 +107,7 @@ class Interval:
         if self.high is not None:
             op = "<=" if self.closed in ("both", "right") else "<"
             return f"{noun} {op} {self.high:g}"
-        return noun
+        return "a finite number" if self.kind == "real" else noun
 
 
 @dataclass(frozen=True)
@@ -265,7 +265,8 @@ def check_number(
         raise TypeError(f"{argument} must be {interval.describe()}; got {value!r}")
     if not math.isfinite(float(value)) or not interval.accepts(value):
         raise ValueError(f"{argument} must be {interval.describe()}; got {value!r}")
-    return int(value) if integer else float(value)
+    number: Any = value  # an Integral or a Real, checked above
+    return int(number) if integer else float(number)
 
 
 def check_ts(ts: Any) -> float:

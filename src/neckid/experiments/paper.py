@@ -272,7 +272,7 @@ def run_demo(
     for name in DEMO_METHODS:
         method = methods()[name]
         seeded = "random_state" in method.estimator_class()._parameter_constraints
-        params = {"random_state": int(seeds[3])} if seeded else {}
+        params: dict[str, Any] = {"random_state": int(seeds[3])} if seeded else {}
         narx_models[method.label] = method.make(lags, **params)
     fit_times = {}
     for name, model in narx_models.items():

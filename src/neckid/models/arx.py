@@ -104,6 +104,11 @@ class LinearARX(NarxModel):
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_ + self.intercept_, dtype=np.float64)
 
+    def _check_state(self) -> None:
+        super()._check_state()
+        self._check_shape("coef", self.coef_, (self.lags_.n_terms, self.n_outputs_))
+        self._check_shape("intercept", self.intercept_, (self.n_outputs_,))
+
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)

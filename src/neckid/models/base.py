@@ -23,6 +23,7 @@ over every method of :func:`neckid.methods`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
@@ -37,9 +38,10 @@ from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent, mae, rmse
 from neckid.models.io import ModelFile
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import check_finite, validate_parameters
+from neckid.validation import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
 
 __all__ = [
+    "DivergenceError",
     "Estimator",
     "ModelResult",
     "NarxModel",
@@ -67,6 +69,18 @@ def check_is_fitted(model: Any) -> None:
         raise NotFittedError(
             f"this {type(model).__name__} is not fitted yet; call fit(data) before using it"
         )
+
+
+class DivergenceError(ValueError, ArithmeticError):
+    """A free run left the finite numbers (an unstable model, or a log far outside the data).
+
+    The message names the first non-finite sample and its time; :attr:`result` holds the whole
+    run, for a user who wants to look at it anyway.
+    """
+
+    def __init__(self, message: str, result: ModelResult) -> None:
+        super().__init__(message)
+        self.result = result
 
 
 @dataclass(frozen=True)
@@ -256,6 +270,13 @@ class Estimator(BaseEstimator, ModelFile):
         self.n_outputs_ = len(self.output_names_)
 
     def _check_inputs(self, data: IOData) -> None:
+        ts = self.ts_
+        if math.isfinite(ts) and abs(data.ts - ts) > TIME_JITTER_TOLERANCE * ts:
+            raise ValueError(
+                f"data is sampled every {data.ts:.6g} s but the model every {ts:.6g} s; a"
+                " discrete-time model only runs at its own sampling period: resample the log"
+                " (or identify a model at this period)"
+            )
         if tuple(data.input_names) != self.input_names_:
             raise ValueError(
                 f"data has inputs {list(data.input_names)}, but the model was fitted on"
@@ -306,7 +327,7 @@ class Estimator(BaseEstimator, ModelFile):
         upper: FloatArray | None = None,
         extras: dict[str, Any] | None = None,
     ) -> ModelResult:
-        return ModelResult.from_data(
+        result = ModelResult.from_data(
             kind,
             data,
             y,
@@ -317,6 +338,39 @@ class Estimator(BaseEstimator, ModelFile):
             upper,
             extras,
         )
+        bad = np.flatnonzero(~np.isfinite(y[self.max_lag_ :]).all(axis=1))
+        if bad.size:
+            row = int(bad[0]) + self.max_lag_
+            what = "free run" if kind == "simulation" else "prediction"
+            raise DivergenceError(
+                f"the {type(self).__name__} {what} diverged: output {y[row].tolist()} at sample"
+                f" {row} (t = {data.time[row]:.6g} s) of {data.name or 'the log'} is not finite;"
+                " the model is unstable, or the log leaves the region it was identified on"
+                " (the whole run is in the exception's .result)",
+                result,
+            )
+        return result
+
+    def _check_state(self) -> None:
+        """Check a loaded model's values (``load_model`` calls it); raise ``ValueError`` naming them."""
+        validate_parameters(self)
+        if not (math.isnan(self.ts_) or (math.isfinite(self.ts_) and self.ts_ > 0)):
+            raise ValueError(f"ts must be a positive number of seconds; got {self.ts_!r}")
+        if isinstance(self.max_lag_, bool) or not isinstance(self.max_lag_, int | np.integer):
+            raise ValueError(f"max_lag must be a whole number; got {self.max_lag_!r}")
+        if self.n_outputs_ < 1 or len(self.output_units_) != self.n_outputs_:
+            raise ValueError(
+                f"output_names {list(self.output_names_)} and output_units"
+                f" {list(self.output_units_)} must be non-empty and of the same length"
+            )
+
+    @staticmethod
+    def _check_shape(name: str, array: Any, shape: tuple[int, ...]) -> None:
+        """Refuse a learned array of the wrong shape or with a non-finite value."""
+        if np.shape(array) != shape:
+            raise ValueError(f"{name} must have shape {shape}; got {np.shape(array)}")
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"{name} holds a non-finite value")
 
     def fit_percent(self, data: IOData) -> FloatArray:
         """Free-run NRMSE fit [%] per output on ``data`` (MATLAB ``compare``)."""
@@ -364,6 +418,14 @@ class NarxModel(Estimator):
         self.ts_ = float(meta["ts"])
         self.n_samples_ = int(meta["n_samples"])
         self.max_lag_ = self.lags_.max_lag
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        if self.max_lag_ != self.lags_.max_lag or self.n_samples_ < 1:
+            raise ValueError(
+                f"max_lag {self.max_lag_!r} and n_samples {self.n_samples_!r} do not fit the lags"
+                f" {self.lags_.to_lags()!r}"
+            )
 
     def _lags(self) -> Lags:
         if self.lags is None:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
@@ -86,11 +87,18 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
         If the file is not a neckid model file or its format version is newer than this neckid.
     """
     path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"model file {str(path)!r} does not exist")
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path} is not a neckid model file (it is empty)")
     try:
         with np.load(path, allow_pickle=False) as archive:
+            if not isinstance(archive, np.lib.npyio.NpzFile):
+                raise ValueError("a single .npy array, not an .npz archive")
             arrays = {k: archive[k] for k in archive.files}
-    except (OSError, ValueError) as exc:
-        raise ValueError(f"{path} is not a readable neckid model file (.npz): {exc}") from exc
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        reason = str(exc).split(";")[0] if "allow_pickle" not in str(exc) else "not an .npz archive"
+        raise ValueError(f"{path} is not a neckid model file ({reason})") from None
     if _META_KEY not in arrays:
         raise ValueError(
             f"{path} is an .npz file but not a neckid model file (no {_META_KEY!r} entry)"
@@ -131,7 +139,17 @@ def load_model(path: str | Path) -> Any:
             f"{path} holds a {class_name!r}, which this neckid cannot load; known: {sorted(classes)}"
         )
     cls = getattr(importlib.import_module(classes[class_name]), class_name)
-    return cls._from_state(arrays, meta)
+    try:
+        model = cls._from_state(arrays, meta)
+        model._check_state()
+    except KeyError as exc:
+        raise ValueError(
+            f"{path}: this {class_name} file has no {exc.args[0]!r} entry; it is damaged or was"
+            " not written by neckid"
+        ) from None
+    except (TypeError, ValueError, IndexError) as exc:
+        raise ValueError(f"{path}: invalid {class_name} file: {exc}") from None
+    return model
 
 
 class ModelFile:

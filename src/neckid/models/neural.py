@@ -444,6 +444,26 @@ class NeuralNARX(NarxModel):
             y[t] = h * y_scale + y_mean
         return y
 
+    def _check_state(self) -> None:
+        super()._check_state()
+        n_in, n_out = self.lags_.n_terms, self.n_outputs_
+        for name, value, size in (
+            ("x_mean", self.x_mean_, n_in),
+            ("x_scale", self.x_scale_, n_in),
+            ("y_mean", self.y_mean_, n_out),
+            ("y_scale", self.y_scale_, n_out),
+        ):
+            self._check_shape(name, value, (size,))
+        if np.any(self.x_scale_ <= 0) or np.any(self.y_scale_ <= 0):
+            raise ValueError("x_scale and y_scale must be > 0")
+        width = n_in
+        for k, (weights, bias) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):
+            self._check_shape(f"coef_{k}", weights, (width, np.shape(weights)[-1]))
+            width = int(np.shape(weights)[-1])
+            self._check_shape(f"intercept_{k}", bias, (width,))
+        if width != n_out:
+            raise ValueError(f"the last layer has {width} outputs; the model has {n_out}")
+
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)

@@ -657,6 +657,13 @@ class RecursiveARX(NarxModel):
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_, dtype=np.float64)
 
+    def _check_state(self) -> None:
+        super()._check_state()
+        p = self.lags_.n_terms
+        self._check_shape("theta", self.theta_, (p,))
+        self._check_shape("covariance", self.covariance_, (p, p))
+        self._check_shape("theta_history", self.theta_history_, (self.theta_history_.shape[0], p))
+
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)

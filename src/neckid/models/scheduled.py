@@ -273,7 +273,8 @@ class GainScheduledModel(Estimator):
     >>> model.transfer_function(20.0).dt
     0.02
     >>> from neckid import IOData
-    >>> result = model.simulate(IOData(np.full(100, 0.5), ts=0.02), initial=20.0)
+    >>> command = IOData(np.full(100, 0.5), ts=0.02, input_names=["velocity_command"])
+    >>> result = model.simulate(command, initial=20.0)
     >>> result.kind, result.y.shape
     ('simulation', (100, 1))
     """
@@ -633,6 +634,18 @@ class GainScheduledModel(Estimator):
                 self.pole(previous) * rate + self.gain(previous) * command
             )
         return self._result("prediction", data, y)
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        size = np.size(self.gain_coefficients_)
+        self._check_shape("gain_coefficients", self.gain_coefficients_, (size,))
+        self._check_shape("pole_coefficients", self.pole_coefficients_, (size,))
+        if size < 1 or self.max_lag_ != 1 or not int(self.delay_) >= 1:
+            raise ValueError(
+                f"a scheduled model needs coefficients, max_lag 1 and delay >= 1; got {size}"
+                f" coefficients, max_lag {self.max_lag_!r}, delay {self.delay_!r}"
+            )
+        _first_order_terms(self.lags_)
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:

@@ -583,6 +583,27 @@ class SetMembership(NarxModel):
         return results[0] if isinstance(data, IOData) else results
 
     # ------------------------------------------------------------------ files
+    def _check_state(self) -> None:
+        super()._check_state()
+        n_terms, n_out, n_rows = self.lags_.n_terms, self.n_outputs_, self.n_samples_
+        for name, value, shape in (
+            ("x_train", self._x_train, (n_rows, n_terms)),
+            ("y_train", self._y_train, (n_rows, n_out)),
+            ("weights", self.weights_, (n_terms,)),
+            ("coef", self.coef_, (n_terms, n_out)),
+            ("intercept", self.intercept_, (n_out,)),
+            ("epsilon", self.epsilon_, (n_out,)),
+            ("gamma", self.gamma_, (n_out,)),
+        ):
+            self._check_shape(name, value, shape)
+        for name, value, rule in (
+            ("gamma", self.gamma_, self.gamma_ > 0),
+            ("epsilon", self.epsilon_, self.epsilon_ >= 0),
+            ("weights", self.weights_, self.weights_ > 0),
+        ):
+            if not np.all(rule):
+                raise ValueError(f"{name} must be > 0 (epsilon >= 0); got {value.tolist()}")
+
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)
         arrays: dict[str, NDArray[Any]] = {
@@ -646,6 +667,7 @@ class SetMembership(NarxModel):
         )
         model._x_train = x
         model._y_train = y
+        model._check_state()  # before the tree is built on the arrays
         residual = np.ascontiguousarray(y - (x @ model.coef_ + model.intercept_))
         model._tree = SMTree(np.ascontiguousarray(x * model.weights_), residual)
         return model

@@ -40,7 +40,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
 from neckid.models.arx import LinearARX
-from neckid.models.base import Estimator, ModelResult, check_is_fitted, history_rows
+from neckid.models.base import (
+    DivergenceError,
+    Estimator,
+    ModelResult,
+    check_is_fitted,
+    history_rows,
+)
 from neckid.models.set_membership import (
     DEFAULT_GAMMA_MARGIN,
     GammaCurve,
@@ -202,7 +208,10 @@ class ParallelSetMembership(Estimator):
 
     def _linear_run(self, data: IOData, argument: str) -> IOData:
         """``data`` with the linear model's free run appended as ``<output>_linear`` inputs."""
-        simulated = self.linear_.simulate(data).y
+        try:
+            simulated = self.linear_.simulate(data).y
+        except DivergenceError as exc:  # said below, naming the record
+            simulated = exc.result.y
         bad = np.flatnonzero(~np.isfinite(simulated).all(axis=1))
         if bad.size:
             raise ValueError(
@@ -321,6 +330,13 @@ class ParallelSetMembership(Estimator):
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""
         check_is_fitted(self)
         return ParallelSetMembershipSimulator(self)
+
+    def _check_state(self) -> None:
+        super()._check_state()
+        self.linear_._check_state()
+        self.sm_._check_state()
+        if self.max_lag_ != max(self.linear_.max_lag_, self.sm_.max_lag_):
+            raise ValueError(f"max_lag {self.max_lag_!r} does not fit the linear and SM parts")
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:

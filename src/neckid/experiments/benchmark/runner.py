@@ -247,7 +247,7 @@ def _run_method(
     rows = []
     for test, record in bench.tests.items():
         t0 = time.perf_counter()
-        y, skip = free_run(model, record, bench.n_initial)
+        y, skip = free_run(model, record, bench.n_initial, diverged="keep")
         sim_time = time.perf_counter() - t0
         diverged = _first_non_finite(y, skip)
         if diverged is None:
