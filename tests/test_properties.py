@@ -7,7 +7,10 @@
   Novara (2004), Theorem 1: the true function belongs to the feasible set, and ``f_l``/``f_u``
   are the lower and upper envelopes of that set.
 - Every registered method: a saved and loaded model simulates and predicts what the original
-  does, and its step-by-step simulator reproduces ``simulate``.
+  does (to 1e-12), and its step-by-step simulator reproduces ``simulate`` (to 1e-10). For
+  ``sm-linear`` the latter fails today on a case Hypothesis found (``SM_LINEAR_ORDER_BUG``,
+  pinned with ``@example``); it is a strict xfail, so the fix in the model makes it fail here
+  until the mark is removed.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import neckid
@@ -29,7 +32,11 @@ SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
 
 # ============================================================ Set Membership: bounds contain f_o
 class TanhSystem(NamedTuple):
-    """``y(t) = f(y(t-1), u(t-1)) + e(t)``, ``f(y1, u1) = pole*y1 + gain*tanh(slope*u1)``, ``|e| <= noise_bound``."""
+    """``y(t) = f(y(t-1), u(t-1)) + e(t)`` with ``|e(t)| <= noise_bound`` (uniform), white input.
+
+    ``f(y1, u1) = pole*y1 + gain*tanh(slope*u1)``: its gradient is known, so is its Lipschitz
+    constant in any weighted Euclidean norm.
+    """
 
     pole: float
     gain: float
@@ -68,9 +75,7 @@ def tanh_systems(draw: st.DrawFn) -> TanhSystem:
 LAGS = Lags.arx(1, 1)  # regressor columns: y(t-1), u(t-1)
 N_TRAIN = st.integers(min_value=30, max_value=250)
 MARGINS = st.floats(min_value=1.0, max_value=4.0)
-SM_SETTINGS = settings(
-    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow]
-)
+SM_SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 def _lipschitz(system: TanhSystem, coef: np.ndarray, weights: np.ndarray) -> float:
@@ -96,10 +101,13 @@ def _assert_contains(lower: np.ndarray, truth: np.ndarray, upper: np.ndarray) ->
 
 
 def _check_bounds_contain_truth(model: SetMembership, system: TanhSystem, train: IOData) -> None:
-    # New regressors, beyond the training range too: the guarantee holds everywhere.
+    # The training regressors, where the bounds are tightest (at most 2 epsilon apart), and new
+    # ones, beyond the training range too: the guarantee holds everywhere.
+    assert model.lags_.names == ("y(t-1)", "u(t-1)")  # the column order used below and in f
     rng = np.random.default_rng([system.seed, 2])
     low, high = train.y.min() - 1.0, train.y.max() + 1.0
-    w = np.column_stack([rng.uniform(low, high, 200), rng.uniform(-2.0, 2.0, 200)])
+    new = np.column_stack([rng.uniform(low, high, 200), rng.uniform(-2.0, 2.0, 200)])
+    w = np.vstack([np.column_stack([train.y[:-1, 0], train.u[:-1, 0]]), new])
     bounds = model.bounds(w)
     _assert_contains(bounds.lower[:, 0], system.f(w[:, 0], w[:, 1]), bounds.upper[:, 0])
     # Along a new record, one step ahead: at the measured regressors.
@@ -188,11 +196,17 @@ def first_order_systems(draw: st.DrawFn) -> FirstOrderSystem:
     )
 
 
-@st.composite
-def method_lags(draw: st.DrawFn, name: str, delay: int) -> Lags:
-    if name == "scheduled":  # first order by construction: Lags.arx(1, 1, d) only
-        return Lags.arx(1, 1, delay)
-    return Lags.arx(draw(st.integers(1, 2)), draw(st.integers(1, 2)), delay)
+LAG_ORDERS = st.tuples(st.integers(1, 2), st.integers(1, 2))  # (na, nb)
+FILE_SETTINGS = settings(
+    max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+
+
+def _fitted(name: str, system: FirstOrderSystem, orders: tuple[int, int]):
+    # The scheduled model is first order by construction: Lags.arx(1, 1, d) only.
+    na, nb = (1, 1) if name == "scheduled" else orders
+    lags = Lags.arx(na, nb, system.delay)
+    return METHODS[name].make(lags, quick=True).fit(system.record(800))
 
 
 def _assert_same_result(got: neckid.ModelResult, expected: neckid.ModelResult) -> None:
@@ -207,25 +221,58 @@ def _assert_same_result(got: neckid.ModelResult, expected: neckid.ModelResult) -
 
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
 @pytest.mark.parametrize("name", list(METHODS))
-@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(system=first_order_systems(), data=st.data())
-def test_saved_model_and_simulator_reproduce_simulate(
-    name: str, system: FirstOrderSystem, data: st.DataObject
+@FILE_SETTINGS
+@given(system=first_order_systems(), orders=LAG_ORDERS)
+def test_saved_and_loaded_model_reproduces_simulate_and_predict(
+    name: str, system: FirstOrderSystem, orders: tuple[int, int]
 ) -> None:
-    lags = data.draw(method_lags(name, system.delay), label="lags")
-    model = METHODS[name].make(lags, quick=True).fit(system.record(800))
+    model = _fitted(name, system, orders)
     test = system.record(200, seed_offset=1)
-    simulation = model.simulate(test)
-
     with tempfile.TemporaryDirectory() as folder:
         loaded = neckid.load_model(model.save(Path(folder) / "model"))
     assert type(loaded) is type(model)
-    _assert_same_result(loaded.simulate(test), simulation)
+    _assert_same_result(loaded.simulate(test), model.simulate(test))
     _assert_same_result(loaded.predict(test), model.predict(test))
 
+
+#: Found by Hypothesis: the compiled free run of SetMembership (``_sm_kernels._free_run_kernel``)
+#: sums the linear part as ``intercept + Σ w_k coef_k``; the simulator (``_bounds_rows``) as
+#: ``x @ coef + intercept``. The last-bit difference is amplified by the SM map (gamma * weight
+#: of y(t-1) is about 30 here) to 1.8e-10 at sample 164.
+SM_LINEAR_ORDER_BUG = FirstOrderSystem(
+    pole=0.8125, gain=0.125, curvature=0.0, delay=1, noise=0.015625, seed=1
+)
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(
+            name,
+            marks=pytest.mark.xfail(
+                raises=AssertionError,
+                strict=True,
+                reason="compiled free run and NumPy simulator sum the linear part in different"
+                " orders; see SM_LINEAR_ORDER_BUG",
+            ),
+        )
+        if name == "sm-linear"
+        else name
+        for name in METHODS
+    ],
+)
+@FILE_SETTINGS
+@example(system=SM_LINEAR_ORDER_BUG, orders=(1, 1))
+@given(system=first_order_systems(), orders=LAG_ORDERS)
+def test_simulator_steps_reproduce_simulate(
+    name: str, system: FirstOrderSystem, orders: tuple[int, int]
+) -> None:
+    model = _fitted(name, system, orders)
+    test = system.record(200, seed_offset=1)
+    simulation = model.simulate(test)
     m = model.max_lag_
-    for fitted in (model, loaded):
-        simulator = fitted.simulator()
-        simulator.reset(y0=test.y[:m], u0=test.u[:m])
-        stepped = np.array([simulator.step(u) for u in test.u[m:]])
-        np.testing.assert_allclose(stepped, simulation.y[m:], rtol=1e-10, atol=1e-10)
+    simulator = model.simulator()
+    simulator.reset(y0=test.y[:m], u0=test.u[:m])
+    stepped = np.array([simulator.step(u) for u in test.u[m:]])
+    np.testing.assert_allclose(stepped, simulation.y[m:], rtol=1e-10, atol=1e-10)

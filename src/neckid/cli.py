@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import typer
 from rich.console import Console
@@ -24,6 +26,20 @@ app = typer.Typer(
     add_completion=False,
 )
 console = Console()
+error_console = Console(stderr=True)
+
+#: Set by ``--debug``: unexpected errors show their traceback.
+_STATE = {"debug": False}
+
+Command = TypeVar("Command", bound=Callable[..., Any])
+
+#: Errors that come from what the user gave (a file, a column, a value): one line, exit status 2.
+_USER_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError,
+    KeyError,
+    TypeError,
+    OSError,
+)
 
 
 def _version_callback(value: bool) -> None:
@@ -42,8 +58,12 @@ def main(
         help="Print the version and exit.",
     ),
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Log progress messages."),
+    debug: bool = typer.Option(
+        False, "--debug", help="Show the full traceback of an unexpected error."
+    ),
 ) -> None:
     """Identify dynamic models of a tendon-driven soft robotic neck from input/output logs."""
+    _STATE["debug"] = debug
     logging.basicConfig(
         level=logging.INFO if verbose else logging.WARNING, format="%(name)s: %(message)s"
     )
@@ -56,8 +76,56 @@ def _split(text: str | None) -> list[str] | None:
 
 
 def _fail(message: str) -> None:
-    console.print(f"[red]error:[/red] {message}")
+    error_console.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
+
+
+def _message(exc: BaseException) -> str:
+    if isinstance(exc, KeyError) and exc.args:
+        return str(exc.args[0])
+    if isinstance(exc, OSError) and exc.strerror and exc.filename:
+        return f"{exc.filename}: {exc.strerror}"
+    return str(exc) or type(exc).__name__
+
+
+def handled(command: Command) -> Command:
+    """Run a command with the one error policy of the command line.
+
+    What the user gave wrong (:data:`_USER_ERRORS`) prints one ``error:`` line and exits with
+    status 2; Ctrl-C says that the run was interrupted and that no output was half written
+    (status 130); anything else prints one line with the error's type and the hint to rerun
+    with ``--debug`` (status 1), or the traceback with ``--debug``.
+    """
+
+    @functools.wraps(command)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return command(*args, **kwargs)
+        except (typer.Exit, typer.Abort):
+            raise
+        except KeyboardInterrupt:
+            error_console.print(
+                "[yellow]interrupted[/yellow]: stopped before the end; outputs are written whole"
+                " or not at all, so no file was left half written"
+            )
+            raise typer.Exit(code=130) from None
+        except _USER_ERRORS as exc:
+            _fail(_message(exc))
+        except Exception as exc:
+            if _STATE["debug"]:
+                raise
+            error_console.print(
+                f"[red]unexpected error[/red] ({type(exc).__name__}): {_message(exc)}; rerun with"
+                " `neckid --debug ...` for the traceback and report it",
+                highlight=False,
+                soft_wrap=True,
+            )
+            raise typer.Exit(code=1) from None
+
+    return run  # type: ignore[return-value]
+
+
+FORCE_HELP = "Overwrite an existing output."
 
 
 def _model_channels(model: Any) -> tuple[list[str], list[str]]:
@@ -87,6 +155,7 @@ def _metrics_table(title: str, rows: list[dict[str, Any]]) -> Table:
 
 
 @app.command()
+@handled
 def demo(
     out: Path = typer.Option(
         Path("neckid-demo"), "--out", help="Folder for report.html, metrics.json, figures, models."
@@ -100,7 +169,13 @@ def demo(
         help="Use the paper's regressor [y(t-1..3), u(t-8..10)] instead of selecting one.",
     ),
     seed: int = typer.Option(
-        0, "--seed", help="Seed of the neck's noise, the excitations and the networks."
+        0,
+        "--seed",
+        min=0,
+        help="Seed (>= 0) of the neck's noise, the excitations and the networks.",
+    ),
+    force: bool = typer.Option(
+        False, "--force", help="Replace the files of an existing --out folder."
     ),
 ) -> None:
     """Run the paper's whole protocol on the built-in simulated neck and write a report.
@@ -129,8 +204,10 @@ def demo(
 
         def on_step(text: str) -> None:
             progress.update(task, description=text, advance=1)
+            if not console.is_terminal:  # no live bar: plain log lines
+                console.print(f"[{int(progress.tasks[0].completed)}/{n_steps}] {text}")
 
-        result = run_demo(out, settings, on_step=on_step)
+        result = run_demo(out, settings, on_step=on_step, force=force)
     console.print(
         f"bandwidth of the simulated neck: {result.bandwidth:.2f} rad/s (paper: 4.2 rad/s)"
     )
@@ -162,6 +239,7 @@ LAYOUT_HELP = "'csv' (header row, named columns) or 'softneck' (the UC3M bench's
 
 
 @app.command()
+@handled
 def identify(
     log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
     inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
@@ -182,29 +260,30 @@ def identify(
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
-    seed: int = typer.Option(0, "--seed", help="Seed of the neural network's initial weights."),
+    seed: int = typer.Option(
+        0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
+    ),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ) -> None:
     """Identify a model from a log and save it.
 
     Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --lags 1-3/8-10
     """
+    from neckid.outputs import check_output_file
     from neckid.workflow import make_estimator, parse_lags, read_log
 
-    try:
-        data = read_log(log, _split(inputs), _split(outputs), time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
-        method = _method_name(method)
-        estimator = make_estimator(method, parse_lags(lags), random_state=seed)
-        estimator.fit(data)
-        path = estimator.save(save)
-        result = estimator.simulate(data)
-    except (ValueError, KeyError, TypeError, FileNotFoundError) as exc:
-        _fail(str(exc))
-        return
+    save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
+    check_output_file(save, force=force, inputs=[log], option="--save")
+    data = read_log(log, _split(inputs), _split(outputs), time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
+    method = _method_name(method)
+    estimator = make_estimator(method, parse_lags(lags), random_state=seed)
+    estimator.fit(data)
+    result = estimator.simulate(data)  # a diverging model stops here, before it is saved
+    fits, rmses = result.fit_percent(data), result.rmse(data)
+    path = estimator.save(save)
     rows = [
-        {"output": name, "fit %": float(f), "RMSE": float(r)}
-        for name, f, r in zip(
-            data.output_names, result.fit_percent(data), result.rmse(data), strict=True
-        )
+        {"output": name, "fit %": float(f), f"RMSE [{unit or '-'}]": float(r)}
+        for name, unit, f, r in zip(data.output_names, data.output_units, fits, rmses, strict=True)
     ]
     console.print(_metrics_table(f"{method} on {log.name} (free-run, training data)", rows))
     console.print(f"model saved to {path}")
@@ -223,6 +302,7 @@ def _load_for_model(
 
 
 @app.command()
+@handled
 def validate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
@@ -232,32 +312,48 @@ def validate(
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ) -> None:
     """Free-run simulate a saved model on a log and print fit (%), RMSE and MAE per output.
 
     Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), skipping the initial samples.
+    A free run that diverges is reported as such (exit status 3).
     """
+    from neckid.models.base import DivergenceError
+    from neckid.outputs import atomic_path, check_output_file
+
+    if plot is not None:
+        check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
+    model, data = _load_for_model(model_path, log, time, ts, layout)
     try:
-        model, data = _load_for_model(model_path, log, time, ts, layout)
         result = model.simulate(data)
-        fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
-    except (ValueError, KeyError, TypeError) as exc:
-        _fail(str(exc))
-        return
+    except DivergenceError as exc:
+        error_console.print(f"[red]diverged:[/red] {exc}", highlight=False, soft_wrap=True)
+        raise typer.Exit(code=3) from None
+    fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
     rows = [
-        {"output": n, "fit %": float(f), "RMSE": float(r), "MAE": float(m)}
-        for n, f, r, m in zip(data.output_names, fits, rmses, maes, strict=True)
+        {
+            "output": n,
+            "fit %": float(f),
+            f"RMSE [{unit or '-'}]": float(r),
+            f"MAE [{unit or '-'}]": float(m),
+        }
+        for n, unit, f, r, m in zip(
+            data.output_names, data.output_units, fits, rmses, maes, strict=True
+        )
     ]
     console.print(_metrics_table(f"{type(model).__name__} on {log.name} (free-run)", rows))
     if plot is not None:
         from neckid.report.plots import plot_simulation
 
         fig = plot_simulation(data, {type(model).__name__: result})
-        fig.savefig(plot, dpi=120)
+        with atomic_path(plot) as temporary:
+            fig.savefig(temporary, dpi=120, format="png")
         console.print(f"figure written to {plot}")
 
 
 @app.command()
+@handled
 def simulate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
@@ -269,23 +365,41 @@ def simulate(
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    keep_diverged: bool = typer.Option(
+        False,
+        "--keep-diverged",
+        help="Write the run even when it diverges (non-finite values); exit status 3 still.",
+    ),
 ) -> None:
-    """Free-run simulate a saved model with the inputs of a log; write the outputs to CSV.
+    """Free-run simulate a saved model with the inputs of a log; write time, inputs and outputs to CSV.
 
     The log's first max-lag outputs are the initial conditions; Set Membership models add
-    <output>_lower and <output>_upper columns.
+    <output>_lower and <output>_upper columns. A run that diverges is not written (exit status 3)
+    unless --keep-diverged.
     """
+    from neckid.models.base import DivergenceError
+    from neckid.outputs import atomic_path, check_output_file
+
+    check_output_file(out, force=force, inputs=[log, model_path])
+    model, data = _load_for_model(model_path, log, time, ts, layout)
+    diverged: DivergenceError | None = None
     try:
-        model, data = _load_for_model(model_path, log, time, ts, layout)
         result = model.simulate(data)
-    except (ValueError, KeyError, TypeError) as exc:
-        _fail(str(exc))
-        return
-    result.to_frame().to_csv(out, index=False)
+    except DivergenceError as exc:
+        diverged, result = exc, exc.result
+        error_console.print(f"[red]diverged:[/red] {exc}", highlight=False, soft_wrap=True)
+        if not keep_diverged:
+            raise typer.Exit(code=3) from None
+    with atomic_path(out) as temporary:
+        result.to_frame().to_csv(temporary, index=False)
     console.print(f"{result.n_samples} samples written to {out}")
+    if diverged is not None:
+        raise typer.Exit(code=3)
 
 
 @app.command()
+@handled
 def bandwidth(
     log: Path = typer.Argument(
         ..., help="CSV of a chirp run with a header row.", exists=True, dir_okay=False
@@ -309,29 +423,26 @@ def bandwidth(
     plot: Path = typer.Option(
         None, "--plot", help="Write a PNG of the envelopes (like the paper's Fig. 3)."
     ),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ) -> None:
     """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's."""
     import numpy as np
-    import pandas as pd
 
+    from neckid.data import IOData
+    from neckid.outputs import atomic_path, check_output_file
     from neckid.signals import bandwidth_from_chirp, paper_chirp_frequency
 
-    try:
-        frame = pd.read_csv(log)
-        missing = [c for c in (time, command, response) if c not in frame.columns]
-        if missing:
-            raise KeyError(f"columns {missing} are not in {log.name}; it has {list(frame.columns)}")
-        t = frame[time].to_numpy(float)
-        result = bandwidth_from_chirp(
-            t,
-            frame[command].to_numpy(float),
-            frame[response].to_numpy(float),
-            threshold=threshold,
-            frequency=None if rate is None else paper_chirp_frequency(t, rate=rate),
-        )
-    except (ValueError, KeyError) as exc:
-        _fail(str(exc))
-        return
+    if plot is not None:
+        check_output_file(plot, force=force, inputs=[log], option="--plot")
+    data = IOData.from_csv(log, [command], [response], time=time)
+    t = data.time
+    result = bandwidth_from_chirp(
+        t,
+        data.u[:, 0],
+        data.y[:, 0],
+        threshold=threshold,
+        frequency=None if rate is None else paper_chirp_frequency(t, rate=rate),
+    )
     if result.status != "found":
         explanation = {
             "not_reached": "the response never stays below the threshold: chirp further",
@@ -346,7 +457,8 @@ def bandwidth(
     if plot is not None:
         from neckid.report.signal_plots import plot_bandwidth
 
-        plot_bandwidth(result).savefig(plot, dpi=120)
+        with atomic_path(plot) as temporary:
+            plot_bandwidth(result).savefig(temporary, dpi=120, format="png")
         console.print(f"figure written to {plot}")
 
 
@@ -416,6 +528,7 @@ def benchmark(
 
 
 @app.command()
+@handled
 def info() -> None:
     """Print the versions of neckid and of the libraries it uses."""
     from neckid.report.html import library_versions

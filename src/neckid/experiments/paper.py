@@ -39,6 +39,7 @@ from neckid.models.base import ModelResult
 from neckid.models.scheduled import GainScheduledModel
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.plant.calibration import chirp_bandwidth
+from neckid.outputs import StagedFolder
 from neckid.registry import methods
 from neckid.regressors import Lags
 from neckid.selection import lag_grid, select_lags
@@ -200,6 +201,8 @@ def run_demo(
     out_dir: str | Path = "neckid-demo",
     settings: DemoSettings | None = None,
     on_step: Callable[[str], None] | None = None,
+    *,
+    force: bool = False,
 ) -> DemoResult:
     """Run the paper's protocol on the simulated neck and write the report.
 
@@ -212,17 +215,34 @@ def run_demo(
         Default ``DemoSettings.make()``.
     on_step : callable, optional
         Called with a short description as each step starts (the CLI's progress bar).
+    force : bool, default False
+        Replace the files of a folder that holds some already.
 
     Returns
     -------
     DemoResult
+
+    Raises
+    ------
+    neckid.outputs.OutputError
+        Before any computation: ``out_dir`` is a file, holds files (without ``force``), or another
+        run is writing into it. The folder is locked for the run; its files are written in a
+        hidden staging folder and moved in together at the end, so an interrupted run changes
+        nothing.
     """
+    from neckid.outputs import output_folder
+
+    with output_folder(out_dir, force=force) as staged:
+        return _run_protocol(staged, settings, on_step)
+
+
+def _run_protocol(
+    out: StagedFolder, settings: DemoSettings | None, on_step: Callable[[str], None] | None
+) -> DemoResult:
     from neckid.experiments.operating_points import identify_operating_points
 
     started = time.perf_counter()
     settings = settings if settings is not None else DemoSettings.make()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     notify = on_step if on_step is not None else (lambda _text: None)
     rng = np.random.default_rng(settings.seed)
     seeds = rng.integers(0, 2**31 - 1, size=8)
@@ -369,9 +389,8 @@ def run_demo(
     }
     wall = time.perf_counter() - started
     metrics["wall_time_s"] = wall
-    metrics_path = out / "metrics.json"
-    metrics_path.write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
-    files["metrics"] = metrics_path
+    out.path("metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
+    files["metrics"] = out.final("metrics.json")
     return DemoResult(table, maes, metrics, bandwidth, lags, files, wall)
 
 
@@ -399,7 +418,7 @@ def _json_ready(value: Any) -> Any:
 
 
 def _write_outputs(
-    out: Path,
+    out: StagedFolder,
     settings: DemoSettings,
     chirp: Any,
     chirp_run: tuple[Any, Any, Any],
@@ -428,10 +447,10 @@ def _write_outputs(
     figures: list[Figure] = []
 
     def save(fig: Any, name: str, caption: str) -> None:
-        path = out / f"{name}.png"
+        path = out.path(f"{name}.png")
         fig.savefig(path, dpi=110)
         plt.close(fig)
-        files[name] = path
+        files[name] = out.final(path.name)
         figures.append(Figure(path, caption))
 
     save(
@@ -467,8 +486,9 @@ def _write_outputs(
 
     for name, model in narx_models.items():
         slug = name.lower().replace(" + ", "_").replace(" ", "_")
-        files[f"model_{slug}"] = model.save(out / f"model_{slug}.npz")
-    files["model_scheduled_cff_rls"] = scheduled.save(out / "model_scheduled_cff_rls.npz")
+        files[f"model_{slug}"] = out.final(model.save(out.path(f"model_{slug}.npz")).name)
+    scheduled.save(out.path("model_scheduled_cff_rls.npz"))
+    files["model_scheduled_cff_rls"] = out.final("model_scheduled_cff_rls.npz")
 
     report = Report("neckid demo: the soft-neck paper's protocol on the simulated neck")
     report.add_text(
@@ -494,5 +514,6 @@ def _write_outputs(
     report.add_figures("Figures", figures)
     report.add_mapping("Settings", {k: v for k, v in asdict(settings).items()})
     report.add_mapping("Versions", library_versions())
-    files["report"] = report.write(out / "report.html")
+    report.write(out.path("report.html"))
+    files["report"] = out.final("report.html")
     return files

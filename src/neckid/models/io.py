@@ -74,7 +74,10 @@ def write_model_file(
             )
         payload[key] = array
     payload[_META_KEY] = np.array(json.dumps(header, allow_nan=True))
-    np.savez_compressed(path, **payload)  # type: ignore[arg-type]
+    from neckid.outputs import atomic_path
+
+    with atomic_path(path) as temporary, temporary.open("wb") as handle:
+        np.savez_compressed(handle, **payload)  # type: ignore[arg-type]
     return path
 
 
