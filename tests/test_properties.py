@@ -7,10 +7,9 @@
   Novara (2004), Theorem 1: the true function belongs to the feasible set, and ``f_l``/``f_u``
   are the lower and upper envelopes of that set.
 - Every registered method: a saved and loaded model simulates and predicts what the original
-  does (to 1e-12), and its step-by-step simulator reproduces ``simulate`` (to 1e-10). For
-  ``sm-linear`` the latter fails today on a case Hypothesis found (``SM_LINEAR_ORDER_BUG``,
-  pinned with ``@example``); it is a strict xfail, so the fix in the model makes it fail here
-  until the mark is removed.
+  does (to 1e-12), and its step-by-step simulator reproduces ``simulate`` (to 1e-10). A case
+  Hypothesis found for ``sm-linear`` (``SM_LINEAR_ORDER_BUG``: the two paths summed the linear
+  part in different orders) stays pinned with ``@example``.
 """
 
 from __future__ import annotations
@@ -236,9 +235,9 @@ def test_saved_and_loaded_model_reproduces_simulate_and_predict(
 
 
 #: Found by Hypothesis: the compiled free run of SetMembership (``_sm_kernels._free_run_kernel``)
-#: sums the linear part as ``intercept + Σ w_k coef_k``; the simulator (``_bounds_rows``) as
-#: ``x @ coef + intercept``. The last-bit difference is amplified by the SM map (gamma * weight
-#: of y(t-1) is about 30 here) to 1.8e-10 at sample 164.
+#: summed the linear part as ``intercept + Σ w_k coef_k``, the simulator (``_bounds_rows``) as
+#: ``x @ coef + intercept``; the last-bit difference was amplified by the SM map (gamma * weight
+#: of y(t-1) is about 30 here) to 1.8e-10 at sample 164. Both now sum in the kernel's order.
 SM_LINEAR_ORDER_BUG = FirstOrderSystem(
     pole=0.8125, gain=0.125, curvature=0.0, delay=1, noise=0.015625, seed=1
 )
@@ -247,20 +246,7 @@ SM_LINEAR_ORDER_BUG = FirstOrderSystem(
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
 @pytest.mark.parametrize(
     "name",
-    [
-        pytest.param(
-            name,
-            marks=pytest.mark.xfail(
-                raises=AssertionError,
-                strict=True,
-                reason="compiled free run and NumPy simulator sum the linear part in different"
-                " orders; see SM_LINEAR_ORDER_BUG",
-            ),
-        )
-        if name == "sm-linear"
-        else name
-        for name in METHODS
-    ],
+    METHODS,
 )
 @FILE_SETTINGS
 @example(system=SM_LINEAR_ORDER_BUG, orders=(1, 1))

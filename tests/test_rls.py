@@ -174,9 +174,11 @@ def test_save_load_round_trip(tmp_path) -> None:  # type: ignore[no-untyped-def]
 
 
 def test_blow_up_guard_warns_and_resets_covariance() -> None:
-    # No excitation: with λ < 1, F grows as λ^-t until the guard resets it.
+    # No excitation: with λ < 1, F grows as λ^-t until the guard resets it. (One non-zero first
+    # sample: a constant output is refused as carrying nothing to identify.)
     u = np.zeros(2000)
     y = np.zeros(2000)
+    y[0] = 1.0
     model = RecursiveARX(Lags.arx(1, 1), forgetting_factor=0.9, max_covariance_trace=1e6)
     with pytest.warns(RuntimeWarning, match="blew up.*first at sample"):
         model.fit(IOData(u, y, ts=0.02))

@@ -251,7 +251,7 @@ def test_random_binary_draws_one_fair_coin_per_clock_period() -> None:
         ({"clock": 0}, ValueError, r"clock must be a whole number >= 1; got 0"),
         ({"clock": 2.0}, TypeError, r"clock must be a whole number >= 1; got 2.0"),
         ({"n_samples": -1}, ValueError, r"n_samples must be a whole number >= 0; got -1"),
-        ({"amplitude": np.nan}, ValueError, r"amplitude must be a number; got nan"),
+        ({"amplitude": np.nan}, ValueError, r"amplitude must be a finite number; got nan"),
     ],
 )
 def test_random_binary_bad_input(kwargs: dict, error: type, match: str) -> None:
@@ -377,11 +377,15 @@ C = paper_chirp(T)
 
 BAD_CALLS = [
     (lambda: paper_chirp([0.0, np.nan, 1.0]), ValueError, r"t has a non-finite value nan at row 1"),
-    (lambda: paper_chirp(T, rate=np.inf), ValueError, r"rate must be a number; got inf"),
-    (lambda: paper_chirp(T, amplitude="big"), TypeError, r"amplitude must be a number; got 'big'"),
+    (lambda: paper_chirp(T, rate=np.inf), ValueError, r"rate must be a finite number; got inf"),
+    (
+        lambda: paper_chirp(T, amplitude="big"),
+        TypeError,
+        r"amplitude must be a finite number; got 'big'",
+    ),
     (lambda: paper_chirp(np.zeros((2, 2))), ValueError, r"t must be 1-D.*\(2, 2\)"),
-    (lambda: sine(T, 1.0, omega=np.nan), ValueError, r"omega must be a number; got nan"),
-    (lambda: step(T, amplitude=None), TypeError, r"amplitude must be a number; got None"),
+    (lambda: sine(T, 1.0, omega=np.nan), ValueError, r"omega must be a finite number; got nan"),
+    (lambda: step(T, amplitude=None), TypeError, r"amplitude must be a finite number; got None"),
     (
         lambda: staircase(T, step_duration=0.0),
         ValueError,

@@ -31,6 +31,11 @@ def _as_2d(values: ArrayLike | None, argument: str, n_samples: int | None = None
         if n_samples is None:
             raise ValueError(f"{argument} is required")
         return np.zeros((n_samples, 0))
+    if np.iscomplexobj(values):
+        raise TypeError(
+            f"{argument} holds complex numbers; a log holds real values: take .real, .imag or abs"
+            " explicitly"
+        )
     try:
         array = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -91,7 +91,15 @@ def frame_fields(
         raise ValueError("give exactly one of time= (a time column) and ts= (the sampling period)")
     t0 = 0.0
     if time is not None:
-        ts_value, t0 = check_uniform_time(frame[time].to_numpy(dtype=np.float64), time)
+        times = pd.to_numeric(frame[time], errors="coerce")
+        bad = np.flatnonzero(times.isna().to_numpy())
+        if bad.size:
+            row = int(bad[0])
+            raise ValueError(
+                f"time column {time!r} is not numeric: row {row} holds {frame[time].iloc[row]!r};"
+                " time must be in seconds"
+            )
+        ts_value, t0 = check_uniform_time(times.to_numpy(dtype=np.float64), time)
     elif ts is not None:  # always true here: exactly one of time and ts was given
         ts_value = ts
     units = dict(units) if units is not None else dict(frame.attrs.get("units", {}))
@@ -170,7 +178,13 @@ def file_fields(
     if kind == "mat":
         frame, period = _mat_frame(path, [*inputs, *outputs, *([time] if time else [])], ts)
     else:
-        frame = pd.read_csv(path, **read_csv) if kind == "csv" else pd.read_parquet(path)
+        if path.stat().st_size == 0:
+            raise ValueError(f"log file {str(path)!r} is empty")
+        if kind == "csv":
+            frame = pd.read_csv(path, **read_csv)
+            _check_header(path, frame, read_csv)
+        else:
+            frame = pd.read_parquet(path)
         if isinstance(ts, str):
             raise TypeError(f"ts must be a number of seconds for a {kind} file; got {ts!r}")
         period = ts
@@ -178,6 +192,22 @@ def file_fields(
             time = None
     fields = frame_fields(frame, inputs, outputs, time=time, ts=period, units=units)
     return {**fields, "name": path.name}
+
+
+def _check_header(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> None:
+    """Refuse a CSV whose header repeats a column name (pandas would rename the second one)."""
+    if read_csv.get("header", "infer") is None or not len(frame.columns):
+        return
+    first = pd.read_csv(
+        path, nrows=1, header=None, **{k: v for k, v in read_csv.items() if k != "header"}
+    )
+    names = [str(n).strip() for n in first.iloc[0].tolist()]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(
+            f"{path.name}: column name {repeated[0]!r} appears {names.count(repeated[0])} times in"
+            " the header; rename the columns so that each is unique"
+        )
 
 
 def _mat_frame(

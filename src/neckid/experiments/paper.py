@@ -37,9 +37,9 @@ import pandas as pd
 from neckid.data import IOData
 from neckid.models.base import ModelResult
 from neckid.models.scheduled import GainScheduledModel
+from neckid.outputs import StagedFolder
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.plant.calibration import chirp_bandwidth
-from neckid.outputs import StagedFolder
 from neckid.registry import methods
 from neckid.regressors import Lags
 from neckid.selection import lag_grid, select_lags

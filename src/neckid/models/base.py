@@ -53,6 +53,9 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
+#: Largest magnitude a training value may have: its square times a record length stays finite.
+LARGEST_VALUE = 1e150
+
 
 class NotFittedError(_SklearnNotFittedError):
     """Raised when a model is used before ``fit``.
@@ -243,6 +246,34 @@ class Estimator(BaseEstimator, ModelFile):
 
     def _validate_params(self) -> None:
         validate_parameters(self)
+
+    @staticmethod
+    def _check_training(experiments: Sequence[IOData]) -> None:
+        """Refuse training data with nothing to identify or values whose squares overflow."""
+        if experiments[0].n_outputs == 0:
+            raise ValueError("data has no output channel to identify")
+        y = np.vstack([d.y for d in experiments])
+        constant = np.flatnonzero(np.ptp(y, axis=0) == 0)
+        if constant.size:
+            name = experiments[0].output_names[int(constant[0])]
+            raise ValueError(
+                f"output {name!r} is constant ({float(y[0, constant[0]]):g}) over the training data;"
+                " there is nothing to identify"
+            )
+        for kind, names, values in (
+            ("input", experiments[0].input_names, np.vstack([d.u for d in experiments])),
+            ("output", experiments[0].output_names, y),
+        ):
+            if values.size == 0:
+                continue
+            peak = np.max(np.abs(values), axis=0)
+            big = np.flatnonzero(peak > LARGEST_VALUE)
+            if big.size:
+                raise ValueError(
+                    f"{kind} {names[int(big[0])]!r} reaches {peak[big[0]]:.3g}: sums of squares"
+                    f" of values above {LARGEST_VALUE:.0e} overflow; rescale the channel (e.g. to"
+                    " SI units)"
+                )
 
     def _set_channels(self, data: IOData) -> None:
         self.input_names_ = tuple(data.input_names)
@@ -439,8 +470,7 @@ class NarxModel(Estimator):
         experiments = as_experiments(data)
         lags = self._lags()
         resolved = lags.resolve(experiments)
-        if experiments[0].n_outputs == 0:
-            raise ValueError("data has no output channel to identify")
+        self._check_training(experiments)
         parts = [resolved.build_one(d) for d in experiments]
         x = np.vstack([p[0] for p in parts])
         y = np.vstack([p[1] for p in parts])

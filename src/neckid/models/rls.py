@@ -440,6 +440,7 @@ class RecursiveARX(NarxModel):
                 f" {list(first.output_names)}; use data.select(outputs=[...])"
             )
         resolved = self._lags().resolve(experiments)
+        self._check_training(experiments)
         self._start(resolved, first)
         for experiment in experiments:
             self._run_batch(experiment)

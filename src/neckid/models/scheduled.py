@@ -351,6 +351,7 @@ class GainScheduledModel(Estimator):
         if self.lags is None:
             raise ValueError("GainScheduledModel needs lags=Lags.arx(1, 1, d); got None")
         resolved = self.lags.resolve(experiments)
+        self._check_training(experiments)
         channel, delay = _first_order_terms(resolved)
         first = experiments[0]
         command, output = first.input_names[channel], first.output_names[0]

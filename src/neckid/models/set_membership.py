@@ -470,7 +470,11 @@ class SetMembership(NarxModel):
 
     # ------------------------------------------------------------------ evaluation
     def _bounds_rows(self, x: FloatArray) -> SMBounds:
-        linear = x @ self.coef_ + self.intercept_
+        # The linear part summed as the compiled free run does, intercept first then term by
+        # term, so that the simulator and ``simulate`` agree to the last bit.
+        linear = np.broadcast_to(self.intercept_, (x.shape[0], self.intercept_.size)).copy()
+        for k in range(x.shape[1]):
+            linear += x[:, k : k + 1] * self.coef_[k]
         lower, upper = self._tree.bounds(x * self.weights_, self.epsilon_, self.gamma_)
         return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
 

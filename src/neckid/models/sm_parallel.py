@@ -236,9 +236,8 @@ class ParallelSetMembership(Estimator):
         """
         experiments = as_experiments(data)
         self._validate_params()
+        self._check_training(experiments)
         first = experiments[0]
-        if first.n_outputs == 0:
-            raise ValueError("data has no output channel to identify")
         taken = set(first.input_names) | set(first.output_names)
         clash = [n + LINEAR_SUFFIX for n in first.output_names if n + LINEAR_SUFFIX in taken]
         if clash:
