@@ -463,6 +463,7 @@ def bandwidth(
 
 
 @app.command()
+@handled
 def benchmark(
     data_dir: Path = typer.Option(
         ...,
@@ -492,7 +493,10 @@ def benchmark(
     quick: bool = typer.Option(
         False, "--quick", help="Smoke run on short subsets; not for reporting."
     ),
-    seed: int = typer.Option(0, "--seed", help="Seed of the neural networks."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed (>= 0) of the neural networks."),
+    force: bool = typer.Option(
+        False, "--force", help="Replace the files of an existing --out folder."
+    ),
 ) -> None:
     """Run the models on real logs and public benchmarks with their official protocols.
 
@@ -500,31 +504,29 @@ def benchmark(
     soft neck deg) next to the published figures; wall time of each method.
     """
     from neckid.experiments.benchmark import BENCHMARK_METHODS, run_benchmark
-    from neckid.registry import DEPRECATED_NAMES
 
-    names = _split(methods) or list(BENCHMARK_METHODS)
-    for old in dict.fromkeys(n for n in names if n in DEPRECATED_NAMES):
-        console.print(
-            f"[yellow]deprecated:[/yellow] method name {old!r} will be removed in the next"
-            f" release; use {DEPRECATED_NAMES[old]!r}"
-        )
-    names = [DEPRECATED_NAMES.get(n, n) for n in names]
-    try:
-        report = run_benchmark(
-            data_dir,
-            methods=names,
-            benchmarks=_split(only),
-            quick=quick,
-            seed=seed,
-            output_dir=out,
-        )
-    except (ValueError, FileNotFoundError) as exc:
-        _fail(str(exc))
-        return
+    names = [_method_name(n) for n in dict.fromkeys(_split(methods) or BENCHMARK_METHODS)]
+    report = run_benchmark(
+        data_dir,
+        methods=names,
+        benchmarks=_split(only),
+        quick=quick,
+        seed=seed,
+        output_dir=out,
+        force=force,
+    )
     console.print(report.rich_table())
     if report.details.get("missing"):
         console.print(f"not found under {data_dir}: {', '.join(report.details['missing'])}")
     console.print(f"written to {out}/")
+    failed = report.table[report.table["note"].astype(str).str.startswith("failed")]
+    if len(failed):
+        pairs = sorted({f"{r.method} on {r.benchmark}" for r in failed.itertuples()})
+        error_console.print(
+            f"[red]error:[/red] {len(failed)} row(s) failed ({', '.join(pairs)}); the note column"
+            " of benchmark.csv says why"
+        )
+        raise typer.Exit(code=1)
 
 
 @app.command()

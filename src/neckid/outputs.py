@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import shutil
 import tempfile
@@ -24,10 +25,20 @@ __all__ = [
     "StagedFolder",
     "atomic_path",
     "check_output_file",
+    "lock_path",
     "output_folder",
 ]
 
-LOCK_NAME = ".neckid.lock"
+
+def lock_path(folder: Path) -> Path:
+    """Where the lock of an output folder lives: the temporary directory, named after the folder.
+
+    Kept out of the folder itself so that a finished run leaves only its outputs there.
+    """
+    key = hashlib.sha1(str(folder.resolve()).encode("utf-8")).hexdigest()[:16]
+    locks = Path(tempfile.gettempdir()) / "neckid-locks"
+    locks.mkdir(exist_ok=True)
+    return locks / f"{key}.lock"
 
 
 class OutputError(FileExistsError):
@@ -141,19 +152,19 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
     target = Path(folder)
     if target.exists() and not target.is_dir():
         raise OutputError(f"--out {str(target)!r} is a file; give a folder")
-    if target.is_dir() and not force and any(p.name != LOCK_NAME for p in target.iterdir()):
+    if target.is_dir() and not force and any(target.iterdir()):
         raise OutputError(
             f"--out {str(target)!r} holds files already; use --force to replace them or choose"
             " another folder"
         )
     target.mkdir(parents=True, exist_ok=True)
-    lock = FileLock(target / LOCK_NAME)
+    lock = FileLock(lock_path(target))
     try:
         lock.acquire(timeout=0)
     except Timeout:
         raise OutputError(
-            f"another neckid run is writing into {str(target)!r} (it holds"
-            f" {str(target / LOCK_NAME)!r}); wait for it to finish or choose another folder"
+            f"another neckid run is writing into {str(target)!r} (it holds the lock"
+            f" {str(lock_path(target))!r}); wait for it to finish or choose another folder"
         ) from None
     staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=target))
     try:
@@ -162,4 +173,4 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
             os.replace(item, target / item.name)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-        lock.release()  # the (empty, hidden) lock file stays: removing it would race another run
+        lock.release()  # the empty lock file stays in the temporary directory: removing it races

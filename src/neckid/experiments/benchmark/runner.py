@@ -39,6 +39,7 @@ from neckid.experiments.benchmark.settings import (
     runs_on,
 )
 from neckid.metrics import fit_percent, rmse
+from neckid.outputs import StagedFolder, output_folder
 from neckid.registry import DEPRECATED_NAMES, get_method
 from neckid.selection import free_run, score_candidates
 
@@ -104,25 +105,30 @@ class BenchmarkReport:
         )
         return pd.concat([ours, self.published], ignore_index=True)
 
-    def write(self, output_dir: str | Path) -> dict[str, Path]:
+    def write(self, output_dir: str | Path, *, force: bool = False) -> dict[str, Path]:
         """Write ``benchmark.csv``, ``published.csv`` and ``benchmark.json`` into a folder.
+
+        The folder is locked while it is written and the files move in together
+        (:func:`neckid.outputs.output_folder`); a folder that holds files already is refused
+        unless ``force``.
 
         Returns
         -------
         dict of str to Path
             The files written, by kind (``"table"``, ``"published"``, ``"json"``).
         """
-        folder = Path(output_dir)
-        folder.mkdir(parents=True, exist_ok=True)
-        paths = {
-            "table": folder / "benchmark.csv",
-            "published": folder / "published.csv",
-            "json": folder / "benchmark.json",
-        }
-        self.table.to_csv(paths["table"], index=False)
-        self.published.to_csv(paths["published"], index=False)
-        paths["json"].write_text(json.dumps(self.to_dict(), indent=2, default=_json_default))
-        return paths
+        with output_folder(output_dir, force=force) as staged:
+            return self.write_into(staged)
+
+    def write_into(self, staged: StagedFolder) -> dict[str, Path]:
+        """Write the three files into a staged output folder; return their final paths."""
+        names = {"table": "benchmark.csv", "published": "published.csv", "json": "benchmark.json"}
+        self.table.to_csv(staged.path(names["table"]), index=False)
+        self.published.to_csv(staged.path(names["published"]), index=False)
+        staged.path(names["json"]).write_text(
+            json.dumps(self.to_dict(), indent=2, default=_json_default)
+        )
+        return {kind: staged.final(name) for kind, name in names.items()}
 
     def rich_table(self) -> Any:
         """A :class:`rich.table.Table` of the results, for the CLI to print."""
@@ -327,6 +333,7 @@ def run_benchmark(
     seed: int = 0,
     errors: Literal["record", "raise"] = "record",
     output_dir: str | Path | None = None,
+    force: bool = False,
 ) -> BenchmarkReport:
     """Run the identification methods on the real data sets found under ``data_dir``.
 
@@ -355,7 +362,10 @@ def run_benchmark(
         What to do when a method fails on a data set: ``"record"`` logs a warning and puts the
         message in the ``note`` column; ``"raise"`` re-raises.
     output_dir : str or Path, optional
-        When given, the report is written there (:meth:`BenchmarkReport.write`).
+        When given, the report is written there (:meth:`BenchmarkReport.write`); the folder is
+        checked and locked *before* the run, so a second run into it is refused at once.
+    force : bool, default False
+        Replace the files of an ``output_dir`` that holds some already.
 
     Returns
     -------
@@ -378,6 +388,23 @@ def run_benchmark(
     Wall times are measured with :func:`time.perf_counter` on whatever machine runs this; they
     include the hyper-parameter selection.
     """
+    arguments = (data_dir, methods, benchmarks, quick, seed, errors)
+    if output_dir is None:
+        return _run(*arguments)
+    with output_folder(output_dir, force=force) as staged:
+        report = _run(*arguments)
+        report.write_into(staged)
+    return report
+
+
+def _run(
+    data_dir: str | Path,
+    methods: str | Sequence[str] | None,
+    benchmarks: Sequence[str] | None,
+    quick: bool,
+    seed: int,
+    errors: Literal["record", "raise"],
+) -> BenchmarkReport:
     root = Path(data_dir)
     if not root.is_dir():
         raise FileNotFoundError(f"data_dir {root} is not a folder")
@@ -443,6 +470,4 @@ def run_benchmark(
         published=published_frame(ran),
         details=details,
     )
-    if output_dir is not None:
-        report.write(output_dir)
     return report
