@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     )
     from neckid.metrics import fit_percent, mae, rmse
     from neckid.models.arx import LinearARX
-    from neckid.models.base import ModelResult, NotFittedError
+    from neckid.models.base import DivergenceError, ModelResult, NotFittedError
     from neckid.models.io import load_model
     from neckid.models.neural import NeuralNARX
     from neckid.models.rls import RecursiveARX
@@ -47,6 +47,7 @@ if TYPE_CHECKING:
     from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
 __all__ = [
+    "DivergenceError",
     "GainScheduledModel",
     "IOData",
     "LagSelection",
@@ -92,6 +93,7 @@ _NAME_TO_MODULE = {
     "mae": "neckid.metrics",
     "rmse": "neckid.metrics",
     "LinearARX": "neckid.models.arx",
+    "DivergenceError": "neckid.models.base",
     "ModelResult": "neckid.models.base",
     "NotFittedError": "neckid.models.base",
     "load_model": "neckid.models.io",

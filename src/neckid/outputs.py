@@ -152,11 +152,6 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
     target = Path(folder)
     if target.exists() and not target.is_dir():
         raise OutputError(f"--out {str(target)!r} is a file; give a folder")
-    if target.is_dir() and not force and any(target.iterdir()):
-        raise OutputError(
-            f"--out {str(target)!r} holds files already; use --force to replace them or choose"
-            " another folder"
-        )
     target.mkdir(parents=True, exist_ok=True)
     lock = FileLock(lock_path(target))
     try:
@@ -166,6 +161,12 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
             f"another neckid run is writing into {str(target)!r} (it holds the lock"
             f" {str(lock_path(target))!r}); wait for it to finish or choose another folder"
         ) from None
+    if not force and any(not p.name.startswith(".staging-") for p in target.iterdir()):
+        lock.release()
+        raise OutputError(
+            f"--out {str(target)!r} holds files already; use --force to replace them or choose"
+            " another folder"
+        )
     staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=target))
     try:
         yield StagedFolder(target, staging)
