@@ -294,6 +294,21 @@ def _csv(kind: str) -> Callable[[Path], None]:
     return check
 
 
+def _semicolon_log(tmp: Path) -> None:
+    comma = _log(tmp)
+    semicolon = tmp / "semicolon.csv"
+    semicolon.write_text(comma.read_text().replace(",", ";"))
+    refused(
+        tmp, "identify", semicolon, "--inputs", "command", "--outputs", "inclination",
+        "--method", "arx", "--lags", "1/1", "--save", tmp / "m.npz", match="are not in the table",
+    )  # fmt: skip
+    code, output = cli(
+        "identify", semicolon, "--inputs", "command", "--outputs", "inclination", "--method",
+        "arx", "--lags", "1/1", "--save", tmp / "m.npz", "--sep", ";",
+    )  # fmt: skip
+    assert code == 0 and "fit %" in output, output
+
+
 def _complex_array(tmp: Path) -> None:
     with pytest.raises(TypeError, match="u holds complex numbers"):
         IOData(np.ones(5) + 1j, np.ones(5))
@@ -417,6 +432,7 @@ CASES = [
     Case("C20", "CLI", "a CSV whose header repeats a column", "refused: column name 'command' appears 2 times", "clear", _csv("duplicated column")),
     Case("C21", "CLI", "text in a time cell", "refused: time column 'time' is not numeric: row 1 holds 'abc'", "clear", _csv("text in time")),
     Case("C22", "CLI", "an input column that is not in the log", "refused: columns ['command'] are not in the table; it has [...]", "clear", _csv("missing column")),
+    Case("C30", "CLI", "a log separated by ';'", "without --sep: the columns it has are listed; with --sep ';' it is read", "correct", _semicolon_log),
     Case("C23", "CLI", "`demo --out` an existing file", "refused: is a file; give a folder; the file is unchanged", "clear", _demo_out_is_a_file),
     Case("C24", "CLI", "`demo --seed -1`", "refused by the option's range", "clear", _demo_negative_seed),
     Case("C25", "CLI", "two runs into one `--out` folder", "the second is refused: another neckid run is writing into ...", "clear", _demo_folder_in_use),

@@ -235,6 +235,7 @@ INPUTS_HELP = "Comma-separated input channel names (e.g. velocity_command)."
 OUTPUTS_HELP = "Comma-separated output channel names (e.g. inclination, in degrees)."
 TIME_HELP = "Name of the time column (seconds). Ignored when --ts is given."
 TS_HELP = "Sampling period in seconds, for a log without a time column."
+SEP_HELP = "Column separator of a CSV log, e.g. ';' or '\\t' (tab)."
 LAYOUT_HELP = "'csv' (header row, named columns) or 'softneck' (the UC3M bench's headerless 3/6/7-column logs)."
 
 
@@ -260,6 +261,7 @@ def identify(
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
     seed: int = typer.Option(
         0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
     ),
@@ -274,7 +276,15 @@ def identify(
 
     save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
     check_output_file(save, force=force, inputs=[log], option="--save")
-    data = read_log(log, _split(inputs), _split(outputs), time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
+    data = read_log(
+        log,
+        _split(inputs),
+        _split(outputs),
+        time=time,
+        ts=ts,
+        layout=layout,  # type: ignore[arg-type]
+        sep=_sep(sep),
+    )
     method = _method_name(method)
     estimator = make_estimator(method, parse_lags(lags), random_state=seed)
     estimator.fit(data)
@@ -289,15 +299,20 @@ def identify(
     console.print(f"model saved to {path}")
 
 
+def _sep(text: str) -> str:
+    """The separator the user typed; a backslash and a t (as a shell passes it) means a tab."""
+    return "\t" if text == "\\t" else text
+
+
 def _load_for_model(
-    model_path: Path, log: Path, time: str, ts: float | None, layout: str
+    model_path: Path, log: Path, time: str, ts: float | None, layout: str, sep: str = ","
 ) -> tuple[Any, Any]:
     from neckid.models.io import load_model
     from neckid.workflow import read_log
 
     model = load_model(model_path)
     ins, outs = _model_channels(model)
-    data = read_log(log, ins, outs, time=time, ts=ts, layout=layout)  # type: ignore[arg-type]
+    data = read_log(log, ins, outs, time=time, ts=ts, layout=layout, sep=_sep(sep))  # type: ignore[arg-type]
     return model, data
 
 
@@ -311,6 +326,7 @@ def validate(
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ) -> None:
@@ -324,7 +340,7 @@ def validate(
 
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
-    model, data = _load_for_model(model_path, log, time, ts, layout)
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep)
     try:
         result = model.simulate(data)
     except DivergenceError as exc:
@@ -365,6 +381,7 @@ def simulate(
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     keep_diverged: bool = typer.Option(
         False,
@@ -382,7 +399,7 @@ def simulate(
     from neckid.outputs import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
-    model, data = _load_for_model(model_path, log, time, ts, layout)
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep)
     diverged: DivergenceError | None = None
     try:
         result = model.simulate(data)

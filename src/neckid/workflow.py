@@ -63,6 +63,7 @@ def read_log(
     time: str | None = "time",
     ts: float | None = None,
     layout: Literal["csv", "softneck"] = "csv",
+    sep: str = ",",
 ) -> IOData:
     """Read a log for identification.
 
@@ -76,6 +77,11 @@ def read_log(
         Channel names. Required for CSV/Parquet/MAT; for soft-neck logs they select among the
         loader's named channels (default: all of them).
     time, ts : see :meth:`IOData.from_csv`.
+    layout : {"csv", "softneck"}
+        How the file is laid out.
+    sep : str, default ","
+        Column separator of a CSV log (``";"`` for logs written with a decimal comma locale,
+        a tab for tab-separated ones).
     """
     path = Path(path)
     if not path.exists():
@@ -100,7 +106,9 @@ def read_log(
         return IOData.from_parquet(path, list(inputs), list(outputs or ()), time=time, ts=ts)
     if suffix == ".mat":
         return IOData.from_mat(path, list(inputs), list(outputs or ()), time=time, ts=ts)
-    return IOData.from_csv(path, list(inputs), list(outputs or ()), time=time, ts=ts)
+    if not sep:
+        raise ValueError("--sep must be one character or more; got an empty separator")
+    return IOData.from_csv(path, list(inputs), list(outputs or ()), time=time, ts=ts, sep=sep)
 
 
 def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **options: Any) -> Any:

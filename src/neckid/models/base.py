@@ -511,7 +511,8 @@ class NarxModel(Estimator):
         """
         check_is_fitted(self)
         y0 = self._initial_outputs(data, initial)
-        y = _free_run(self.lags_, self._predict_rows, data.u, y0)
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
+            y = _free_run(self.lags_, self._predict_rows, data.u, y0)
         return self._result("simulation", data, y)
 
     def simulator(self) -> NarxSimulator:

@@ -394,7 +394,9 @@ class NeuralNARX(NarxModel):
             ``kind="simulation"``, ``n_initial=max_lag``.
         """
         check_is_fitted(self)
-        y = self._simulate_array(data.u, self._initial_outputs(data, initial))
+        y0 = self._initial_outputs(data, initial)
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
+            y = self._simulate_array(data.u, y0)
         return self._result("simulation", data, y)
 
     def _simulate_array(self, u: FloatArray, y_measured: FloatArray) -> FloatArray:
