@@ -30,7 +30,7 @@ from sklearn.base import clone
 
 from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
-from neckid.models.base import DivergenceError, check_is_fitted
+from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
 from neckid.registry import get_method
 from neckid.regressors import Lags
 
@@ -244,7 +244,10 @@ def free_run(
     else:
         start, skip = int(n_initial) - lag, int(n_initial)
     try:
-        result = model.simulate(record[start:] if start else record)
+        with warnings.catch_warnings():
+            # The share outside the training range stays in result.extras; scores say the rest.
+            warnings.simplefilter("ignore", ExtrapolationWarning)
+            result = model.simulate(record[start:] if start else record)
     except DivergenceError as exc:
         if diverged == "raise":
             raise

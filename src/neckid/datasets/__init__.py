@@ -1,8 +1,10 @@
-"""Loaders for real data sets: the UC3M soft-neck bench logs and four public benchmarks.
+"""Loaders for real data sets: the UC3M soft-neck bench logs, four public benchmarks, ROS 2 bags.
 
 The files are not shipped with neckid; every loader takes a path. See
-:mod:`neckid.datasets.softneck` for the soft-neck CSV layouts and
-:mod:`neckid.datasets.benchmarks` for the benchmarks and their official splits.
+:mod:`neckid.datasets.softneck` for the soft-neck CSV layouts,
+:mod:`neckid.datasets.benchmarks` for the benchmarks and their official splits, and
+:mod:`neckid.datasets.rosbag` for ROS 2 bags (needs the optional dependency ``rosbags``, imported
+only when a bag is read).
 """
 
 from neckid.datasets.benchmarks import (
@@ -13,6 +15,7 @@ from neckid.datasets.benchmarks import (
     load_robot_arm,
     load_silverbox,
 )
+from neckid.datasets.rosbag import RosbagChannel, load_rosbag
 from neckid.datasets.softneck import (
     CHANNELS,
     SOFTNECK_LAYOUTS,
@@ -28,10 +31,12 @@ __all__ = [
     "SOFTNECK_LAYOUTS",
     "SOFTNECK_TS",
     "BenchmarkData",
+    "RosbagChannel",
     "SoftneckLayout",
     "load_bouc_wen",
     "load_cascaded_tanks",
     "load_robot_arm",
+    "load_rosbag",
     "load_silverbox",
     "load_softneck_directory",
     "load_softneck_log",

@@ -24,6 +24,7 @@ over every method of :func:`neckid.methods`.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
@@ -41,8 +42,10 @@ from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
 
 __all__ = [
+    "EXTRAPOLATION_WARNING",
     "DivergenceError",
     "Estimator",
+    "ExtrapolationWarning",
     "ModelResult",
     "NarxModel",
     "NarxSimulator",
@@ -72,6 +75,14 @@ def check_is_fitted(model: Any) -> None:
         raise NotFittedError(
             f"this {type(model).__name__} is not fitted yet; call fit(data) before using it"
         )
+
+
+class ExtrapolationWarning(UserWarning):
+    """A log leaves the range of values the model was identified on (see ``Estimator.extrapolation``)."""
+
+
+#: Share of samples outside the training range above which a simulation warns.
+EXTRAPOLATION_WARNING = 0.05
 
 
 class DivergenceError(ValueError, ArithmeticError):
@@ -247,12 +258,15 @@ class Estimator(BaseEstimator, ModelFile):
     def _validate_params(self) -> None:
         validate_parameters(self)
 
-    @staticmethod
-    def _check_training(experiments: Sequence[IOData]) -> None:
-        """Refuse training data with nothing to identify or values whose squares overflow."""
+    def _check_training(self, experiments: Sequence[IOData]) -> None:
+        """Refuse training data with nothing to identify or values whose squares overflow.
+
+        Records the range of every channel over the training data (``training_ranges_``).
+        """
         if experiments[0].n_outputs == 0:
             raise ValueError("data has no output channel to identify")
         y = np.vstack([d.y for d in experiments])
+        ranges: dict[str, tuple[float, float]] = {}
         constant = np.flatnonzero(np.ptp(y, axis=0) == 0)
         if constant.size:
             name = experiments[0].output_names[int(constant[0])]
@@ -274,6 +288,30 @@ class Estimator(BaseEstimator, ModelFile):
                     f" of values above {LARGEST_VALUE:.0e} overflow; rescale the channel (e.g. to"
                     " SI units)"
                 )
+            for j, name in enumerate(names):
+                ranges[name] = (float(values[:, j].min()), float(values[:, j].max()))
+        self.training_ranges_ = ranges
+
+    def extrapolation(self, data: IOData) -> dict[str, float]:
+        """Share of the samples of each channel of ``data`` outside the range seen in training.
+
+        A model identified on 0–15° says little about a log that spends half its time at 30°:
+        this is the first thing to look at when a fit is poor. Channels the model was not
+        trained on (or a model built without data) are left out.
+
+        Returns
+        -------
+        dict of str to float
+            Channel name -> share in [0, 1].
+        """
+        ranges: dict[str, tuple[float, float]] = getattr(self, "training_ranges_", {})
+        shares = {}
+        for name in (*data.input_names, *data.output_names):
+            if name in ranges:
+                low, high = ranges[name]
+                values = data.channel(name)
+                shares[name] = float(np.mean((values < low) | (values > high)))
+        return shares
 
     def _set_channels(self, data: IOData) -> None:
         self.input_names_ = tuple(data.input_names)
@@ -288,6 +326,9 @@ class Estimator(BaseEstimator, ModelFile):
             "input_names": list(self.input_names_),
             "output_names": list(self.output_names_),
             "output_units": list(self.output_units_),
+            "training_ranges": {
+                k: list(v) for k, v in getattr(self, "training_ranges_", {}).items()
+            },
         }
 
     def _restore_channels(self, meta: Any, lags: ResolvedLags | None = None) -> None:
@@ -299,6 +340,8 @@ class Estimator(BaseEstimator, ModelFile):
         self.output_units_ = tuple(units) if units is not None else ("",) * len(self.output_names_)
         self.n_inputs_ = len(self.input_names_)
         self.n_outputs_ = len(self.output_names_)
+        ranges = meta.get("training_ranges") or {}
+        self.training_ranges_ = {str(k): (float(v[0]), float(v[1])) for k, v in ranges.items()}
 
     def _check_inputs(self, data: IOData) -> None:
         ts = self.ts_
@@ -369,6 +412,18 @@ class Estimator(BaseEstimator, ModelFile):
             upper,
             extras,
         )
+        if kind == "simulation":
+            outside = self.extrapolation(data)
+            result.extras["extrapolation"] = outside
+            far = {k: v for k, v in outside.items() if v > EXTRAPOLATION_WARNING}
+            if far:
+                shares = ", ".join(f"{k} {v:.0%}" for k, v in far.items())
+                warnings.warn(
+                    f"{data.name or 'the log'} leaves the range the {type(self).__name__} was"
+                    f" identified on ({shares} of the samples outside it): expect a poor fit there",
+                    ExtrapolationWarning,
+                    stacklevel=3,
+                )
         bad = np.flatnonzero(~np.isfinite(y[self.max_lag_ :]).all(axis=1))
         if bad.size:
             row = int(bad[0]) + self.max_lag_

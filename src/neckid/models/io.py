@@ -18,7 +18,10 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
+import warnings
 import zipfile
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
@@ -27,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from neckid._version import __version__
+from neckid.regressors import ResolvedLags
 
 __all__ = [
     "FORMAT_VERSION",
@@ -84,54 +88,119 @@ def write_model_file(
 def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dict[str, Any]]:
     """Read a model file; returns ``(class_name, arrays, meta)``.
 
+    Nothing in the file is unpickled (``allow_pickle=False``): an array of Python objects is
+    refused, never loaded.
+
     Raises
     ------
+    FileNotFoundError
+        If ``path`` does not exist.
     ValueError
-        If the file is not a neckid model file or its format version is newer than this neckid.
+        If the file is not a neckid model file (not a readable ``.npz`` archive, an array that would
+        need pickle, no or a malformed ``__neckid__`` header), or its format version is newer than
+        this neckid. The message starts with the path.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not a neckid model file")
     if not path.is_file():
         raise FileNotFoundError(f"model file {str(path)!r} does not exist")
     if path.stat().st_size == 0:
         raise ValueError(f"{path} is not a neckid model file (it is empty)")
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            if not isinstance(archive, np.lib.npyio.NpzFile):
-                raise ValueError("a single .npy array, not an .npz archive")
-            arrays = {k: archive[k] for k in archive.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        reason = str(exc).split(";")[0] if "allow_pickle" not in str(exc) else "not an .npz archive"
-        raise ValueError(f"{path} is not a neckid model file ({reason})") from None
+    arrays = _read_arrays(path)
     if _META_KEY not in arrays:
         raise ValueError(
             f"{path} is an .npz file but not a neckid model file (no {_META_KEY!r} entry)"
         )
-    try:
-        header = json.loads(str(arrays.pop(_META_KEY)))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: the {_META_KEY!r} header is not valid JSON: {exc}") from exc
-    if not isinstance(header, dict) or not isinstance(header.get("meta", {}), dict):
+    header_array = arrays.pop(_META_KEY)
+    if header_array.dtype.kind != "U" or header_array.ndim != 0:
         raise ValueError(
-            f"{path}: the {_META_KEY!r} header must be a JSON object with a 'meta' object; got"
+            f"{path}: the {_META_KEY!r} entry must be a text scalar holding JSON; got an array of"
+            f" dtype {header_array.dtype} and shape {header_array.shape}"
+        )
+    try:
+        header = json.loads(str(header_array))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: the {_META_KEY!r} header is not valid JSON: {exc}") from None
+    if not isinstance(header, dict):
+        raise ValueError(
+            f"{path}: the {_META_KEY!r} header must be a JSON object; got a JSON"
             f" {type(header).__name__}"
         )
     if header.get("format") != "neckid-model":
         raise ValueError(f"{path} is not a neckid model file (format={header.get('format')!r})")
-    if int(header.get("version", 0)) > FORMAT_VERSION:
+    version = header.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
         raise ValueError(
-            f"{path} has model-file version {header['version']}, newer than this neckid reads"
+            f"{path}: the model-file version must be a whole number >= 1; got {version!r}"
+        )
+    if version > FORMAT_VERSION:
+        raise ValueError(
+            f"{path} has model-file version {version}, newer than this neckid reads"
             f" ({FORMAT_VERSION}); upgrade neckid"
         )
-    return str(header["class"]), arrays, dict(header.get("meta", {}))
+    class_name = header.get("class")
+    if not isinstance(class_name, str) or not class_name:
+        raise ValueError(
+            f"{path}: the {_META_KEY!r} header must name the model class in 'class'; got"
+            f" {class_name!r}"
+        )
+    meta = header.get("meta", {})
+    if not isinstance(meta, dict):
+        raise ValueError(
+            f"{path}: 'meta' in the {_META_KEY!r} header must be a JSON object; got a JSON"
+            f" {type(meta).__name__}"
+        )
+    return class_name, arrays, meta
+
+
+def _read_arrays(path: Path) -> dict[str, NDArray[Any]]:
+    """Every array of the archive, read with ``allow_pickle=False``; a ValueError naming the path.
+
+    A damaged archive fails in many ways inside ``zipfile`` and ``zlib`` (a bad CRC, a broken
+    deflate stream, an unsupported compression method or zip version, an encrypted member); each
+    is reported as the file not being a model file, with the reason.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            if not isinstance(archive, np.lib.npyio.NpzFile):
+                raise ValueError("a single .npy array, not an .npz archive")
+            return {k: archive[k] for k in archive.files}
+    except ValueError as exc:
+        if "allow_pickle" in str(exc):
+            reason = "it holds an array of Python objects, which would need pickle; refused"
+        else:
+            reason = str(exc).split(";")[0]
+    except (
+        OSError,
+        EOFError,
+        zipfile.BadZipFile,
+        zlib.error,
+        NotImplementedError,  # zipfile: compression method or zip version not supported
+        RuntimeError,  # zipfile: an encrypted member
+        KeyError,  # zipfile: a member listed in the directory but missing
+    ) as exc:
+        reason = str(exc) or type(exc).__name__
+    reason = " ".join(reason.split())  # one line
+    raise ValueError(f"{path} is not a neckid model file ({reason})")
 
 
 def load_model(path: str | Path) -> Any:
     """Load any model saved with ``model.save(path)``.
 
+    The loaded model is checked before it is returned: its values (the class's
+    ``_check_state``) and that it runs (a free-run simulation of a few zero samples on its own
+    channels must give finite outputs). A file that was damaged or edited by hand is refused
+    with a message, never half loaded.
+
     Raises
     ------
+    FileNotFoundError
+        If ``path`` does not exist.
     ValueError
-        If the file names a model class this neckid does not know.
+        If the file is not a neckid model file, names a model class this neckid does not know, or
+        holds values that do not make a working model (the message starts with the path and says
+        which entry is wrong).
     """
     from neckid.registry import model_classes
 
@@ -143,16 +212,114 @@ def load_model(path: str | Path) -> Any:
         )
     cls = getattr(importlib.import_module(classes[class_name]), class_name)
     try:
-        model = cls._from_state(arrays, meta)
-        model._check_state()
+        with np.errstate(all="ignore"):
+            model = cls._from_state(arrays, meta)
+            model._check_state()
+            _check_runs(model)
     except KeyError as exc:
         raise ValueError(
             f"{path}: this {class_name} file has no {exc.args[0]!r} entry; it is damaged or was"
             " not written by neckid"
         ) from None
-    except (TypeError, ValueError, IndexError) as exc:
-        raise ValueError(f"{path}: invalid {class_name} file: {exc}") from None
+    # What a damaged or hand-edited value makes a model class raise while it is rebuilt: a
+    # string where a number belongs (TypeError, ValueError), a number too large for an integer
+    # (OverflowError), an index out of range (IndexError), a JSON list where an object belongs
+    # (AttributeError), a zero where a divisor belongs (ZeroDivisionError).
+    except (
+        TypeError,
+        ValueError,
+        IndexError,
+        OverflowError,
+        AttributeError,
+        ZeroDivisionError,
+    ) as exc:
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise ValueError(f"{path}: invalid {class_name} file: {reason}") from exc
     return model
+
+
+#: Longest regressor memory (samples) a loaded model may claim; more is a damaged file.
+_MAX_PLAUSIBLE_LAG = 100_000
+
+
+def _check_lags(
+    lags: ResolvedLags, input_names: tuple[str, ...], output_names: tuple[str, ...]
+) -> None:
+    """Refuse regressor terms that point outside the model's channels or its ``max_lag``."""
+    if (lags.input_names, lags.output_names) != (input_names, output_names):
+        raise ValueError(
+            f"the regressor was built for channels {list(lags.input_names)} ->"
+            f" {list(lags.output_names)}, but the model has {list(input_names)} ->"
+            f" {list(output_names)}"
+        )
+    source, channel, lag = lags.source, lags.channel, lags.lag
+    n_terms = len(lags.names)
+    if any(a.shape != (n_terms,) for a in (source, channel, lag)):
+        raise ValueError(
+            f"lags 'source', 'channel', 'lag' and 'names' must have one entry per regressor term;"
+            f" got shapes {source.shape}, {channel.shape}, {lag.shape} and ({n_terms},)"
+        )
+    n_channels = np.where(source == 0, len(output_names), len(input_names))
+    first_lag = np.where(source == 0, 1, 0)
+    bad = (
+        ((source != 0) & (source != 1))
+        | (channel < 0)
+        | (channel >= n_channels)
+        | (lag < first_lag)
+        | (lag > lags.max_lag)
+    )
+    if bad.any():
+        j = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"regressor term {j} ({lags.names[j]!r}) has source {int(source[j])}, channel"
+            f" {int(channel[j])}, lag {int(lag[j])}: source must be 0 (output) or 1 (input), the"
+            f" channel one of the {int(n_channels[j])} there are, the lag in"
+            f" [{int(first_lag[j])}, max_lag={lags.max_lag}]"
+        )
+    if n_terms and lags.max_lag != int(lag.max()):
+        raise ValueError(f"max_lag {lags.max_lag} is not the largest lag {int(lag.max())}")
+
+
+def _check_runs(model: Any) -> None:
+    """Simulate a few zero samples on the model's own channels; raise if it cannot.
+
+    Catches what the values alone do not show: channel names that are not unique strings,
+    regressor indices outside the channels, arrays that do not fit one another.
+    """
+    from neckid.data import IOData
+
+    max_lag = model.max_lag_
+    if isinstance(max_lag, bool) or not isinstance(max_lag, int | np.integer):
+        raise ValueError(f"max_lag must be a whole number; got {max_lag!r}")
+    if not 0 <= max_lag <= _MAX_PLAUSIBLE_LAG:
+        raise ValueError(f"max_lag must be in [0, {_MAX_PLAUSIBLE_LAG}]; got {max_lag}")
+    for argument, names in (
+        ("input_names", model.input_names_),
+        ("output_names", model.output_names_),
+    ):
+        if not all(isinstance(n, str) for n in names):
+            raise ValueError(f"{argument} must be strings; got {list(names)}")
+    # Compiled free-run kernels index the channels with the regressor's (source, channel, lag)
+    # without bounds checks: those are checked here, before anything runs.
+    parts = [model, *(v for v in vars(model).values() if hasattr(v, "lags_"))]
+    for part in parts:
+        lags = getattr(part, "lags_", None)
+        if isinstance(lags, ResolvedLags):
+            _check_lags(lags, tuple(part.input_names_), tuple(part.output_names_))
+    n_samples = int(max_lag) + 2
+    ts = float(model.ts_) if math.isfinite(model.ts_) else 1.0
+    zeros = IOData(
+        u=np.zeros((n_samples, len(model.input_names_))),
+        y=np.zeros((n_samples, len(model.output_names_))),
+        ts=ts,
+        input_names=model.input_names_,
+        output_names=model.output_names_,
+    )
+    with warnings.catch_warnings():
+        # Zeros may lie outside the range the model was identified on: its extrapolation
+        # warning says nothing about the file.
+        warnings.simplefilter("ignore")
+        model.simulate(zeros)
 
 
 class ModelFile:
