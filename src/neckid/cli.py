@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -88,6 +89,19 @@ def _message(exc: BaseException) -> str:
     return str(exc) or type(exc).__name__
 
 
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
+    """Print a library warning as one line (no file path): what the user can act on."""
+    text = str(message).splitlines()[0] if str(message) else category.__name__
+    error_console.print(f"[yellow]warning:[/yellow] {text}", highlight=False, soft_wrap=True)
+
+
 def handled(command: Command) -> Command:
     """Run a command with the one error policy of the command line.
 
@@ -99,8 +113,15 @@ def handled(command: Command) -> Command:
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
+        from neckid.models.base import ExtrapolationWarning
+
         try:
-            return command(*args, **kwargs)
+            with warnings.catch_warnings():
+                # The commands report extrapolation themselves; other warnings get one line each,
+                # once, without the library's file path.
+                warnings.simplefilter("ignore", ExtrapolationWarning)
+                warnings.showwarning = _show_warning
+                return command(*args, **kwargs)
         except (typer.Exit, typer.Abort):
             raise
         except KeyboardInterrupt:
@@ -166,7 +187,7 @@ def demo(
     paper_regressor: bool = typer.Option(
         False,
         "--paper-regressor",
-        help="Use the paper's regressor [y(t-1..3), u(t-8..10)] instead of selecting one.",
+        help="Use the paper's regressor y(t-1..t-3), u(t-8..t-10) instead of selecting one.",
     ),
     seed: int = typer.Option(
         0,
@@ -236,7 +257,15 @@ OUTPUTS_HELP = "Comma-separated output channel names (e.g. inclination, in degre
 TIME_HELP = "Name of the time column (seconds). Ignored when --ts is given."
 TS_HELP = "Sampling period in seconds, for a log without a time column."
 SEP_HELP = "Column separator of a CSV log, e.g. ';' or '\\t' (tab)."
-LAYOUT_HELP = "'csv' (header row, named columns) or 'softneck' (the UC3M bench's headerless 3/6/7-column logs)."
+LAYOUT_HELP = (
+    "'csv' (a header row names the columns) or 'softneck' (the UC3M bench's headerless logs;"
+    " 3 columns: time, inclination_filtered, motor_position; 6 columns add inclination,"
+    " velocity_command, motor_velocity; 7 columns add control_filtered)."
+)
+MAP_HELP = (
+    "MODEL_CHANNEL=LOG_CHANNEL: read a model channel from a log column of another name, e.g."
+    " inclination=inclination_filtered (repeat the option for several)."
+)
 
 
 @app.command()
@@ -295,7 +324,11 @@ def identify(
         {"output": name, "fit %": float(f), f"RMSE [{unit or '-'}]": float(r)}
         for name, unit, f, r in zip(data.output_names, data.output_units, fits, rmses, strict=True)
     ]
-    console.print(_metrics_table(f"{method} on {log.name} (free-run, training data)", rows))
+    console.print(
+        _metrics_table(
+            f"{_describe_model(estimator)} on {log.name} (free run, training data)", rows
+        )
+    )
     console.print(f"model saved to {path}")
 
 
@@ -305,15 +338,61 @@ def _sep(text: str) -> str:
 
 
 def _load_for_model(
-    model_path: Path, log: Path, time: str, ts: float | None, layout: str, sep: str = ","
+    model_path: Path,
+    log: Path,
+    time: str,
+    ts: float | None,
+    layout: str,
+    sep: str = ",",
+    maps: list[str] | None = None,
 ) -> tuple[Any, Any]:
     from neckid.models.io import load_model
-    from neckid.workflow import read_log
+    from neckid.workflow import map_channels, parse_mapping, read_log
 
     model = load_model(model_path)
-    ins, outs = _model_channels(model)
+    mapping = parse_mapping(maps or [])  # log name -> model name
+    to_log = {v: k for k, v in mapping.items()}
+    ins, outs = ([to_log.get(n, n) for n in names] for names in _model_channels(model))
     data = read_log(log, ins, outs, time=time, ts=ts, layout=layout, sep=_sep(sep))  # type: ignore[arg-type]
-    return model, data
+    return model, map_channels(data, mapping) if mapping else data
+
+
+def _describe_model(model: Any) -> str:
+    """The label of the model's method (``Set Membership + linear``), or its class name."""
+    from neckid.registry import method_of
+
+    method = method_of(model)
+    return method.label if method is not None else type(model).__name__
+
+
+def _print_prior(model: Any) -> None:
+    """ε and γ of a Set Membership model (or of the SM map of a parallel one), with units."""
+    sm = getattr(model, "sm_", model)
+    if not hasattr(sm, "gamma_"):
+        return
+    for name, unit, epsilon, gamma in zip(
+        model.output_names_, model.output_units_, sm.epsilon_, sm.gamma_, strict=True
+    ):
+        shown = f" {unit}" if unit else ""
+        console.print(
+            f"Set Membership prior for {name}: noise bound ε = {epsilon:.4g}{shown}, Lipschitz"
+            f" constant γ = {gamma:.4g}{shown} per unit of the scaled regressor"
+        )
+
+
+def _report_extrapolation(result: Any) -> None:
+    from neckid.models.base import EXTRAPOLATION_WARNING
+
+    shares = result.extras.get("extrapolation", {})
+    far = {k: v for k, v in shares.items() if v > EXTRAPOLATION_WARNING}
+    if far:
+        error_console.print(
+            "[yellow]warning:[/yellow] the log leaves the range the model was identified on: "
+            + ", ".join(f"{k} {v:.0%} of the samples" for k, v in far.items())
+            + "; expect a poor fit there",
+            highlight=False,
+            soft_wrap=True,
+        )
 
 
 @app.command()
@@ -327,6 +406,7 @@ def validate(
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
     sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ) -> None:
@@ -340,7 +420,7 @@ def validate(
 
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
-    model, data = _load_for_model(model_path, log, time, ts, layout, sep)
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps)
     try:
         result = model.simulate(data)
     except DivergenceError as exc:
@@ -358,11 +438,19 @@ def validate(
             data.output_names, data.output_units, fits, rmses, maes, strict=True
         )
     ]
-    console.print(_metrics_table(f"{type(model).__name__} on {log.name} (free-run)", rows))
+    console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
+    _print_prior(model)
+    _report_extrapolation(result)
     if plot is not None:
         from neckid.report.plots import plot_simulation
 
-        fig = plot_simulation(data, {type(model).__name__: result})
+        label = _describe_model(model)
+        fig = plot_simulation(
+            data,
+            {label: result},
+            title=f"{label} on {log.name}: free run, fit {float(fits[0]):.1f} %",
+            residuals=True,
+        )
         with atomic_path(plot) as temporary:
             fig.savefig(temporary, dpi=120, format="png")
         console.print(f"figure written to {plot}")
@@ -382,6 +470,7 @@ def simulate(
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
     sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     keep_diverged: bool = typer.Option(
         False,
@@ -399,7 +488,7 @@ def simulate(
     from neckid.outputs import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
-    model, data = _load_for_model(model_path, log, time, ts, layout, sep)
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps)
     diverged: DivergenceError | None = None
     try:
         result = model.simulate(data)
@@ -411,6 +500,7 @@ def simulate(
     with atomic_path(out) as temporary:
         result.to_frame().to_csv(temporary, index=False)
     console.print(f"{result.n_samples} samples written to {out}")
+    _report_extrapolation(result)
     if diverged is not None:
         raise typer.Exit(code=3)
 

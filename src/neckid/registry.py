@@ -27,7 +27,7 @@ from typing import Any
 
 from neckid.regressors import Lags
 
-__all__ = ["DEPRECATED_NAMES", "Method", "get_method", "methods", "model_classes"]
+__all__ = ["DEPRECATED_NAMES", "Method", "get_method", "method_of", "methods", "model_classes"]
 
 
 @dataclass(frozen=True)
@@ -164,6 +164,26 @@ def get_method(name: str, *, allow_deprecated: bool = True) -> Method:
     if name not in _BY_NAME:
         raise ValueError(f"method must be one of {list(_BY_NAME)}; got {name!r}")
     return _BY_NAME[name]
+
+
+def method_of(model: Any) -> Method | None:
+    """The registered method an estimator belongs to (its class and the method's defaults).
+
+    Examples
+    --------
+    >>> from neckid import Lags, SetMembership
+    >>> method_of(SetMembership(Lags.arx(1, 1), linear_part=True)).name
+    'sm-linear'
+    """
+    params = model.get_params(deep=False) if hasattr(model, "get_params") else {}
+    candidates = [
+        m
+        for m in _METHODS
+        if m.estimator.partition(":")[2] == type(model).__name__
+        and all(params.get(k) == v for k, v in m.defaults.items() if k != "random_state")
+    ]
+    # The method with the most defaults matched is the most specific (sm-linear before sm).
+    return max(candidates, key=lambda m: len(m.defaults), default=None)
 
 
 def model_classes() -> Mapping[str, str]:

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
 from neckid.data import IOData
 from neckid.regressors import Lags
 
-__all__ = ["make_estimator", "parse_lags", "read_log"]
+__all__ = ["make_estimator", "map_channels", "parse_lags", "parse_mapping", "read_log"]
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
@@ -90,15 +90,20 @@ def read_log(
         from neckid.datasets import load_softneck_log
 
         data = load_softneck_log(path)
-        if inputs or outputs:
-            data = data.select(
-                inputs=list(inputs) if inputs else None, outputs=list(outputs) if outputs else None
+        if not inputs or not outputs:
+            raise ValueError(
+                f"--inputs and --outputs are required with --layout softneck: {path.name} has"
+                f" inputs {list(data.input_names)} and outputs {list(data.output_names)}"
+                " (inclination_filtered is derived from inclination; control_filtered is internal"
+                " to the controller)"
             )
-        return data
+        return data.select(inputs=list(inputs), outputs=list(outputs))
     if layout != "csv":
         raise ValueError(f"layout must be 'csv' or 'softneck'; got {layout!r}")
     if not inputs:
         raise ValueError("--inputs is required for a CSV log: name the input column(s)")
+    if path.suffix.lower() not in (".parquet", ".mat"):
+        _refuse_headerless(path, sep)
     suffix = path.suffix.lower()
     if ts is not None:
         time = None
@@ -109,6 +114,81 @@ def read_log(
     if not sep:
         raise ValueError("--sep must be one character or more; got an empty separator")
     return IOData.from_csv(path, list(inputs), list(outputs or ()), time=time, ts=ts, sep=sep)
+
+
+def _refuse_headerless(path: Path, sep: str) -> None:
+    """Refuse a CSV whose first row holds numbers: a headerless log read as if it had a header."""
+    with path.open("rb") as handle:
+        first = handle.readline(4096).decode("utf-8", errors="replace").strip()
+    fields = [f.strip() for f in first.split(sep)] if first else []
+    if len(fields) < 2:
+        return
+    try:
+        [float(f) for f in fields]
+    except ValueError:
+        return
+    from neckid.datasets.softneck import SOFTNECK_LAYOUTS
+
+    layout = SOFTNECK_LAYOUTS.get(len(fields))
+    hint = (
+        f"; it has {len(fields)} columns like the lab's bench logs: read it with --layout softneck"
+        f" (channels {list(layout.columns)})"
+        if layout is not None
+        else "; add a header row of column names, or read it with --layout softneck if it is a"
+        " bench log"
+    )
+    raise ValueError(
+        f"the first row of {path.name} holds numbers ({first[:40]!r}), not column names: a log"
+        f" without a header{hint}"
+    )
+
+
+def map_channels(data: IOData, mapping: Mapping[str, str]) -> IOData:
+    """Rename channels of ``data``: ``mapping`` goes from the log's name to the model's.
+
+    Examples
+    --------
+    >>> log = IOData([1.0, 2.0], [0.0, 1.0], ts=0.1, output_names=["inclination_filtered"])
+    >>> map_channels(log, {"inclination_filtered": "inclination"}).output_names
+    ('inclination',)
+    """
+    unknown = [k for k in mapping if k not in (*data.input_names, *data.output_names)]
+    if unknown:
+        raise KeyError(
+            f"--map names {unknown}, which the log does not have; it has"
+            f" {[*data.input_names, *data.output_names]}"
+        )
+    return IOData(
+        data.u,
+        data.y,
+        ts=data.ts,
+        input_names=[mapping.get(n, n) for n in data.input_names],
+        output_names=[mapping.get(n, n) for n in data.output_names],
+        input_units=data.input_units,
+        output_units=data.output_units,
+        t0=data.t0,
+        name=data.name,
+    )
+
+
+def parse_mapping(texts: Sequence[str]) -> dict[str, str]:
+    """Read ``MODEL_CHANNEL=LOG_CHANNEL`` pairs; return log name -> model name.
+
+    Examples
+    --------
+    >>> parse_mapping(["inclination=inclination_filtered"])
+    {'inclination_filtered': 'inclination'}
+    """
+    mapping: dict[str, str] = {}
+    for text in texts:
+        model_name, sep, log_name = text.partition("=")
+        if not sep or not model_name.strip() or not log_name.strip():
+            raise ValueError(
+                f"--map must look like MODEL_CHANNEL=LOG_CHANNEL, e.g."
+                f" inclination=inclination_filtered; got {text!r}"
+            )
+        mapping[log_name.strip()] = model_name.strip()
+    return mapping
 
 
 def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **options: Any) -> Any:

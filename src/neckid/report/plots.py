@@ -20,48 +20,100 @@ def plot_simulation(
     ax: Any = None,
     title: str | None = None,
     bounds: bool = True,
+    residuals: bool = False,
 ) -> Any:
-    """Measured output against each model's free-run output (with Set Membership bounds).
+    """Measured output against each model's output, with bands, initial samples and residuals.
 
     Parameters
     ----------
     data : IOData
         The measured record.
     results : mapping of str to ModelResult
-        Model name to its simulation of ``data``.
+        Model name to its simulation (or prediction) of ``data``.
     output : int, default 0
         Which output channel to draw.
     ax : matplotlib Axes, optional
-        Where to draw; a new figure is made when ``None``.
+        Where to draw; a new figure is made when ``None`` (then with ``residuals``, a second
+        panel below shows ``y − ŷ``).
     title : str, optional
     bounds : bool, default True
-        Shade ``[lower, upper]`` for results that carry bounds.
+        Shade ``[lower, upper]`` for results that carry bounds; the band is in the legend, and
+        the vertical axis follows the outputs, not the band (a band wider than the plot is cut
+        and its legend entry says so).
+    residuals : bool, default False
+        Add a panel of the errors ``y − ŷ`` (new figure only).
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Notes
+    -----
+    The first ``n_initial`` samples of a result are the measured outputs it starts from (initial
+    conditions); they are shaded grey and labelled, as the fit skips them.
     """
     import matplotlib.pyplot as plt
 
     if ax is None:
-        fig, ax = plt.subplots(figsize=(9, 3.6), layout="constrained")
+        if residuals:
+            fig, (ax, ax_res) = plt.subplots(
+                2, 1, figsize=(10, 5.2), sharex=True, height_ratios=(3, 1.2), layout="constrained"
+            )
+        else:
+            fig, ax = plt.subplots(figsize=(10, 3.8), layout="constrained")
+            ax_res = None
     else:
-        fig = ax.figure
+        fig, ax_res = ax.figure, None
     t = data.time
-    unit = data.output_units[output]
-    ax.plot(t, data.y[:, output], color="black", lw=1.4, label="measured")
+    unit = data.output_units[output] if data.output_units[output] else ""
+    if not unit:
+        unit = next((r.output_units[output] for r in results.values() if r.output_units), "")
+    measured = data.y[:, output]
+    ax.plot(t, measured, color="black", lw=1.4, label="measured")
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    shown = [measured]
+    n_initial = max((r.n_initial for r in results.values()), default=0)
     for k, (name, result) in enumerate(results.items()):
         color = colors[k % len(colors)]
-        ax.plot(result.time, result.y[:, output], lw=1.0, color=color, label=name)
+        y = result.y[:, output]
+        ax.plot(result.time, y, lw=1.0, color=color, label=name)
+        shown.append(y[np.isfinite(y)])
+        if ax_res is not None:
+            ax_res.plot(result.time[result.n_initial :], (measured - y)[result.n_initial :],
+                        lw=0.8, color=color)  # fmt: skip
         if bounds and result.lower is not None and result.upper is not None:
             lo, hi = result.lower[:, output], result.upper[:, output]
             ok = np.isfinite(lo) & np.isfinite(hi)
-            ax.fill_between(result.time[ok], lo[ok], hi[ok], color=color, alpha=0.15, lw=0)
-    ax.set_xlabel("time [s]")
+            if ok.any():
+                ax.fill_between(result.time[ok], lo[ok], hi[ok], color=color, alpha=0.15, lw=0,
+                                label=f"{name} bounds")  # fmt: skip
+    values = np.concatenate(shown)
+    low, high = float(np.min(values)), float(np.max(values))
+    margin = 0.08 * (high - low or 1.0)
+    ax.set_ylim(low - margin, high + margin)
+    handles, labels = ax.get_legend_handles_labels()
+    for name, result in results.items():
+        if result.lower is not None and f"{name} bounds" in labels:
+            wider = (
+                np.nanmin(result.lower[:, output]) < low - margin
+                or np.nanmax(result.upper[:, output]) > high + margin
+            )
+            if wider:
+                labels[labels.index(f"{name} bounds")] = f"{name} bounds (cut at the plot edges)"
+    if n_initial:
+        ax.axvspan(t[0], t[min(n_initial, t.size - 1)], color="0.85", lw=0, zorder=0)
+        handles.append(plt.Rectangle((0, 0), 1, 1, color="0.85"))
+        labels.append("initial samples (measured)")
     ax.set_ylabel(f"{data.output_names[output]}" + (f" [{unit}]" if unit else ""))
     if title:
         ax.set_title(title)
-    ax.legend(loc="best", fontsize=8)
+    ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     ax.grid(alpha=0.3)
+    if ax_res is not None:
+        ax_res.axhline(0.0, color="black", lw=0.8)
+        ax_res.set_ylabel("error y − ŷ" + (f" [{unit}]" if unit else ""))
+        ax_res.set_xlabel("time [s]")
+        ax_res.grid(alpha=0.3)
+    else:
+        ax.set_xlabel("time [s]")
     return fig
