@@ -93,7 +93,7 @@ def plot_simulation(
     ax.set_ylim(low - margin, high + margin)
     handles, labels = ax.get_legend_handles_labels()
     for name, result in results.items():
-        if result.lower is not None and f"{name} bounds" in labels:
+        if result.lower is not None and result.upper is not None and f"{name} bounds" in labels:
             wider = (
                 np.nanmin(result.lower[:, output]) < low - margin
                 or np.nanmax(result.upper[:, output]) > high + margin
