@@ -638,8 +638,65 @@ def benchmark(
 
 @app.command()
 @handled
-def info() -> None:
-    """Print the versions of neckid and of the libraries it uses."""
-    from neckid.report.html import library_versions
+def info(
+    path: Path = typer.Argument(
+        None,
+        help="A log or a model file (.npz); without it, the versions of neckid and its libraries.",
+    ),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
+) -> None:
+    """Describe a log or a model file; without a path, print the versions of the libraries.
 
-    console.print_json(json.dumps(library_versions()))
+    A log: channels, units, duration, sampling period, gaps. A model file: method, regressor,
+    channels, sampling period, the Set Membership prior, the training range of each channel.
+    """
+    from neckid.workflow import describe_log, describe_model
+
+    if path is None:
+        from neckid.report.html import library_versions
+
+        console.print_json(json.dumps(library_versions()))
+        return
+    if not path.exists():
+        raise FileNotFoundError(f"{str(path)!r} does not exist")
+    if path.suffix == ".npz":
+        from neckid.models.io import load_model
+
+        described = describe_model(load_model(path))
+        if as_json:
+            console.print_json(json.dumps(described))
+            return
+        table = Table(title=f"{path.name}: {described['method']}", show_header=False)
+        for key in ("class", "lags", "inputs", "outputs", "output_units", "ts_s",
+                    "initial_samples", "training_samples", "epsilon", "gamma"):  # fmt: skip
+            if key in described:
+                table.add_row(
+                    key.replace("_s", " [s]") if key == "ts_s" else key, str(described[key])
+                )
+        for name, (low, high) in described["training_ranges"].items():
+            table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
+        console.print(table)
+        return
+    described = describe_log(path, layout=layout, time=time, sep=_sep(sep))  # type: ignore[arg-type]
+    if as_json:
+        console.print_json(json.dumps(described))
+        return
+    console.print(
+        f"{described['file']}: {described['samples']} samples over {described['duration_s']:.4g} s,"
+        f" ts = {described['ts_s']:.6g} s (largest step {described['max_step_s']:.6g} s,"
+        f" {described['gaps']} gap(s) over 1.5 ts)"
+    )
+    table = Table(title="channels")
+    for column in ("channel", "kind", "unit", "min", "max", "mean", "non-numeric"):
+        table.add_column(
+            column, justify="left" if column in ("channel", "kind", "unit") else "right"
+        )
+    for name, channel in described["channels"].items():
+        table.add_row(
+            name, channel["kind"], channel["unit"] or "-", f"{channel['min']:.4g}",
+            f"{channel['max']:.4g}", f"{channel['mean']:.4g}", str(channel["non_numeric"]),
+        )  # fmt: skip
+    console.print(table)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -560,6 +560,18 @@ class IOData:
         ``time="time"`` reads time stamps from that column; pass ``time=None, ts=...`` (or just
         ``ts=...``) for a log without one. Extra keyword arguments go to :func:`pandas.read_csv`.
 
+        Raises
+        ------
+        FileNotFoundError
+            If ``path`` does not exist.
+        KeyError
+            If a named column is not in the header (the message lists the columns there are).
+        ValueError
+            If the file is not a readable CSV log: not text, not parseable, an empty, NaN, inf or
+            non-numeric cell, a repeated column name, time stamps that are not sorted and uniform.
+            The message starts with the file name and names the column and the row
+            (:func:`neckid.data_files.file_fields`).
+
         Examples
         --------
         >>> import tempfile, os
@@ -568,10 +580,8 @@ class IOData:
         >>> IOData.from_csv(path, inputs=["cmd"], outputs=["incl"])
         IOData(n_samples=3, ts=0.02, inputs=['cmd'], outputs=['incl'], name='log.csv')
         """
-        from neckid.data_files import file_fields
-
-        return cls(
-            **file_fields(path, "csv", inputs, outputs, time=time, ts=ts, units=units, **read_csv)
+        return cls._from_file(
+            path, "csv", inputs, outputs, time=time, ts=ts, units=units, **read_csv
         )
 
     @classmethod
@@ -586,9 +596,7 @@ class IOData:
         units: Mapping[str, str] | None = None,
     ) -> IOData:
         """Read a Parquet log (needs the ``parquet`` extra: ``pip install neckid[parquet]``)."""
-        from neckid.data_files import file_fields
-
-        return cls(**file_fields(path, "parquet", inputs, outputs, time=time, ts=ts, units=units))
+        return cls._from_file(path, "parquet", inputs, outputs, time=time, ts=ts, units=units)
 
     def to_parquet(self, path: str | Path) -> None:
         """Write a Parquet file with a ``time`` column; units go in the file's metadata."""
@@ -621,9 +629,25 @@ class IOData:
             Variable of time stamps; otherwise give ``ts``. A scalar variable named by ``ts``
             (a string) is read as the period.
         """
+        return cls._from_file(path, "mat", inputs, outputs, time=time, ts=ts, units=units)
+
+    @classmethod
+    def _from_file(
+        cls,
+        path: str | Path,
+        kind: Literal["csv", "parquet", "mat"],
+        inputs: Sequence[str],
+        outputs: Sequence[str],
+        **options: Any,
+    ) -> IOData:
+        """Read a file with :func:`neckid.data_files.file_fields`; every error names the file."""
         from neckid.data_files import file_fields
 
-        return cls(**file_fields(path, "mat", inputs, outputs, time=time, ts=ts, units=units))
+        fields = file_fields(path, kind, inputs, outputs, **options)
+        try:
+            return cls(**fields)
+        except ValueError as exc:  # non-finite values, names: say which file they are in
+            raise ValueError(f"{fields['name']}: {exc}") from None
 
     def to_dict(self) -> dict[str, Any]:
         """Return the metadata (everything but the arrays) as a JSON-serialisable dict."""

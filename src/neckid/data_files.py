@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from neckid.validation import check_uniform_time
 
-__all__ = ["file_fields", "frame_fields"]
+__all__ = ["file_fields", "frame_fields", "not_text_message"]
 
 FloatArray = NDArray[np.float64]
 
@@ -169,29 +169,115 @@ def file_fields(
 
     Raises
     ------
+    FileNotFoundError
+        If ``path`` does not exist.
     KeyError
-        If a named column or variable is not in the file (the message lists those there are).
+        If a named column or variable is not in the file (the message lists those there are and,
+        for a CSV, says when the file seems to use another separator or to have no header row).
     ValueError
-        As :func:`frame_fields`.
+        As :func:`frame_fields`, and for a CSV that cannot be read: not text in its encoding (the
+        message gives the first bad byte, its offset and line), not parseable (a row with more
+        fields than the header, an unclosed quote), an empty cell or NaN in a column that is read,
+        or a header that repeats a name. Every message starts with the file name.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not a {kind} file")
+    if not path.exists():
+        raise FileNotFoundError(f"{kind} file {str(path)!r} does not exist")
     if kind == "mat":
         frame, period = _mat_frame(path, [*inputs, *outputs, *([time] if time else [])], ts)
     else:
         if path.stat().st_size == 0:
             raise ValueError(f"log file {str(path)!r} is empty")
-        if kind == "csv":
-            frame = pd.read_csv(path, **read_csv)
-            _check_header(path, frame, read_csv)
-        else:
-            frame = pd.read_parquet(path)
+        frame = _read_csv(path, read_csv) if kind == "csv" else pd.read_parquet(path)
         if isinstance(ts, str):
             raise TypeError(f"ts must be a number of seconds for a {kind} file; got {ts!r}")
         period = ts
         if period is not None and time == "time":
             time = None
-    fields = frame_fields(frame, inputs, outputs, time=time, ts=period, units=units)
+        _check_cells(path, frame, [*inputs, *outputs, *([time] if time is not None else [])])
+    try:
+        fields = frame_fields(frame, inputs, outputs, time=time, ts=period, units=units)
+    except KeyError as exc:
+        hint = _header_hint(frame) if kind == "csv" else ""
+        raise KeyError(f"{path.name}: {exc.args[0]}{hint}") from None
+    except ValueError as exc:
+        raise ValueError(f"{path.name}: {exc}") from None
     return {**fields, "name": path.name}
+
+
+def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
+    """``pandas.read_csv`` whose failures are ValueErrors naming the file and the reason."""
+    try:
+        frame = pd.read_csv(path, **read_csv)
+        _check_header(path, frame, read_csv)
+    except UnicodeDecodeError as exc:
+        encoding = str(read_csv.get("encoding") or "utf-8")
+        raise ValueError(not_text_message(path, path.read_bytes(), encoding, exc)) from None
+    except pd.errors.EmptyDataError:
+        raise ValueError(
+            f"{path.name} holds no CSV header and no data (only blank lines or spaces)"
+        ) from None
+    except pd.errors.ParserError as exc:
+        reason = " ".join(str(exc).replace("Error tokenizing data. C error: ", "").split())
+        raise ValueError(f"{path.name}: cannot parse as CSV: {reason}") from None
+    return frame
+
+
+def not_text_message(path: Path, data: bytes, encoding: str, error: UnicodeDecodeError) -> str:
+    """The message for a file that is not text in ``encoding``: the first bad byte and its line.
+
+    ``error`` is the decoder's error; the position is found again by decoding ``data`` (the whole
+    file) here, since a CSV parser reports it within a field.
+    """
+    try:
+        data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        offset = exc.start
+    except LookupError:  # an encoding Python does not know: pandas would have said so first
+        return f"{path.name} is not a text CSV: {error.reason}"
+    else:
+        return f"{path.name} is not a text CSV: {error.reason}"
+    line = data.count(b"\n", 0, offset) + 1
+    return (
+        f"{path.name} is not a text CSV (byte 0x{data[offset]:02x} at offset {offset}, line"
+        f" {line}, is not valid {encoding}); save it as UTF-8 text or pass encoding=..."
+    )
+
+
+def _check_cells(path: Path, frame: pd.DataFrame, names: Sequence[str]) -> None:
+    """Refuse an empty (or NaN) cell in a column that is read, naming the column and the row."""
+    for name in names:
+        if name not in frame.columns:
+            continue  # frame_fields says which columns are missing
+        column = frame[name]
+        if isinstance(column, pd.DataFrame):
+            continue  # a repeated name: frame_fields refuses it
+        missing = np.flatnonzero(column.isna().to_numpy())
+        if missing.size:
+            row = int(missing[0])
+            raise ValueError(
+                f"{path.name}: column {name!r} has no value at row {row} (an empty cell or"
+                f" NaN; {missing.size} in all); fill or drop those rows first"
+            )
+
+
+def _header_hint(frame: pd.DataFrame) -> str:
+    """Why the named columns may be missing: another separator, or no header row."""
+    names = [str(c) for c in frame.columns]
+    if len(names) == 1:
+        for separator in (";", "\t", "|", " "):
+            if separator in names[0]:
+                return f"; the header is one column holding {separator!r}: pass sep={separator!r}"
+    try:
+        [float(n) for n in names]
+    except ValueError:
+        return ""
+    return (
+        "; the first row holds numbers, not names: the file has no header row; pass"
+        " header=None, names=[...] to name the columns"
+    )
 
 
 def _check_header(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> None:
@@ -199,7 +285,12 @@ def _check_header(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> 
     if read_csv.get("header", "infer") is None or not len(frame.columns):
         return
     first = pd.read_csv(
-        path, nrows=1, header=None, **{k: v for k, v in read_csv.items() if k != "header"}
+        path,
+        nrows=1,
+        header=None,
+        dtype=str,
+        keep_default_na=False,
+        **{k: v for k, v in read_csv.items() if k not in ("header", "dtype", "keep_default_na")},
     )
     names = [str(n).strip() for n in first.iloc[0].tolist()]
     repeated = sorted({n for n in names if names.count(n) > 1})

@@ -10,7 +10,15 @@ from typing import Any, Literal
 from neckid.data import IOData
 from neckid.regressors import Lags
 
-__all__ = ["make_estimator", "map_channels", "parse_lags", "parse_mapping", "read_log"]
+__all__ = [
+    "describe_log",
+    "describe_model",
+    "make_estimator",
+    "map_channels",
+    "parse_lags",
+    "parse_mapping",
+    "read_log",
+]
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
@@ -202,3 +210,120 @@ def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **o
     if "random_state" in entry.estimator_class()._parameter_constraints:
         options = {"random_state": random_state, **options}
     return entry.make(lags, **options)
+
+
+def describe_log(
+    path: str | Path,
+    *,
+    layout: Literal["csv", "softneck"] = "csv",
+    time: str = "time",
+    sep: str = ",",
+) -> dict[str, Any]:
+    """What a log holds, before any identification: channels, units, duration, sampling, gaps.
+
+    Parameters
+    ----------
+    path : path
+        A CSV log with a header row, or a bench log with ``layout="softneck"``.
+    layout, sep : as in :func:`read_log`.
+    time : str, default "time"
+        The time column of a CSV log [s].
+
+    Returns
+    -------
+    dict
+        ``{"file", "samples", "duration_s", "ts_s", "max_step_s", "gaps", "channels"}``;
+        ``channels`` maps each column to ``{"kind", "unit", "min", "max", "mean"}``. A gap is a
+        time step more than 1.5 times the median one.
+    """
+    import numpy as np
+    import pandas as pd
+
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"log file {str(path)!r} does not exist")
+    channels: dict[str, dict[str, Any]] = {}
+    if layout == "softneck":
+        from neckid.datasets import load_softneck_log
+
+        data = load_softneck_log(path)
+        t = data.time
+        for kind, names, units, values in (
+            ("input", data.input_names, data.input_units, data.u),
+            ("output", data.output_names, data.output_units, data.y),
+        ):
+            for j, name in enumerate(names):
+                channels[name] = {"kind": kind, "unit": units[j], "values": values[:, j]}
+    else:
+        if path.stat().st_size == 0:
+            raise ValueError(f"log file {str(path)!r} is empty")
+        _refuse_headerless(path, sep)
+        frame = pd.read_csv(path, sep=sep)
+        if time not in frame.columns:
+            raise KeyError(
+                f"{path.name} has no time column {time!r}; it has {list(map(str, frame.columns))}"
+                " (give --time NAME)"
+            )
+        t = pd.to_numeric(frame[time], errors="coerce").to_numpy(dtype=np.float64)
+        for name in frame.columns:
+            if name == time:
+                continue
+            values = pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=np.float64)
+            channels[str(name)] = {"kind": "column", "unit": "", "values": values}
+    steps = np.diff(t)
+    median = float(np.median(steps)) if steps.size else float("nan")
+    summary = {}
+    for name, channel in channels.items():
+        values = channel.pop("values")
+        finite = values[np.isfinite(values)]
+        summary[name] = {
+            **channel,
+            "min": float(finite.min()) if finite.size else float("nan"),
+            "max": float(finite.max()) if finite.size else float("nan"),
+            "mean": float(finite.mean()) if finite.size else float("nan"),
+            "non_numeric": int(values.size - finite.size),
+        }
+    return {
+        "file": path.name,
+        "samples": int(t.size),
+        "duration_s": float(t[-1] - t[0]) if t.size > 1 else 0.0,
+        "ts_s": median,
+        "max_step_s": float(steps.max()) if steps.size else float("nan"),
+        "gaps": int(np.sum(steps > 1.5 * median)) if steps.size else 0,
+        "channels": summary,
+    }
+
+
+def describe_model(model: Any) -> dict[str, Any]:
+    """What a fitted model is: method, class, regressor, channels, sampling, training ranges, prior.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> data = IOData(np.sin(np.arange(50.0)), np.cos(np.arange(50.0)), ts=0.02)
+    >>> describe_model(LinearARX(Lags.arx(1, 1)).fit(data))["method"]
+    'Linear ARX'
+    """
+    from neckid.registry import method_of
+
+    method = method_of(model)
+    lags = getattr(model, "lags_", None)
+    info: dict[str, Any] = {
+        "method": method.label if method is not None else type(model).__name__,
+        "method_name": method.name if method is not None else None,
+        "class": type(model).__name__,
+        "lags": repr(lags.to_lags()) if lags is not None else None,
+        "inputs": list(model.input_names_),
+        "outputs": list(model.output_names_),
+        "output_units": list(model.output_units_),
+        "ts_s": float(model.ts_),
+        "initial_samples": int(model.max_lag_),
+        "training_samples": int(getattr(model, "n_samples_", 0)),
+        "training_ranges": {k: list(v) for k, v in getattr(model, "training_ranges_", {}).items()},
+    }
+    sm = getattr(model, "sm_", model)
+    if hasattr(sm, "gamma_"):
+        info["epsilon"] = [float(v) for v in sm.epsilon_]
+        info["gamma"] = [float(v) for v in sm.gamma_]
+    return info
