@@ -25,6 +25,8 @@ app = typer.Typer(
     ),
     no_args_is_help=True,
     add_completion=False,
+    # Markdown joins the lines of a docstring paragraph, so help text reflows to the terminal.
+    rich_markup_mode="markdown",
 )
 console = Console()
 error_console = Console(stderr=True)
@@ -464,7 +466,7 @@ def simulate(
     ),
     log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
     out: Path = typer.Option(
-        Path("simulation.csv"), "--out", help="CSV to write: time, outputs (and bounds)."
+        Path("simulation.csv"), "--out", help="CSV to write: time, inputs, outputs (and bounds)."
     ),
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
@@ -481,7 +483,7 @@ def simulate(
     """Free-run simulate a saved model with the inputs of a log; write time, inputs and outputs to CSV.
 
     The log's first max-lag outputs are the initial conditions; Set Membership models add
-    <output>_lower and <output>_upper columns. A run that diverges is not written (exit status 3)
+    OUTPUT_lower and OUTPUT_upper columns (OUTPUT: each output's name). A run that diverges is not written (exit status 3)
     unless --keep-diverged.
     """
     from neckid.models.base import DivergenceError
@@ -575,7 +577,7 @@ def benchmark(
     data_dir: Path = typer.Option(
         ...,
         "--data-dir",
-        help="Folder holding softneck/ and benchmarks/<name>/ (e.g. ../shared/data).",
+        help="Folder holding softneck/ and benchmarks/NAME/ (e.g. ../shared/data).",
         exists=True,
         file_okay=False,
     ),

@@ -214,7 +214,8 @@ def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
         _check_header(path, frame, read_csv)
     except UnicodeDecodeError as exc:
         encoding = str(read_csv.get("encoding") or "utf-8")
-        raise ValueError(not_text_message(path, path.read_bytes(), encoding, exc)) from None
+        message = not_text_message(path, path.read_bytes(), encoding, exc)
+        raise ValueError(f"{message}; save it as UTF-8 text or pass encoding=...") from None
     except pd.errors.EmptyDataError:
         raise ValueError(
             f"{path.name} holds no CSV header and no data (only blank lines or spaces)"
@@ -242,7 +243,7 @@ def not_text_message(path: Path, data: bytes, encoding: str, error: UnicodeDecod
     line = data.count(b"\n", 0, offset) + 1
     return (
         f"{path.name} is not a text CSV (byte 0x{data[offset]:02x} at offset {offset}, line"
-        f" {line}, is not valid {encoding}); save it as UTF-8 text or pass encoding=..."
+        f" {line}, is not valid {encoding})"
     )
 
 

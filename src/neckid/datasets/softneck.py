@@ -129,10 +129,18 @@ _OUTPUT_ORDER = ("inclination", "inclination_filtered")
 
 def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
     """Parse a headerless comma-separated log; refuse unknown layouts and bad rows."""
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not a soft-neck log")
+    if not path.is_file():
+        raise FileNotFoundError(f"soft-neck log {str(path)!r} does not exist")
+    data = path.read_bytes()
     try:
-        text = path.read_text(encoding="utf-8", errors="strict")
+        text = data.decode("utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except UnicodeDecodeError as exc:
-        raise ValueError(f"{path} is not a text CSV file: {exc}") from exc
+        from neckid.data_files import not_text_message
+
+        message = not_text_message(path, data, "utf-8", exc)
+        raise ValueError(f"{message}; soft-neck logs are UTF-8 (ASCII) text") from None
     lines = text.splitlines()
     # Blank lines at the end (or anywhere) carry no sample.
     numbered = [(i + 1, line) for i, line in enumerate(lines) if line.strip()]
@@ -145,7 +153,7 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
         known = ", ".join(str(k) for k in sorted(SOFTNECK_LAYOUTS))
         raise ValueError(
             f"{path.name}: unknown soft-neck log layout with {len(fields)} columns (known: {known});"
-            f" first row (line {first_line_no}): {first.strip()!r}. Read other layouts with"
+            f" first row (line {first_line_no}): {_clip(first)}. Read other layouts with"
             " IOData.from_csv and name the columns yourself"
         )
     names = ("time", *layout.columns)
@@ -155,23 +163,30 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
         if len(parts) != layout.n_columns:
             raise ValueError(
                 f"{path.name} line {line_no}: {len(parts)} fields where the {layout.n_columns}-column"
-                f" layout (set by the first row) needs {layout.n_columns}: {line.strip()!r}"
+                f" layout (set by the first row) needs {layout.n_columns}: {_clip(line)}"
             )
         for col, part in enumerate(parts):
             try:
                 value = float(part)
             except ValueError:
+                header = " (a soft-neck log has no header row)" if row == 0 else ""
                 raise ValueError(
-                    f"{path.name} line {line_no}, column {col + 1} ({names[col]}): {part.strip()!r}"
-                    f" is not a number; row: {line.strip()!r}"
+                    f"{path.name} line {line_no}, column {col + 1} ({names[col]}):"
+                    f" {_clip(part)} is not a number{header}; row: {_clip(line)}"
                 ) from None
             if not math.isfinite(value):
                 raise ValueError(
                     f"{path.name} line {line_no}, column {col + 1} ({names[col]}): non-finite"
-                    f" value {part.strip()!r}; row: {line.strip()!r}"
+                    f" value {_clip(part)}; row: {_clip(line)}"
                 )
             values[row, col] = value
     return values, layout
+
+
+def _clip(text: str, width: int = 80) -> str:
+    """``repr`` of a stripped field or row, cut to ``width`` characters (one line, printable)."""
+    shown = repr(text.strip())
+    return shown if len(shown) <= width else shown[: width - 5] + "...'"
 
 
 def _regularise_time(
