@@ -15,7 +15,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/neckid demo
+	$(BIN)/neckid demo --force
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks

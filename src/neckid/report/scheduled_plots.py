@@ -2,14 +2,29 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import pandas as pd
 
 from neckid.models.base import check_is_fitted
 from neckid.models.scheduled import GainScheduledModel
 
-__all__ = ["plot_gain_schedule"]
+if TYPE_CHECKING:
+    from neckid.experiments.operating_points import OperatingPointResult
+
+__all__ = ["GAIN_UNIT", "plot_gain_schedule"]
+
+#: Unit of the gain ``N``: inclination rate per velocity command.
+GAIN_UNIT = "(deg/s)/(rad/s)"
+#: Label of the hollow markers of points that did not converge and were left out of the fit.
+NOT_CONVERGED_LABEL = "not converged (left out of the fit)"
+
+_PANELS = (
+    ("N", "gain", "gain N", f"gain N [{GAIN_UNIT}]", "tab:blue", "o"),
+    ("P", "pole", "pole P", "pole P [-] (dimensionless)", "tab:red", "s"),
+)
 
 
 def plot_gain_schedule(
@@ -17,72 +32,213 @@ def plot_gain_schedule(
     ax: Any = None,
     title: str | None = None,
     inclination_range: tuple[float, float] | None = None,
+    *,
+    points: pd.DataFrame | OperatingPointResult | None = None,
 ) -> Any:
     """Operating points (markers) and fitted lines of the gain ``N(i)`` and the pole ``P(i)``.
+
+    Two panels against the inclination ``i`` [deg]: the gain ``N`` [(deg/s)/(rad/s)] and the
+    pole ``P`` (dimensionless) of ``G(z, i) = N(i) / (z − P(i))``, each with its fitted line and
+    the line's equation in the legend.
 
     Parameters
     ----------
     model : GainScheduledModel
-        A fitted model; its points (``inclinations_``, ``gains_``, ``poles_``) are drawn as markers
-        and its polynomials as lines.
-    ax : matplotlib Axes, optional
-        Where to draw (both curves share it, as in the paper); a new figure is made when ``None``.
+        A fitted model; its points (``inclinations_``, ``gains_``, ``poles_``: the points the lines
+        were fitted through) are drawn as filled markers and its polynomials as lines.
+    ax : matplotlib Axes or pair of Axes, optional
+        Where to draw. A pair: ``N`` in the first, ``P`` in the second. One Axes: both curves
+        share it, as in the paper. ``None`` (default): a new figure with two panels.
     title : str, optional
+        Title of the figure (of the single Axes when one is given); default
+        ``"Gain schedule G(z, i) = N(i) / (z − P(i))"``.
     inclination_range : (float, float), optional
         Inclinations [deg] spanned by the lines; default the range of the points (0–40° when the
         model has none, e.g. one built with ``from_coefficients``).
+    points : pandas.DataFrame or OperatingPointResult, optional
+        The operating-point table (columns ``inclination`` [deg], ``gain``, ``pole`` and
+        optionally ``converged``), e.g. ``OperatingPointResult.table``. Its rows that are not
+        among the model's points are drawn as hollow markers, labelled
+        ``"not converged (left out of the fit)"`` (or ``"left out of the fit"`` for a converged
+        one); points that did not converge but were used are drawn with a cross.
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        If ``points`` lacks one of the columns ``inclination``, ``gain``, ``pole``.
 
     Examples
     --------
     >>> import matplotlib
     >>> matplotlib.use("Agg")
     >>> fig = plot_gain_schedule(GainScheduledModel.from_coefficients())
-    >>> [line.get_label() for line in fig.axes[0].get_lines()][:2]
+    >>> [ax.get_lines()[0].get_label() for ax in fig.axes]
     ['N(i) = -0.059 i + 1.857', 'P(i) = 0.01175 i - 0.4797']
+    >>> [ax.get_ylabel() for ax in fig.axes]
+    ['gain N [(deg/s)/(rad/s)]', 'pole P [-] (dimensionless)']
     """
     import matplotlib.pyplot as plt
 
     check_is_fitted(model)
+    table = _points_table(points)
     if ax is None:
-        fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4), layout="constrained", sharex=True)
+        panels = list(axes)
+    elif isinstance(ax, Sequence | np.ndarray):
+        panels = list(ax)
+        if len(panels) != 2:
+            raise ValueError(f"ax must be one Axes or a pair of Axes; got {len(panels)} Axes")
+        fig = panels[0].figure
     else:
+        panels = [ax, ax]
         fig = ax.figure
+    shared = panels[0] is panels[1]
     if inclination_range is None:
-        if model.inclinations_.size:
-            inclination_range = (
-                float(model.inclinations_.min()),
-                float(model.inclinations_.max()),
-            )
-        else:
-            inclination_range = (0.0, 40.0)
+        inclination_range = _default_range(model, table)
     grid = np.linspace(inclination_range[0], inclination_range[1], 200)
-    for label, coefficients, points, color, marker in (
-        ("N", model.gain_coefficients_, model.gains_, "tab:blue", "o"),
-        ("P", model.pole_coefficients_, model.poles_, "tab:red", "s"),
+    used = _used_rows(model, table)
+    fitted_values = {"gain": model.gains_, "pole": model.poles_}
+    coefficients = {"gain": model.gain_coefficients_, "pole": model.pole_coefficients_}
+    for panel, (symbol, column, panel_title, ylabel, color, marker) in zip(
+        panels, _PANELS, strict=True
     ):
-        ax.plot(
+        panel.plot(
             grid,
-            np.polyval(coefficients, grid),
+            np.polyval(coefficients[column], grid),
             color=color,
             lw=1.4,
-            label=f"{label}(i) = {_polynomial_text(coefficients)}",
+            label=f"{symbol}(i) = {_polynomial_text(coefficients[column])}",
         )
-        if points.size:
-            ax.scatter(
-                model.inclinations_, points, color=color, marker=marker, zorder=3, label=label
+        values = fitted_values[column]
+        if values.size:
+            panel.scatter(
+                model.inclinations_,
+                values,
+                color=color,
+                marker=marker,
+                zorder=3,
+                label=f"{symbol}: operating points (in the fit)",
             )
-    ax.set_xlabel("inclination i [deg]")
-    ax.set_ylabel("gain N, pole P")
-    if title:
-        ax.set_title(title)
-    ax.axhline(0.0, color="0.6", lw=0.6)
-    ax.legend(loc="best", fontsize=8)
-    ax.grid(alpha=0.3)
+        if table is not None:
+            _draw_table_points(panel, table, used, column, symbol, color, marker)
+        if not shared:
+            panel.set_title(panel_title)
+            panel.set_ylabel(ylabel)
+            _pad_limits(panel)
+        panel.set_xlabel("inclination i [deg]")
+        panel.grid(alpha=0.3)
+        panel.legend(loc="best", fontsize=8)
+    heading = title if title is not None else "Gain schedule G(z, i) = N(i) / (z − P(i))"
+    if shared:
+        panels[0].axhline(0.0, color="0.6", lw=0.6)
+        panels[0].set_ylabel(f"gain N [{GAIN_UNIT}], pole P [-]")
+        if heading:
+            panels[0].set_title(heading)
+    elif heading:
+        fig.suptitle(heading)
     return fig
+
+
+def _points_table(points: pd.DataFrame | OperatingPointResult | None) -> pd.DataFrame | None:
+    """The operating-point table from a table, an ``OperatingPointResult`` or ``None``."""
+    if points is None:
+        return None
+    table = points if isinstance(points, pd.DataFrame) else getattr(points, "table", None)
+    if not isinstance(table, pd.DataFrame):
+        raise TypeError(
+            "points must be a pandas DataFrame or an OperatingPointResult;"
+            f" got {type(points).__name__}"
+        )
+    missing = [c for c in ("inclination", "gain", "pole") if c not in table.columns]
+    if missing:
+        raise ValueError(
+            f"points must have the columns inclination, gain, pole; missing {missing}"
+            f" (columns: {list(table.columns)})"
+        )
+    return table
+
+
+def _default_range(model: GainScheduledModel, table: pd.DataFrame | None) -> tuple[float, float]:
+    """Inclinations [deg] spanned by the points of the model and of the table."""
+    values = [model.inclinations_]
+    if table is not None:
+        values.append(table["inclination"].to_numpy(dtype=np.float64))
+    merged = np.concatenate(values)
+    merged = merged[np.isfinite(merged)]
+    if merged.size == 0:
+        return (0.0, 40.0)
+    return (float(merged.min()), float(merged.max()))
+
+
+def _used_rows(model: GainScheduledModel, table: pd.DataFrame | None) -> Any:
+    """For each table row, whether it is one of the model's points (same i, N and P)."""
+    if table is None:
+        return np.zeros(0, dtype=bool)
+    fitted = np.column_stack([model.inclinations_, model.gains_, model.poles_])
+    rows = table[["inclination", "gain", "pole"]].to_numpy(dtype=np.float64)
+    if fitted.size == 0:
+        return np.zeros(len(rows), dtype=bool)
+    close = np.isclose(rows[:, None, :], fitted[None, :, :], rtol=1e-9, atol=1e-12)
+    return close.all(axis=2).any(axis=1)
+
+
+def _draw_table_points(
+    panel: Any,
+    table: pd.DataFrame,
+    used: Any,
+    column: str,
+    symbol: str,
+    color: str,
+    marker: str,
+) -> None:
+    """Hollow markers for the left-out rows, crosses for used rows that did not converge."""
+    if "converged" in table.columns:
+        converged = table["converged"].to_numpy(dtype=bool)
+    else:
+        converged = np.ones(len(table), dtype=bool)
+    inclination = table["inclination"].to_numpy(dtype=np.float64)
+    values = table[column].to_numpy(dtype=np.float64)
+    groups = (
+        (~used & ~converged, f"{symbol}: {NOT_CONVERGED_LABEL}"),
+        (~used & converged, f"{symbol}: left out of the fit"),
+    )
+    for rows, label in groups:
+        if rows.any():
+            panel.scatter(
+                inclination[rows],
+                values[rows],
+                facecolors="none",
+                edgecolors=color,
+                marker=marker,
+                s=60,
+                linewidths=1.4,
+                zorder=3,
+                label=label,
+            )
+    kept = used & ~converged
+    if kept.any():
+        panel.scatter(
+            inclination[kept],
+            values[kept],
+            color="black",
+            marker="x",
+            s=40,
+            zorder=4,
+            label=f"{symbol}: not converged (kept in the fit)",
+        )
+
+
+def _pad_limits(panel: Any) -> None:
+    """Give a nearly flat curve some room: at least ±5 % of its level around it."""
+    low, high = panel.get_ylim()
+    level = max(abs(low), abs(high), 1e-12)
+    if high - low < 0.1 * level:
+        centre = 0.5 * (low + high)
+        panel.set_ylim(centre - 0.05 * level, centre + 0.05 * level)
 
 
 def _polynomial_text(coefficients: Any) -> str:
