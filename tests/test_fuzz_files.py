@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 import neckid
@@ -41,7 +41,7 @@ from neckid.models.base import DivergenceError
 ALLOWED = (ValueError, KeyError, TypeError, FileNotFoundError)
 
 FUZZ = settings(
-    max_examples=120,
+    max_examples=300,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow],
 )
@@ -50,6 +50,7 @@ FUZZ = settings(
 def assert_clear_refusal(error: BaseException, path: Path) -> None:
     """The exception is an allowed type and its message is one line naming the file."""
     assert type(error) in ALLOWED, f"{type(error).__name__} escaped: {error}"
+    event(f"refused: {type(error).__name__}")
     message = error.args[0] if isinstance(error, KeyError) else str(error)
     assert isinstance(message, str) and message.strip(), "empty message"
     assert "\n" not in message, f"message on several lines: {message!r}"
@@ -178,6 +179,7 @@ def test_any_csv_gives_a_log_or_a_clear_error(folder: Path, content: bytes) -> N
     except Exception as error:  # the test: nothing else escapes
         assert_clear_refusal(error, path)
     else:
+        event("read")
         assert_valid_log(data)
         assert data.u.shape == data.y.shape == (data.n_samples, 1)
 
@@ -192,6 +194,7 @@ def test_any_softneck_log_gives_a_log_or_a_clear_error(folder: Path, content: by
     except Exception as error:  # the test: nothing else escapes
         assert_clear_refusal(error, path)
     else:
+        event("read")
         assert_valid_log(data)
         assert data.n_outputs >= 1 and data.n_inputs >= 1
 
@@ -370,6 +373,7 @@ def test_any_model_file_loads_a_working_model_or_a_clear_error(
         assert_clear_refusal(error, path)
         assert str(path) in str(error)
         return
+    event("loaded")
     try:
         result = model.simulate(runs_on(model, models.data))
     except DivergenceError:

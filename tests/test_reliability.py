@@ -309,6 +309,25 @@ def _semicolon_log(tmp: Path) -> None:
     assert code == 0 and "fit %" in output, output
 
 
+def _chirp_in_two_units(tmp: Path) -> None:
+    import pandas as pd
+
+    from neckid.plant import InclinationController, SoftNeck, closed_loop
+    from neckid.signals import paper_chirp
+
+    neck = SoftNeck(seed=0)
+    reference = paper_chirp(np.arange(1500) * neck.ts)
+    frame = closed_loop(neck, InclinationController(ts=neck.ts), reference, neck.ts).to_frame()
+    frame["inclination_rad"] = np.deg2rad(frame["inclination"])
+    path = tmp / "chirp.csv"
+    frame.to_csv(path, index=False)
+    refused(
+        tmp, "bandwidth", path, "--command", "reference", "--response", "inclination_rad",
+        "--rate", "0.1", match="response's amplitude is 0.0[0-9]+ times the command's",
+    )  # fmt: skip
+    assert pd.read_csv(path).shape[0] == 1500
+
+
 def _complex_array(tmp: Path) -> None:
     with pytest.raises(TypeError, match="u holds complex numbers"):
         IOData(np.ones(5) + 1j, np.ones(5))
@@ -433,6 +452,7 @@ CASES = [
     Case("C21", "CLI", "text in a time cell", "refused: time column 'time' is not numeric: row 1 holds 'abc'", "clear", _csv("text in time")),
     Case("C22", "CLI", "an input column that is not in the log", "refused: columns ['command'] are not in the table; it has [...]", "clear", _csv("missing column")),
     Case("C30", "CLI", "a log separated by ';'", "without --sep: the columns it has are listed; with --sep ';' it is read", "correct", _semicolon_log),
+    Case("C31", "CLI", "`bandwidth` with the command in deg and the response in rad", "refused: the response's amplitude is 0.02 times the command's ... check the units", "clear", _chirp_in_two_units),
     Case("C23", "CLI", "`demo --out` an existing file", "refused: is a file; give a folder; the file is unchanged", "clear", _demo_out_is_a_file),
     Case("C24", "CLI", "`demo --seed -1`", "refused by the option's range", "clear", _demo_negative_seed),
     Case("C25", "CLI", "two runs into one `--out` folder", "the second is refused: another neckid run is writing into ...", "clear", _demo_folder_in_use),

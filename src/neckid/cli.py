@@ -511,7 +511,10 @@ def simulate(
 @handled
 def bandwidth(
     log: Path = typer.Argument(
-        ..., help="CSV of a chirp run with a header row.", exists=True, dir_okay=False
+        ...,
+        help="A chirp run: CSV with a header row, or a bench log with --layout softneck.",
+        exists=True,
+        dir_okay=False,
     ),
     command: str = typer.Option(
         ..., "--command", help="Column of the chirp command (e.g. reference, degrees)."
@@ -519,7 +522,10 @@ def bandwidth(
     response: str = typer.Option(
         ..., "--response", help="Column of the measured response (same units)."
     ),
-    time: str = typer.Option("time", "--time", help="Time column (seconds)."),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
     threshold: float = typer.Option(
         0.9, "--threshold", help="Amplitude ratio that defines the bandwidth."
     ),
@@ -534,16 +540,27 @@ def bandwidth(
     ),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
 ) -> None:
-    """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's."""
+    """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's.
+
+    The rule compares the two amplitudes, so command and response must be in one unit (the
+    paper's closed-loop reference and inclination, both in degrees): a run whose amplitude ratio
+    at the slow start of the chirp is far from 1 is refused.
+    """
     import numpy as np
 
-    from neckid.data import IOData
     from neckid.outputs import atomic_path, check_output_file
     from neckid.signals import bandwidth_from_chirp, paper_chirp_frequency
+    from neckid.workflow import read_log
 
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log], option="--plot")
-    data = IOData.from_csv(log, [command], [response], time=time)
+    data = read_log(log, [command], [response], time=time, ts=ts, layout=layout, sep=_sep(sep))  # type: ignore[arg-type]
+    units = (data.input_units[0], data.output_units[0])
+    if all(units) and units[0] != units[1]:
+        raise ValueError(
+            f"--command {command!r} is in {units[0]} and --response {response!r} in {units[1]}:"
+            " the 90 % rule compares amplitudes in one unit; convert one of them"
+        )
     t = data.time
     result = bandwidth_from_chirp(
         t,
@@ -552,11 +569,21 @@ def bandwidth(
         threshold=threshold,
         frequency=None if rate is None else paper_chirp_frequency(t, rate=rate),
     )
+    start = result.ratio[: max(1, min(3, result.ratio.size))]
+    start_ratio = float(np.median(start)) if start.size else float("nan")
+    if np.isfinite(start_ratio) and not 0.5 <= start_ratio <= 2.0:
+        raise ValueError(
+            f"at the slow start of the chirp the response's amplitude is {start_ratio:.3g} times"
+            " the command's; the 90 % rule needs a response that follows the command in the same"
+            " unit (a closed loop's reference and output, e.g. both in degrees): check the units"
+            " (rad -> deg is x57.3) and that --command is the reference"
+        )
     if result.status != "found":
         explanation = {
             "not_reached": "the response never stays below the threshold: chirp further",
             "below_at_start": "the response is below the threshold from the start: chirp slower",
         }.get(result.status, result.status)
+        explanation = getattr(result, "reason", "") or explanation
         console.print(f"[yellow]no bandwidth found[/yellow]: {explanation}")
     else:
         console.print(

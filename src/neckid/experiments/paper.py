@@ -359,6 +359,7 @@ def _run_protocol(
         maes,
         selection_table,
         lags,
+        sensor_delay=neck.delay_samples,
     )
     metrics: dict[str, Any] = {
         "settings": {
@@ -417,6 +418,39 @@ def _json_ready(value: Any) -> Any:
     return value
 
 
+#: Figures of the free-run simulations: file name and the paper's figure number, per experiment.
+SIMULATION_FIGURES = {
+    EXPERIMENTS[0]: ("fig5_validation", "Fig. 5"),
+    EXPERIMENTS[1]: ("fig7_sine", "Fig. 7"),
+    EXPERIMENTS[2]: ("fig8_staircase", "Fig. 8"),
+    EXPERIMENTS[3]: ("fig9_step", "Fig. 9"),
+}
+
+#: The chirp run of step 1, saved for ``neckid bandwidth``.
+CHIRP_RUN = "chirp_run.csv"
+#: The command that finds the bandwidth in :data:`CHIRP_RUN` (run in the demo folder).
+BANDWIDTH_COMMAND = (
+    f"neckid bandwidth {CHIRP_RUN} --command reference --response inclination --rate 0.1"
+)
+
+#: Unit and meaning of each :class:`DemoSettings` field, for the report's settings table.
+SETTING_UNITS: dict[str, tuple[str, str]] = {
+    "seed": ("", "seeds sensor noise, multisine phases, PRBS and networks"),
+    "quick": ("", "shorter records and fewer lag candidates"),
+    "paper_regressor": ("", "use the paper's regressor instead of selecting the lags"),
+    "ts": ("s", "sampling period"),
+    "train_duration": ("s", "identification record"),
+    "validation_duration": ("s", "validation record"),
+    "test_duration": ("s", "each closed-loop test"),
+    "chirp_duration": ("s", "bandwidth chirp"),
+    "position_center": ("rad", "motor-position excitation: centre"),
+    "position_amplitude": ("rad", "motor-position excitation: peak deviation"),
+    "band_low": ("rad/s", "lowest excited frequency (the highest is the bandwidth)"),
+    "inclinations": ("deg", "operating points of the CFF-RLS protocol"),
+    "forgetting_factor": ("", "CFF-RLS λ (dimensionless)"),
+}
+
+
 def _write_outputs(
     out: StagedFolder,
     settings: DemoSettings,
@@ -431,89 +465,282 @@ def _write_outputs(
     maes: pd.DataFrame,
     selection_table: pd.DataFrame | None,
     lags: Lags,
+    *,
+    sensor_delay: int,
 ) -> dict[str, Path]:
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
-    from neckid.report.html import Figure, Report, library_versions
+    from neckid.report.html import Figure, Link, Report, library_versions
     from neckid.report.plots import plot_simulation
-    from neckid.report.scheduled_plots import plot_gain_schedule
+    from neckid.report.scheduled_plots import GAIN_UNIT, plot_gain_schedule
     from neckid.report.signal_plots import plot_bandwidth
     from neckid.report.sm_plots import plot_gamma_curve
 
     files: dict[str, Path] = {}
     figures: list[Figure] = []
 
-    def save(fig: Any, name: str, caption: str) -> None:
+    def save(fig: Any, name: str, number: str, caption: str) -> None:
         path = out.path(f"{name}.png")
         fig.savefig(path, dpi=110)
         plt.close(fig)
         files[name] = out.final(path.name)
-        figures.append(Figure(path, caption))
+        figures.append(Figure(path, caption, number))
+
+    # The chirp run, so that `neckid bandwidth` can be tried on a log.
+    chirp_time, chirp_reference, chirp_response = (np.ravel(a) for a in chirp_run)
+    pd.DataFrame(
+        {"time": chirp_time, "reference": chirp_reference, "inclination": chirp_response}
+    ).to_csv(out.path(CHIRP_RUN), index=False, float_format="%.10g")
+    files["chirp_run"] = out.final(CHIRP_RUN)
 
     save(
         plot_bandwidth(chirp),
         "fig3_bandwidth",
-        f"Fig. 3: amplitude of the up-chirp reference and of the inclination; bandwidth"
+        "Fig. 3",
+        "Amplitude of the up-chirp reference and of the inclination; bandwidth"
         f" {chirp.bandwidth:.2f} rad/s (paper: 4.2 rad/s).",
     )
-    for k, (experiment, record) in enumerate(records.items()):
-        view = record.select(outputs=[OUTPUT])
-        fig = plot_simulation(view, results[experiment], title=f"{experiment}: free-run simulation")
-        number = ("fig5_validation", "fig7_sine", "fig8_staircase", "fig9_step")[k]
+
+    def save_simulation(experiment: str) -> None:
+        name, number = SIMULATION_FIGURES[experiment]
+        view = records[experiment].select(outputs=[OUTPUT])
+        fig = plot_simulation(
+            view,
+            results[experiment],
+            title=f"{number} — {experiment}: measured inclination and free-run simulations",
+            residuals=True,
+        )
         save(
             fig,
+            name,
             number,
-            f"{experiment}: measured inclination and each model's free run"
-            " (Set Membership bounds shaded).",
+            f"{experiment}: measured inclination and each model's free run (top; Set Membership"
+            " bounds shaded), and each model's error y − ŷ [deg] (bottom).",
         )
+
+    save_simulation(EXPERIMENTS[0])
+    left_out = len(points.table) - scheduled.inclinations_.size
     save(
-        plot_gain_schedule(scheduled),
+        plot_gain_schedule(
+            scheduled,
+            points=points.table,
+            title="Fig. 6 — CFF-RLS first-order models G(z, i) = N(i) / (z − P(i))",
+        ),
         "fig6_schedule",
-        "Fig. 6: gain N and pole P of the CFF-RLS first-order models against the inclination,"
-        " with the fitted lines.",
+        "Fig. 6",
+        f"Gain N [{GAIN_UNIT}] (left) and pole P [-] (right) of the CFF-RLS first-order models"
+        " against the inclination [deg], with the fitted lines and their equations"
+        + (
+            f"; {left_out} operating point(s) whose estimate did not converge are drawn hollow"
+            " and left out of the fit."
+            if left_out
+            else "."
+        ),
     )
+    for experiment in EXPERIMENTS[1:]:
+        save_simulation(experiment)
     sm = narx_models["Set Membership"]
     if sm.gamma_curve_ is not None:
         save(
-            plot_gamma_curve(sm.gamma_curve_, unit="deg"),
+            plot_gamma_curve(
+                sm.gamma_curve_,
+                unit="deg",
+                chosen=(sm.epsilon_, sm.gamma_),
+                title="Fig. S1 — γ*(ε) of the Set Membership model (not in the paper)",
+            ),
             "gamma_curve",
-            "γ*(ε): the smallest Lipschitz constant consistent with the data, per noise bound ε"
-            " (circle: the chosen ε).",
+            "Fig. S1",
+            "γ*(ε): the smallest Lipschitz constant consistent with the training data, per noise"
+            " bound ε [deg] (log axes; ε = 0 is drawn on the left edge). The star marks the ε and"
+            " γ the Set Membership model uses"
+            f" (ε = {float(sm.epsilon_[0]):.3g} deg, γ = {float(sm.gamma_[0]):.3g}). Not a"
+            " figure of the paper.",
         )
 
+    links: list[Link] = []
     for name, model in narx_models.items():
         slug = name.lower().replace(" + ", "_").replace(" ", "_")
-        files[f"model_{slug}"] = out.final(model.save(out.path(f"model_{slug}.npz")).name)
+        path = out.final(model.save(out.path(f"model_{slug}.npz")).name)
+        files[f"model_{slug}"] = path
+        links.append(
+            Link(
+                path.name,
+                f"{name}: motor position [rad] → inclination [deg]. Load it with",
+                f'model = neckid.load_model("{path.name}")',
+            )
+        )
     scheduled.save(out.path("model_scheduled_cff_rls.npz"))
     files["model_scheduled_cff_rls"] = out.final("model_scheduled_cff_rls.npz")
+    links.append(
+        Link(
+            "model_scheduled_cff_rls.npz",
+            "Scheduled CFF-RLS: velocity command [rad/s] → inclination [deg]. Load it with",
+            'model = neckid.load_model("model_scheduled_cff_rls.npz")',
+        )
+    )
+    links.append(
+        Link(
+            CHIRP_RUN,
+            "the bandwidth chirp run of Fig. 3: time [s], reference [deg], inclination [deg],"
+            f" {1 / settings.ts:.0f} Hz. Find its bandwidth, in this folder, with",
+            BANDWIDTH_COMMAND,
+        )
+    )
+    links.append(
+        Link(
+            "metrics.json",
+            "every number of this report, machine-readable. Read it with",
+            'json.loads(pathlib.Path("metrics.json").read_text())',
+        )
+    )
 
     report = Report("neckid demo: the soft-neck paper's protocol on the simulated neck")
     report.add_text(
         "What ran",
         "The simulated tendon-driven neck (neckid.plant.SoftNeck, planar) stands in for the real one."
-        f" Bandwidth from the paper's up-chirp: {chirp.bandwidth:.2f} rad/s (paper: 4.2 rad/s)."
-        f" NARX models map motor position [rad] to inclination [deg] with the regressor {lags!r};"
+        f" Bandwidth from the paper's up-chirp: {chirp.bandwidth:.2f} rad/s (paper: 4.2 rad/s,"
+        " Fig. 3)."
+        f" NARX models map motor position [rad] to inclination [deg] with the regressor {lags!r}"
+        " (lags in samples);"
         " the scheduled model maps velocity command [rad/s] to inclination rate, integrated."
-        " Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), of the free-run"
-        " simulation, skipping the initial-condition samples.",
+        " Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||) [%], of the free-run"
+        " simulation, skipping the initial-condition samples (Figs. 5, 7-9).",
     )
-    report.add_table("Fit [%] (free run), ours and the paper's", table.reset_index())
-    report.add_table("Mean absolute error [deg]", maes.reset_index(), float_format="{:.3f}")
+    fit_table = table.reset_index()
+    fit_table.columns = ["model", *(f"{e}: fit [%]" for e in table.columns)]
+    report.add_table("Fit [%] (free run), ours and the paper's", fit_table)
+    mae_table = maes.reset_index()
+    mae_table.columns = ["model", *(f"{e}: MAE [deg]" for e in maes.columns)]
+    report.add_table("Mean absolute error [deg]", mae_table, float_format="{:.3f}")
     report.add_table(
-        f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f})",
-        points.table,
-        float_format="{:.4f}",
+        f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f}), Fig. 6",
+        _points_display(points.table, GAIN_UNIT),
+        formats={
+            "target [deg]": "{:.1f}",
+            "inclination [deg]": "{:.2f}",
+            f"gain N [{GAIN_UNIT}]": "{:.4f}",
+            "pole P [-]": "{:.4f}",
+            "settled at [sample]": "{:.0f}",
+            "log length [samples]": "{:.0f}",
+        },
+        note=(
+            "converged: the estimate stayed in its band over the last window of the log"
+            " (settled at: the sample from which it did)."
+            + (
+                f" {left_out} point(s) did not converge and are left out of the lines N(i), P(i)."
+                if left_out
+                else ""
+            )
+        ),
     )
     if selection_table is not None:
         report.add_table(
-            "Lag selection (neural NARX, validation fit)", selection_table, float_format="{:.2f}"
+            "Lag selection (neural NARX, validation fit)",
+            _selection_display(selection_table),
+            formats={"terms [count]": "{:.0f}", "max lag [samples]": "{:.0f}"},
+            note=_paper_lags_note(selection_table, settings.ts, sensor_delay),
         )
     report.add_figures("Figures", figures)
-    report.add_mapping("Settings", {k: v for k, v in asdict(settings).items()})
+    report.add_links(
+        "Files in this folder",
+        links,
+        intro="The report's neighbours, with how to use each (Python: import neckid, json,"
+        " pathlib first; the command runs in a shell in this folder).",
+    )
+    report.add_table(
+        "Settings",
+        _settings_display(settings, chirp.bandwidth, lags, sensor_delay),
+    )
     report.add_mapping("Versions", library_versions())
     report.write(out.path("report.html"))
     files["report"] = out.final("report.html")
     return files
+
+
+def _points_display(points: pd.DataFrame, gain_unit: str) -> pd.DataFrame:
+    """The operating-point table with units in its headers, for the report."""
+    settled = points["settled_at"].to_numpy(dtype=np.float64)
+    return pd.DataFrame(
+        {
+            "target [deg]": points["target"].to_numpy(dtype=np.float64),
+            "inclination [deg]": points["inclination"].to_numpy(dtype=np.float64),
+            f"gain N [{gain_unit}]": points["gain"].to_numpy(dtype=np.float64),
+            "pole P [-]": points["pole"].to_numpy(dtype=np.float64),
+            "converged": ["yes" if c else "no" for c in points["converged"]],
+            "settled at [sample]": np.where(settled >= 0, settled, np.nan),
+            "log length [samples]": points["n_samples"].to_numpy(dtype=np.float64),
+        }
+    )
+
+
+def _selection_display(selection: pd.DataFrame) -> pd.DataFrame:
+    """The lag-selection table reduced to what a reader needs, units in the headers."""
+    paper = repr(PAPER_LAGS)
+    return pd.DataFrame(
+        {
+            "candidate lags": [f"{v} (paper)" if v == paper else str(v) for v in selection["lags"]],
+            "terms [count]": selection["n_terms"].to_numpy(dtype=np.float64),
+            "max lag [samples]": selection["max_lag"].to_numpy(dtype=np.float64),
+            "one-step fit [%]": selection["fit_prediction"].to_numpy(dtype=np.float64),
+            "free-run fit [%]": selection["fit_simulation"].to_numpy(dtype=np.float64),
+            "error": [str(v) if isinstance(v, str) else "" for v in selection["error"]],
+        }
+    )
+
+
+def _paper_lags_note(selection: pd.DataFrame, ts: float, sensor_delay: int) -> str:
+    """A sentence on why the paper's regressor scores as it does on the simulated neck."""
+    input_lags = [v for v in PAPER_LAGS.inputs if isinstance(v, int)]  # one input: 8, 9, 10
+    first, last = min(input_lags), max(input_lags)
+    best = selection.iloc[0]
+    text = (
+        "Fits are in % on the validation record (100 % = perfect; below 0 %: further from the"
+        " measurement than its mean). The best candidate, "
+        f"{best['lags']}, scores {float(best['fit_simulation']):.2f} % in free run."
+    )
+    rows = selection[selection["lags"] == repr(PAPER_LAGS)]
+    if rows.empty:
+        return text
+    row = rows.iloc[0]
+    result = (
+        f"fails ({row['error']})"
+        if isinstance(row["error"], str) and row["error"]
+        else f"scores {float(row['fit_simulation']):.2f} % in free run"
+        f" ({float(row['fit_prediction']):.2f} % one step ahead)"
+    )
+    return (
+        f"{text} The paper's regressor y(t−1..3), u(t−{first}..{last}) {result}: its input lags"
+        f" are {first}–{last} samples, {first * ts:.2f}–{last * ts:.2f} s at {1 / ts:.0f} Hz,"
+        " chosen for the delay of the paper's neck. They do not match the simulated neck, whose"
+        f" tilt sensor lags {sensor_delay} samples ({sensor_delay * ts:.2f} s): the regressor"
+        f" leaves out the motor positions of the last {first - 1} samples, which drive the"
+        " inclination it predicts."
+    )
+
+
+def _settings_display(
+    settings: DemoSettings, bandwidth: float, lags: Lags, sensor_delay: int
+) -> pd.DataFrame:
+    """The settings with their units (and durations in samples), and what they derive."""
+    rows = []
+    for key, value in asdict(settings).items():
+        unit, meaning = SETTING_UNITS.get(key, ("", ""))
+        if isinstance(value, tuple | list):
+            shown = ", ".join(f"{v:g}" for v in value)
+        elif isinstance(value, float):
+            shown = f"{value:g}"
+        else:
+            shown = str(value)
+        if unit == "s" and key.endswith("_duration"):
+            unit = f"s ({round(value / settings.ts)} samples)"
+        elif key == "ts":
+            unit = f"s ({1 / settings.ts:g} Hz)"
+        rows.append((key, shown, unit, meaning))
+    rows.append(("bandwidth (measured)", f"{bandwidth:.3g}", "rad/s", "Fig. 3; highest excited"))
+    rows.append(("regressor (NARX)", repr(lags), "samples", "output and input lags"))
+    rows.append(("sensor delay (simulated neck)", str(sensor_delay), "samples",
+                 f"{sensor_delay * settings.ts:g} s"))  # fmt: skip
+    return pd.DataFrame(rows, columns=["setting", "value", "unit", "meaning"])

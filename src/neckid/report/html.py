@@ -139,9 +139,7 @@ class Report:
             table = table.copy()
             for column, spec in formats.items():
                 if column in table.columns:
-                    table[column] = [
-                        None if _missing(v) else spec.format(v) for v in table[column]
-                    ]
+                    table[column] = [None if _missing(v) else spec.format(v) for v in table[column]]
         body = table.to_html(
             index=False, border=0, classes="table", float_format=float_format.format, na_rep="–"
         )
@@ -177,9 +175,7 @@ class Report:
         """A heading, an optional paragraph and a list of relative links to files, with usage."""
         items = []
         for link in links:
-            usage = (
-                f"<br/><code>{html.escape(link.usage)}</code>" if link.usage is not None else ""
-            )
+            usage = f"<br/><code>{html.escape(link.usage)}</code>" if link.usage is not None else ""
             items.append(
                 f"<li><a href='{html.escape(link.href)}'>{html.escape(link.href)}</a>:"
                 f" {html.escape(link.description)}{usage}</li>"

@@ -121,7 +121,9 @@ def plot_gamma_curve(
     ax.set_xlabel(f"noise bound ε [{unit}] (log scale)")
     ax.set_ylabel(f"γ*(ε) [{unit} per unit of scaled regressor]")
     ax.set_title(
-        title if title is not None else "γ*(ε): smallest Lipschitz constant consistent with the data"
+        title
+        if title is not None
+        else "γ*(ε): smallest Lipschitz constant consistent with the data"
     )
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper right", fontsize=8)
