@@ -642,6 +642,8 @@ def benchmark(
     from neckid.experiments.benchmark import BENCHMARK_METHODS, run_benchmark
 
     names = [_method_name(n) for n in dict.fromkeys(_split(methods) or BENCHMARK_METHODS)]
+    # Long work reports progress: one line per data set and method, in a terminal or a log file.
+    logging.getLogger("neckid.experiments.benchmark").setLevel(logging.INFO)
     report = run_benchmark(
         data_dir,
         methods=names,
@@ -652,6 +654,8 @@ def benchmark(
         force=force,
     )
     console.print(report.rich_table())
+    if len(report.published):
+        console.print(report.published_rich_table())
     if report.details.get("missing"):
         console.print(f"not found under {data_dir}: {', '.join(report.details['missing'])}")
     console.print(f"written to {out}/")

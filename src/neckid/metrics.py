@@ -1,4 +1,4 @@
-"""Figures of merit: NRMSE fit, RMSE, MAE, maximum error, and residual correlation tests.
+"""Figures of merit: NRMSE fit, RMSE, MAE, maximum error, band coverage and width, residual tests.
 
 Every function takes measured and model outputs with time down the rows, returns one value per
 output channel, and skips the first ``skip`` samples (the initial conditions of a free run).
@@ -16,9 +16,11 @@ from neckid.validation import check_number, check_vector
 
 __all__ = [
     "CorrelationTest",
+    "coverage",
     "fit_percent",
     "mae",
     "max_abs_error",
+    "mean_width",
     "residual_autocorrelation",
     "residual_input_correlation",
     "rmse",
@@ -127,6 +129,122 @@ def max_abs_error(y_true: ArrayLike, y_pred: ArrayLike, skip: int = 0) -> FloatA
     """
     a, b = _pair(y_true, y_pred, skip)
     return np.asarray(np.max(np.abs(a - b), axis=0), dtype=np.float64)
+
+
+def _band_arrays(
+    arrays: tuple[ArrayLike, ...], names: tuple[str, ...], skip: int
+) -> tuple[FloatArray, ...]:
+    """2-D float arrays of one shape, the first ``skip`` rows dropped; NaN refused (±inf allowed).
+
+    A band may be infinite (a conformal band calibrated on too few samples), but it is never NaN
+    past the initial conditions, and its lower edge never lies above its upper edge.
+    """
+    out = []
+    for value, name in zip(arrays, names, strict=True):
+        a = np.asarray(value, dtype=np.float64)
+        if a.ndim == 1:
+            a = a[:, None]
+        if a.ndim != 2:
+            raise ValueError(f"{name} must be 1-D or 2-D; got shape {np.shape(value)}")
+        out.append(a)
+    shapes = {a.shape for a in out}
+    if len(shapes) != 1:
+        listed = ", ".join(f"{n} {a.shape}" for n, a in zip(names, out, strict=True))
+        raise ValueError(f"{', '.join(names)} must have the same shape; got {listed}")
+    skip = check_number(skip, "skip", low=0, integer=True)
+    if skip >= out[0].shape[0]:
+        raise ValueError(f"skip={skip} leaves no sample of {out[0].shape[0]}")
+    out = [a[skip:] for a in out]
+    for a, name in zip(out, names, strict=True):
+        bad = np.isnan(a)
+        if bad.any():
+            row, col = (int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(
+                f"{name} is NaN at row {row + skip}, output {col}; skip the rows without a band"
+                " (the initial conditions: skip=result.n_initial)"
+            )
+    lower, upper = out[-2], out[-1]
+    crossed = lower > upper
+    if crossed.any():
+        row, col = (int(i) for i in np.argwhere(crossed)[0])
+        raise ValueError(
+            f"lower > upper at row {row + skip}, output {col} ({lower[row, col]!r} >"
+            f" {upper[row, col]!r}): not a band"
+        )
+    return tuple(out)
+
+
+def coverage(y: ArrayLike, lower: ArrayLike, upper: ArrayLike, skip: int = 0) -> FloatArray:
+    r"""Share of the samples inside the band, per output: ``mean(lower <= y <= upper)``.
+
+    .. math:: C_j = \frac{1}{N - s} \sum_{t=s}^{N-1} \mathbf{1}\left[l_j(t) \le y_j(t) \le u_j(t)\right]
+
+    with ``s = skip``. The edges count as inside.
+
+    Parameters
+    ----------
+    y : array_like, shape (n_samples,) or (n_samples, n_outputs)
+        Measured (or noise-free) outputs.
+    lower, upper : array_like, same shape as ``y``
+        The band (may be ±inf, never NaN past ``skip``).
+    skip : int, default 0
+        Samples at the start left out (initial conditions, where a band is NaN).
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        Shares in [0, 1].
+
+    Raises
+    ------
+    ValueError
+        If the shapes differ, ``skip`` leaves no sample, a value is NaN past ``skip`` (``y``
+        must be finite), or ``lower > upper`` somewhere.
+
+    Examples
+    --------
+    >>> coverage([0.0, 1.0, 2.0, 3.0], [-1.0, 0.5, 2.0, 3.5], [1.0, 1.5, 2.5, 4.0])
+    array([0.75])
+    """
+    a, low, high = _band_arrays((y, lower, upper), ("y", "lower", "upper"), skip)
+    if not np.all(np.isfinite(a)):
+        row, col = (int(i) for i in np.argwhere(~np.isfinite(a))[0])
+        raise ValueError(f"y has a non-finite value {float(a[row, col])!r} at row {row + skip}")
+    return np.asarray(np.mean((low <= a) & (a <= high), axis=0), dtype=np.float64)
+
+
+def mean_width(lower: ArrayLike, upper: ArrayLike, skip: int = 0) -> FloatArray:
+    r"""Mean width of the band per output, ``mean(upper - lower)``, in the outputs' units.
+
+    .. math:: W_j = \frac{1}{N - s} \sum_{t=s}^{N-1} \left(u_j(t) - l_j(t)\right)
+
+    with ``s = skip``; ``inf`` when the band is infinite somewhere.
+
+    Parameters
+    ----------
+    lower, upper : array_like, shape (n_samples,) or (n_samples, n_outputs)
+        The band.
+    skip : int, default 0
+        Samples at the start left out (initial conditions).
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+
+    Raises
+    ------
+    ValueError
+        If the shapes differ, ``skip`` leaves no sample, a value is NaN past ``skip``, or
+        ``lower > upper`` somewhere.
+
+    Examples
+    --------
+    >>> mean_width([[0.0, 1.0], [1.0, 1.0]], [[2.0, 1.5], [2.0, 2.5]])
+    array([1.5, 1. ])
+    """
+    low, high = _band_arrays((lower, upper), ("lower", "upper"), skip)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(np.mean(high - low, axis=0), dtype=np.float64)
 
 
 @dataclass(frozen=True)

@@ -61,6 +61,7 @@ def plot_gamma_curve(
     ('log', 'inclination: ε = 0.02 deg, γ = 6')
     """
     import matplotlib.pyplot as plt
+    import matplotlib.ticker as mticker
     import matplotlib.transforms as mtransforms
 
     if ax is None:
@@ -118,6 +119,10 @@ def plot_gamma_curve(
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
+    # Plain numbers on the γ axis (2, 3, 4, 6, 10, 20 ...), not a mix of 10^1 and 6x10^0.
+    plain = mticker.FuncFormatter(lambda value, _position: f"{value:g}")
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain)
     ax.set_xlabel(f"noise bound ε [{unit}] (log scale)")
     ax.set_ylabel(f"γ*(ε) [{unit} per unit of scaled regressor]")
     ax.set_title(

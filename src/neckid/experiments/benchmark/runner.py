@@ -30,7 +30,7 @@ from sklearn.base import clone
 from neckid.data import IOData
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
-from neckid.experiments.benchmark.published import published_frame, published_table
+from neckid.experiments.benchmark.published import published_frame
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
     SELECTION_FRACTION,
@@ -131,44 +131,56 @@ class BenchmarkReport:
         return {kind: staged.final(name) for kind, name in names.items()}
 
     def rich_table(self) -> Any:
-        """A :class:`rich.table.Table` of the results, for the CLI to print."""
+        """A :class:`rich.table.Table` of the results, for the CLI to print.
+
+        One row per (data set, test, method), narrow enough for an 80-column terminal: the
+        published figures are in :meth:`published_rich_table`, the wall times and settings in the
+        written files.
+        """
         from rich.table import Table
 
-        table = Table(title="neckid benchmark (free-run simulation)")
-        for column in (
-            "benchmark",
-            "test",
-            "method",
-            "RMSE",
-            "fit %",
-            "published (RMSE)",
-            "train s",
-            "sim s",
-            "note",
-        ):
-            table.add_column(column)
-        figures = published_table()
+        table = Table(title="neckid benchmark: free run (RMSE in each data set's unit)")
+        table.add_column("data set / test", overflow="fold")
+        table.add_column("method", no_wrap=True)
+        table.add_column("RMSE", justify="right", no_wrap=True)
+        table.add_column("fit [%]", justify="right", no_wrap=True)
+        table.add_column("train [s]", justify="right", no_wrap=True)
+        table.add_column("note", overflow="fold")
+        previous = None
         for row in self.table.itertuples(index=False):
-            published = figures.get(str(row.benchmark), {}).get(str(row.test), {})
-            best = ", ".join(f"{k} {v:.3g}" for k, v in list(published.items())[:3])
+            where = f"{row.benchmark} / {row.test}"
             table.add_row(
-                str(row.benchmark),
-                str(row.test),
+                where if where != previous else "",
                 str(row.method),
                 _fmt(row.rmse, f" {row.rmse_unit!s}" if row.rmse_unit else ""),
-                _fmt(row.fit_percent),
-                best,
-                _fmt(row.train_time_s),
-                _fmt(row.simulate_time_s),
+                _fmt(row.fit_percent, digits=3),
+                _fmt(row.train_time_s, digits=2),
                 str(row.note or ""),
+                end_section=False,
+            )
+            previous = where
+        return table
+
+    def published_rich_table(self) -> Any:
+        """The published free-run RMSE next to which the results are read (a rich table)."""
+        from rich.table import Table
+
+        table = Table(title="published free-run RMSE (same split)")
+        for column in ("data set / test", "method", "RMSE"):
+            table.add_column(column, overflow="fold")
+        for row in self.published.itertuples(index=False):
+            table.add_row(
+                f"{row.benchmark} / {row.test}",
+                str(row.method),
+                _fmt(row.rmse, f" {row.rmse_unit}"),
             )
         return table
 
 
-def _fmt(value: Any, suffix: str = "") -> str:
+def _fmt(value: Any, suffix: str = "", digits: int = 4) -> str:
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-"
-    return f"{float(value):.4g}{suffix}"
+    return f"{float(value):.{digits}g}{suffix}"
 
 
 def _json_default(value: Any) -> Any:
@@ -446,7 +458,9 @@ def _run(
         for method in names:
             if not runs_on(method, name):
                 continue
-            logger.info("benchmark %s: %s", name, method)
+            logger.info(
+                "benchmark %s: %s (%d training samples)", name, method, bench.train.n_samples
+            )
             try:
                 method_rows, method_details = _run_method(method, bench, quick, seed)
             except Exception as exc:  # a failing method must not stop the others
