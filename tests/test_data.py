@@ -297,3 +297,100 @@ BAD = [
 def test_bad_input_is_refused(call, error, message) -> None:
     with pytest.raises(error, match=message):
         call()
+
+
+# ---------------------------------------------------------------------------- damaged CSV files
+GOOD_CSV = "time,cmd,incl\n0,1,2\n0.02,1.5,2.5\n0.04,2,3\n"
+
+BAD_CSV = [
+    (
+        "cmé".join(GOOD_CSV.split("cmd")).encode("latin-1"),
+        ValueError,
+        r"^log.csv is not a text CSV \(byte 0xe9 at offset 7, line 1, is not valid utf-8\);"
+        r" save it as UTF-8 text or pass encoding=",
+    ),
+    (GOOD_CSV.encode("utf-16"), ValueError, r"byte 0xff at offset 0, line 1"),
+    (
+        GOOD_CSV.replace("0.02,1.5,2.5", "0.02,1.5,2.5,7").encode(),
+        ValueError,
+        r"^log.csv: cannot parse as CSV: Expected 3 fields in line 3, saw 4$",
+    ),
+    (b'time,cmd,incl\n0,1,2\n"0.02,1,2\n', ValueError, r"cannot parse as CSV: EOF inside string"),
+    (b"\n\n  \n", ValueError, r"^log.csv holds no CSV header and no data"),
+    (
+        GOOD_CSV.replace("0.02,1.5,2.5", "0.02,,2.5").encode(),
+        ValueError,
+        r"^log.csv: column 'cmd' has no value at row 1 \(an empty cell or NaN; 1 in all\)",
+    ),
+    (
+        GOOD_CSV.replace("0.04,2,3", "0.04,2,nan").encode(),
+        ValueError,
+        r"^log.csv: column 'incl' has no value at row 2",
+    ),
+    (
+        GOOD_CSV.replace("0.04,2,3", "0.04,2,inf").encode(),
+        ValueError,
+        r"^log.csv: y channel 'incl' has a non-finite value inf at row 2",
+    ),
+    (
+        GOOD_CSV.replace("0.04,2,3", "0.04,abc,3").encode(),
+        ValueError,
+        r"^log.csv: column 'cmd' is not numeric: row 2 holds 'abc'",
+    ),
+    (
+        GOOD_CSV.replace("incl", "cmd").encode(),
+        ValueError,
+        r"^log.csv: column name 'cmd' appears 2 times in the header",
+    ),
+    (
+        GOOD_CSV.split("\n", 1)[1].encode(),
+        KeyError,
+        r"log.csv: columns .* are not in the table; it has \['0', '1', '2'\]; the first row holds"
+        r" numbers, not names: the file has no header row; pass header=None, names=",
+    ),
+    (
+        GOOD_CSV.replace(",", ";").encode(),
+        KeyError,
+        r"log.csv: .*the header is one column holding ';': pass sep=';'",
+    ),
+    (
+        b"time,cmd,incl\n0,1,2\n",
+        ValueError,
+        r"^log.csv: time column 'time' needs at least 2 time stamps",
+    ),
+    (
+        b"time,cmd,incl\n0,1,2\n0.04,1,2\n0.02,1,2\n",
+        ValueError,
+        r"^log.csv: time column 'time' is not sorted: row 2 has t=0.02 after t=0.04",
+    ),
+    (
+        b"time,cmd,incl\n0,1,2\n0.02,1,2\n0.02,1,2\n",
+        ValueError,
+        r"^log.csv: time column 'time' repeats the time stamp 0.02 at rows 1 and 2",
+    ),
+]
+
+
+@pytest.mark.parametrize(("content", "error", "message"), BAD_CSV)
+def test_damaged_csv_is_refused_naming_the_file(tmp_path, content, error, message) -> None:
+    path = tmp_path / "log.csv"
+    path.write_bytes(content)
+    with pytest.raises(error, match=message) as caught:
+        IOData.from_csv(path, ["cmd"], ["incl"])
+    assert type(caught.value) is error  # not a UnicodeDecodeError, nor a pandas ParserError
+
+
+def test_csv_with_a_byte_order_mark_or_another_encoding_is_read(tmp_path) -> None:
+    path = tmp_path / "log.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + GOOD_CSV.encode())
+    assert IOData.from_csv(path, ["cmd"], ["incl"]).input_names == ("cmd",)
+    path.write_bytes(GOOD_CSV.replace("cmd", "cmé").encode("latin-1"))
+    data = IOData.from_csv(path, ["cmé"], ["incl"], encoding="latin-1")
+    np.testing.assert_array_equal(data.u.ravel(), [1.0, 1.5, 2.0])
+
+
+def test_csv_path_that_is_missing_or_a_folder(tmp_path) -> None:
+    with pytest.raises(FileNotFoundError, match=r"csv file '.*nope.csv' does not exist"):
+        IOData.from_csv(tmp_path / "nope.csv", ["cmd"])
+    with pytest.raises(ValueError, match=r"is a folder, not a csv file"):
+        IOData.from_csv(tmp_path, ["cmd"])

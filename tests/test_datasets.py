@@ -309,3 +309,45 @@ def test_real_benchmarks_load():
     assert bouc_wen.train.n_samples == 40960
     assert bouc_wen.tests["sinesweep"].n_samples == 153000
     assert bouc_wen.train.ts == pytest.approx(1 / 750)
+
+
+# ---------------------------------------------------------------------------- damaged soft-neck logs
+def test_softneck_log_with_a_byte_order_mark_is_read(tmp_path):
+    path = write_log(tmp_path / "log.csv", grid(5, 3))
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert load_softneck_log(path).n_samples == 5
+
+
+@pytest.mark.parametrize(
+    ("content", "match"),
+    [
+        (
+            b"0, 1, 2\n0.025, 1, \xe9\n",
+            r"^bad.csv is not a text CSV \(byte 0xe9 at offset 18, line 2, is not valid utf-8\);"
+            r" soft-neck logs are UTF-8",
+        ),
+        (
+            b"time, incl, motor\n0, 1, 2\n",
+            r"line 1, column 1 \(time\): 'time' is not a number \(a soft-neck log has no header"
+            r" row\)",
+        ),
+        (
+            b"0, 1, 2\n0.025, 1, " + b"9" * 500 + b"x\n",
+            r"line 2, column 3 \(motor_position\): '9+\.\.\.' is not a number",
+        ),
+    ],
+)
+def test_damaged_softneck_logs_are_refused_naming_the_file(tmp_path, content, match):
+    path = tmp_path / "bad.csv"
+    path.write_bytes(content)
+    with pytest.raises(ValueError, match=match) as caught:
+        load_softneck_log(path)
+    assert type(caught.value) is ValueError
+    assert len(str(caught.value)) < 400  # a long row is cut, not copied whole
+
+
+def test_softneck_path_that_is_missing_or_a_folder(tmp_path):
+    with pytest.raises(FileNotFoundError, match=r"soft-neck log '.*nope.csv' does not exist"):
+        load_softneck_log(tmp_path / "nope.csv")
+    with pytest.raises(ValueError, match=r"is a folder, not a soft-neck log"):
+        load_softneck_log(tmp_path)

@@ -243,8 +243,7 @@ def mean_width(lower: ArrayLike, upper: ArrayLike, skip: int = 0) -> FloatArray:
     array([1.5, 1. ])
     """
     low, high = _band_arrays((lower, upper), ("lower", "upper"), skip)
-    with np.errstate(invalid="ignore"):
-        return np.asarray(np.mean(high - low, axis=0), dtype=np.float64)
+    return np.asarray(np.mean(high - low, axis=0), dtype=np.float64)
 
 
 @dataclass(frozen=True)

@@ -129,6 +129,13 @@ _METHODS: tuple[Method, ...] = (
         "neckid.models.scheduled:GainScheduledModel",
         "first-order model N(i)/(z - P(i)) scheduled on the inclination, from CFF-RLS",
     ),
+    Method(
+        "sm-multistep",
+        "Multi-step Set Membership",
+        "neckid.models.sm_multistep:MultiStepSetMembership",
+        "direct k-step Set Membership predictors (1..horizon) with guaranteed k-step bands",
+        quick={"horizon": 3},
+    ),
 )
 
 #: Spellings of earlier releases, accepted by the command line with a deprecation message.

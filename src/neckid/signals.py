@@ -40,6 +40,7 @@ from neckid.validation import (
 )
 
 __all__ = [
+    "MAX_WINDOW_SWEEP",
     "BandwidthResult",
     "bandwidth_from_chirp",
     "chirp",
@@ -677,6 +678,10 @@ def random_binary(
 # ------------------------------------------------------------------------------------ bandwidth
 BandwidthStatus = Literal["found", "not_reached", "below_at_start"]
 
+#: A window is measured when the command's mean frequency over its second half is within this
+#: fraction of that over its first half (and the other way round, for a down-chirp).
+MAX_WINDOW_SWEEP = 0.5
+
 
 @dataclass(frozen=True)
 class BandwidthResult:
@@ -698,7 +703,8 @@ class BandwidthResult:
         ``"found"``: the ratio stays below ``threshold`` from ``bandwidth`` to the end of the record.
         ``"not_reached"``: the record ends before the ratio has stayed below ``threshold`` for
         ``min_windows_below`` windows. ``"below_at_start"``: the ratio is below ``threshold`` in every
-        window, so the bandwidth is lower than the first frequency analysed.
+        measured window, so the bandwidth is lower than the first frequency measured (or the
+        response is not in the command's unit); :attr:`reason` says which chirp would measure it.
     time : ndarray, shape (n_windows,)
         Centre of each window in seconds.
     frequency : ndarray, shape (n_windows,)
@@ -708,8 +714,17 @@ class BandwidthResult:
     ratio : ndarray, shape (n_windows,)
         ``response_amplitude / command_amplitude``.
     crossing_index : int
-        Index of the first window of the final run below ``threshold``: 0 for
+        Index of the first window of the final run below ``threshold``: :attr:`first_measured` for
         ``"below_at_start"``, -1 for ``"not_reached"``.
+    reason : str
+        One sentence saying how the bandwidth was found or why none is reported, and what chirp
+        would measure it (for example ``"... start the chirp at or below 0.56 rad/s and sweep it
+        no faster than 0.025 rad/s^2 ..."``); the warning of a run without a bandwidth says the same.
+    first_measured : int
+        Index of the first window the rule uses. The windows before it sweep too fast: the
+        command's frequency changes by more than half from their first half to their second (at
+        the start of a chirp from 0 rad/s, one cycle spans 0 to twice its mean frequency), so they
+        hold no amplitude at one frequency; they are kept in the arrays, for the figure.
     """
 
     bandwidth: float
@@ -721,6 +736,8 @@ class BandwidthResult:
     response_amplitude: FloatArray
     ratio: FloatArray
     crossing_index: int
+    reason: str = ""
+    first_measured: int = 0
 
     @property
     def omega(self) -> float:
@@ -843,7 +860,8 @@ def bandwidth_from_chirp(
     Warns
     -----
     UserWarning
-        When the bandwidth is not found (``status`` other than ``"found"``; ``bandwidth`` is NaN).
+        When the bandwidth is not found (``status`` other than ``"found"``; ``bandwidth`` is NaN);
+        the message is :attr:`BandwidthResult.reason`.
 
     Notes
     -----
@@ -870,8 +888,27 @@ def bandwidth_from_chirp(
     does not matter because both cosine and sine are fitted. Harmonics of a nonlinear response
     are left out, as in a describing function.
 
+    *Windows that sweep too fast.* A window holds an amplitude at one frequency only if the
+    frequency changes little along it. With :math:`\bar\omega_1, \bar\omega_2` the mean
+    frequencies of its two halves, a window is measured when
+    :math:`\max(\bar\omega_2/\bar\omega_1, \bar\omega_1/\bar\omega_2) - 1 \le 0.5`
+    (:data:`MAX_WINDOW_SWEEP`). At the start of a chirp from 0 rad/s this fails: its first cycle
+    spans 0 to twice its mean frequency (the ratio of the halves is :math:`1/(\sqrt2 - 1) = 2.4`
+    for any rate). The first window is never measured: it holds the plant's start transient
+    (and the edge of the Hilbert estimate, when the frequency is not given). The leading windows
+    that are not measured are drawn but not used by the rule
+    (:attr:`BandwidthResult.first_measured`).
+    A linear chirp of rate :math:`\alpha` sweeps :math:`2\pi\alpha c/\omega` rad/s over a window of
+    :math:`c` cycles at :math:`\omega`, so a bandwidth :math:`\omega_b` can be measured only if
+    the chirp dwells below it: when the ratio is below ``threshold`` in every measured window, the
+    result advises a start frequency :math:`\omega_s` of half the first measured frequency and a
+    rate :math:`\alpha \le \omega_s^2 / (4\pi c)` (a sweep of a quarter within the first window).
+    The paper's chirp (:math:`\alpha = 0.2` rad/s², from 0) therefore cannot measure a bandwidth
+    below about 1.1 rad/s: a lag :math:`1/(0.5 s + 1)` (0.97 rad/s) gets ``"below_at_start"``
+    and the advice to start at or below 0.56 rad/s at no more than 0.025 rad/s².
+
     *Rule.* ``ratio = response amplitude / command amplitude``. The bandwidth is taken after the
-    last window whose ratio is at or above ``threshold``: from there on the ratio never rises to
+    last measured window whose ratio is at or above ``threshold``: from there on the ratio never rises to
     the threshold again within the record. It is interpolated linearly in frequency between that
     window and the next. The end of the record is the end of the evidence: the final run below
     the threshold must last ``min_windows_below`` windows, otherwise ``status`` is
@@ -944,10 +981,11 @@ def bandwidth_from_chirp(
 
     centres: list[float] = []
     freqs: list[float] = []
+    sweeps: list[float] = []
     cmd_amp: list[float] = []
     out_amp: list[float] = []
     for k in range(n_half - span + 1):
-        lo, hi = int(edges[k]), int(edges[k + span])
+        lo, mid, hi = int(edges[k]), int(edges[k + cycles]), int(edges[k + span])
         if hi - lo + 1 < min_samples * cycles:
             break
         window = slice(lo, hi + 1)
@@ -955,6 +993,7 @@ def bandwidth_from_chirp(
         duration = tw[-1] - tw[0]
         centres.append(0.5 * (tw[0] + tw[-1]))
         freqs.append(float((pw[-1] - pw[0]) / duration))
+        sweeps.append(_window_sweep(time, phase, lo, mid, hi))
         cmd_amp.append(_harmonic_amplitude(tw, pw, cmd[window]))
         out_amp.append(_harmonic_amplitude(tw, pw, out[window]))
 
@@ -974,22 +1013,40 @@ def bandwidth_from_chirp(
     ratio = response_amplitude / command_amplitude
     freq_array = np.asarray(freqs)
 
-    above = np.flatnonzero(ratio >= threshold_value)
+    # The first window holds the plant's start transient (and the Hilbert edge effect when the
+    # phase is estimated): never measured. Then those that sweep too fast.
+    unmeasured = np.asarray(sweeps) > MAX_WINDOW_SWEEP
+    unmeasured[0] = True
+    first = int(np.argmin(unmeasured)) if not unmeasured.all() else ratio.size
+    above = np.flatnonzero(ratio[first:] >= threshold_value) + first
     status: BandwidthStatus
-    if above.size == 0:
-        status, bandwidth, crossing = "below_at_start", math.nan, 0
-        warnings.warn(
-            f"the amplitude ratio is below threshold={threshold_value:g} in every window, already"
-            f" at {freq_array[0]:.4g} rad/s; the bandwidth is lower than the chirp's start",
-            stacklevel=2,
+    skipped = _skipped_windows(first, freq_array, sweeps)
+    if first == ratio.size:
+        status, bandwidth, crossing = "not_reached", math.nan, -1
+        start, rate = _advised_chirp(float(freq_array[0]), cycles)
+        reason = (
+            f"no window can be measured: {skipped}; sweep slower, at most {rate:.2g} rad/s^2 at"
+            f" {start:.3g} rad/s"
+        )
+    elif above.size == 0:
+        status, bandwidth, crossing = "below_at_start", math.nan, first
+        start, rate = _advised_chirp(float(freq_array[first]), cycles)
+        reason = (
+            f"the amplitude ratio is below threshold={threshold_value:g} in every measured window,"
+            f" already {ratio[first]:.3g} at {freq_array[first]:.3g} rad/s (the first measured),"
+            f" so the bandwidth is below about {freq_array[first]:.3g} rad/s, or the response is"
+            " not in the command's unit (its gain at low frequency is not 1)"
+            + (f"; {skipped}" if first else "")
+            + f". To measure it, start the chirp at or below {start:.3g} rad/s and sweep it no"
+            f" faster than {rate:.2g} rad/s^2 (neckid.signals.chirp with"
+            f" omega_start <= {start:.3g} and (omega_end - omega_start) / duration <= {rate:.2g})"
         )
     elif ratio.size - 1 - above[-1] < min_below:
         status, bandwidth, crossing = "not_reached", math.nan, -1
-        warnings.warn(
+        reason = (
             f"the amplitude ratio has not stayed below threshold={threshold_value:g} for"
             f" {min_below} windows by the end of the record (last frequency"
-            f" {freq_array[-1]:.4g} rad/s); use a longer or faster chirp",
-            stacklevel=2,
+            f" {freq_array[-1]:.4g} rad/s); use a longer or faster chirp"
         )
     else:
         i = int(above[-1])
@@ -999,6 +1056,13 @@ def bandwidth_from_chirp(
         fraction = (r0 - threshold_value) / (r0 - r1) if r0 != r1 else 0.0
         bandwidth = float(f0 + fraction * (f1 - f0))
         status = "found"
+        reason = (
+            f"the amplitude ratio falls below threshold={threshold_value:g} for good between"
+            f" {f0:.4g} and {f1:.4g} rad/s (ratio {r0:.3g} and {r1:.3g}), at {bandwidth:.4g} rad/s"
+            " by linear interpolation" + (f"; {skipped}" if first else "")
+        )
+    if status != "found":
+        warnings.warn(reason, stacklevel=2)
     return BandwidthResult(
         bandwidth=bandwidth,
         threshold=threshold_value,
@@ -1009,4 +1073,46 @@ def bandwidth_from_chirp(
         response_amplitude=response_amplitude,
         ratio=ratio,
         crossing_index=crossing,
+        reason=reason,
+        first_measured=min(first, ratio.size - 1),
     )
+
+
+def _window_sweep(time: FloatArray, phase: FloatArray, lo: int, mid: int, hi: int) -> float:
+    """How much the mean frequency changes between the two halves of a window (0: not at all)."""
+    if not lo < mid < hi:
+        return math.inf
+    first = (phase[mid] - phase[lo]) / (time[mid] - time[lo])
+    second = (phase[hi] - phase[mid]) / (time[hi] - time[mid])
+    if first <= 0 or second <= 0:
+        return math.inf
+    return float(max(second / first, first / second) - 1.0)
+
+
+def _advised_chirp(frequency: float, cycles: int) -> tuple[float, float]:
+    """Start frequency (rad/s) and largest rate (rad/s^2) of a chirp that measures below ``frequency``.
+
+    It starts at a third of ``frequency`` and sweeps a quarter of its start frequency per window.
+    """
+    start = frequency / 3.0
+    return start, start**2 / (4.0 * math.pi * cycles)
+
+
+def _skipped_windows(first: int, frequency: FloatArray, sweeps: list[float]) -> str:
+    """Words for the leading windows the rule does not use."""
+    if first == 0:
+        return ""
+    last = frequency[min(first, frequency.size) - 1]
+    what = (
+        f"the first window ({frequency[0]:.3g} rad/s) is"
+        if first == 1
+        else f"the first {first} windows ({frequency[0]:.3g} to {last:.3g} rad/s) are"
+    )
+    fast = [s for s in sweeps[:first] if s > MAX_WINDOW_SWEEP]
+    sweep = (
+        f", and the command's frequency changes by more than {MAX_WINDOW_SWEEP:.0%} within"
+        f" {'it' if first == 1 else 'them'} ({max(fast):.0%})"
+        if fast
+        else ""
+    )
+    return f"{what} not used: the first holds the start transient{sweep}"

@@ -447,7 +447,7 @@ SETTING_UNITS: dict[str, tuple[str, str]] = {
     "position_amplitude": ("rad", "motor-position excitation: peak deviation"),
     "band_low": ("rad/s", "lowest excited frequency (the highest is the bandwidth)"),
     "inclinations": ("deg", "operating points of the CFF-RLS protocol"),
-    "forgetting_factor": ("", "CFF-RLS λ (dimensionless)"),
+    "forgetting_factor": ("-", "CFF-RLS λ (dimensionless)"),
 }
 
 
@@ -517,8 +517,9 @@ def _write_outputs(
             fig,
             name,
             number,
-            f"{experiment}: measured inclination and each model's free run (top; Set Membership"
-            " bounds shaded), and each model's error y − ŷ [deg] (bottom).",
+            f"{experiment[0].upper()}{experiment[1:]}: measured inclination and each model's free"
+            " run (top; Set Membership bounds shaded), and each model's error y − ŷ [deg]"
+            f" (bottom).{_extrapolation_text(narx_models, results[experiment])}",
         )
 
     save_simulation(EXPERIMENTS[0])
@@ -585,7 +586,8 @@ def _write_outputs(
         Link(
             CHIRP_RUN,
             "the bandwidth chirp run of Fig. 3: time [s], reference [deg], inclination [deg],"
-            f" {1 / settings.ts:.0f} Hz. Find its bandwidth, in this folder, with",
+            f" {1 / settings.ts:.0f} Hz. Find its bandwidth (about {chirp.bandwidth:.2f} rad/s,"
+            " as in Fig. 3) with",
             BANDWIDTH_COMMAND,
         )
     )
@@ -610,10 +612,15 @@ def _write_outputs(
         " simulation, skipping the initial-condition samples (Figs. 5, 7-9).",
     )
     fit_table = table.reset_index()
-    fit_table.columns = ["model", *(f"{e}: fit [%]" for e in table.columns)]
-    report.add_table("Fit [%] (free run), ours and the paper's", fit_table)
+    fit_table.columns = ["model", *(f"{e}, fit [%]" for e in table.columns)]
+    report.add_table(
+        "Fit [%] (free run), ours and the paper's",
+        fit_table,
+        note="Rows marked (paper) are the paper's fits on its own neck and records, for"
+        " orientation; the other rows are this run's models on the simulated neck.",
+    )
     mae_table = maes.reset_index()
-    mae_table.columns = ["model", *(f"{e}: MAE [deg]" for e in maes.columns)]
+    mae_table.columns = ["model", *(f"{e}, MAE [deg]" for e in maes.columns)]
     report.add_table("Mean absolute error [deg]", mae_table, float_format="{:.3f}")
     report.add_table(
         f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f}), Fig. 6",
@@ -658,6 +665,21 @@ def _write_outputs(
     report.write(out.path("report.html"))
     files["report"] = out.final("report.html")
     return files
+
+
+def _extrapolation_text(narx_models: dict[str, Any], results: dict[str, ModelResult]) -> str:
+    """A sentence on the share of a record outside the NARX models' training range, if any."""
+    name = next(iter(narx_models))
+    shares = results[name].extras.get("extrapolation", {})
+    ranges = getattr(narx_models[name], "training_ranges_", {})
+    share = shares.get(OUTPUT, 0.0)
+    if share < 0.01 or OUTPUT not in ranges:
+        return ""
+    low, high = ranges[OUTPUT]
+    return (
+        f" {share:.0%} of the measured inclination lies outside {low:.1f}–{high:.1f} deg, the range"
+        " the NARX models were identified on: they extrapolate there."
+    )
 
 
 def _points_display(points: pd.DataFrame, gain_unit: str) -> pd.DataFrame:
@@ -708,16 +730,17 @@ def _paper_lags_note(selection: pd.DataFrame, ts: float, sensor_delay: int) -> s
     result = (
         f"fails ({row['error']})"
         if isinstance(row["error"], str) and row["error"]
-        else f"scores {float(row['fit_simulation']):.2f} % in free run"
-        f" ({float(row['fit_prediction']):.2f} % one step ahead)"
+        else f"scores {float(row['fit_simulation']):.2f} % in free run and"
+        f" {float(row['fit_prediction']):.2f} % one step ahead"
     )
     return (
-        f"{text} The paper's regressor y(t−1..3), u(t−{first}..{last}) {result}: its input lags"
-        f" are {first}–{last} samples, {first * ts:.2f}–{last * ts:.2f} s at {1 / ts:.0f} Hz,"
-        " chosen for the delay of the paper's neck. They do not match the simulated neck, whose"
-        f" tilt sensor lags {sensor_delay} samples ({sensor_delay * ts:.2f} s): the regressor"
-        f" leaves out the motor positions of the last {first - 1} samples, which drive the"
-        " inclination it predicts."
+        f"{text} The paper's regressor y(t−1..3), u(t−{first}..{last}) {result}. Its input lags,"
+        f" {first}–{last} samples ({first * ts:.2f}–{last * ts:.2f} s at {1 / ts:.0f} Hz), were"
+        " chosen on the paper's own neck and do not match the simulated neck's delay: its tilt"
+        f" sensor lags {sensor_delay} samples ({sensor_delay * ts:.2f} s), so the motor positions"
+        f" of the last {first - 1} samples, which drive the inclination, are missing from that"
+        " regressor. One step ahead, the measured past inclinations make up for them; in free run"
+        " they cannot."
     )
 
 
@@ -742,5 +765,5 @@ def _settings_display(
     rows.append(("bandwidth (measured)", f"{bandwidth:.3g}", "rad/s", "Fig. 3; highest excited"))
     rows.append(("regressor (NARX)", repr(lags), "samples", "output and input lags"))
     rows.append(("sensor delay (simulated neck)", str(sensor_delay), "samples",
-                 f"{sensor_delay * settings.ts:g} s"))  # fmt: skip
+                 f"tilt-sensor latency, {sensor_delay * settings.ts:g} s"))  # fmt: skip
     return pd.DataFrame(rows, columns=["setting", "value", "unit", "meaning"])

@@ -91,7 +91,7 @@ class InclinationController:
 
     def reset(self) -> None:
         """Clear the integral."""
-        self._integral = np.zeros(1 if self.configuration == "planar" else 2)
+        self._integral = np.zeros(self.n_integrals)
 
     def _vector(self, value: ArrayLike, argument: str) -> FloatArray:
         array = np.asarray(value, dtype=np.float64).reshape(-1)
@@ -119,8 +119,59 @@ class InclinationController:
         ndarray, shape (n_motors,)
             Velocity command(s), rad/s at the gearbox output, within ``±command_limit``.
         """
+        command, self._integral = self.control_law(self._integral, reference, measurement)
+        return command
+
+    @property
+    def n_integrals(self) -> int:
+        """Size of the integral state: 1 (planar) or 2 (the bending vector's x and y)."""
+        return 1 if self.configuration == "planar" else 2
+
+    def control_law(
+        self, integral: ArrayLike, reference: ArrayLike, measurement: ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """The PI law as a pure function: command and next integral from the integral given.
+
+        :meth:`step` is this law applied to the controller's stored integral; here nothing is
+        stored, so a simulation tool that keeps the state itself (python-control's
+        ``NonlinearIOSystem``, see :func:`neckid.interop.to_iosystem`) can call it with any state.
+
+        Parameters
+        ----------
+        integral : array_like, shape (n_integrals,)
+            The integral :math:`I_{k-1}` [rad/s] (a zero vector after :meth:`reset`).
+        reference, measurement : float or array_like of shape (2,)
+            As for :meth:`step` [deg].
+
+        Returns
+        -------
+        command : ndarray, shape (n_motors,)
+            Velocity command(s) [rad/s], within ``±command_limit``.
+        integral : ndarray, shape (n_integrals,)
+            :math:`I_k`, the integral the next period starts from (anti-windup applied).
+
+        Raises
+        ------
+        ValueError
+            If ``integral`` has the wrong size or a value is NaN or inf.
+
+        Examples
+        --------
+        >>> from neckid.plant import InclinationController
+        >>> ctrl = InclinationController(kp=1.0, ki=1.0, ts=0.5)
+        >>> command, integral = ctrl.control_law([0.0], 10.0, 8.0)
+        >>> command, integral
+        (array([3.]), array([1.]))
+        """
+        start = np.asarray(integral, dtype=np.float64).reshape(-1)
+        if start.shape[0] != self.n_integrals:
+            raise ValueError(
+                f"integral must have {self.n_integrals} value(s) for the {self.configuration}"
+                f" controller; got {start.shape[0]}"
+            )
+        check_finite(start[None, :], "integral")
         error = self._vector(reference, "reference") - self._vector(measurement, "measurement")
-        candidate = self._integral + self.ki * self.ts * error
+        candidate = start + self.ki * self.ts * error
         wanted = self.kp * error + candidate
         if self.configuration == "planar":
             raw = wanted
@@ -130,9 +181,8 @@ class InclinationController:
         saturated = peak > self.command_limit
         command = raw * (self.command_limit / peak) if saturated else raw
         # Conditional integration: integrate unless saturated and the error pushes further out.
-        if not saturated or float(np.dot(error, wanted)) < 0.0:
-            self._integral = candidate
-        return np.asarray(command, dtype=np.float64)
+        keep = not saturated or float(np.dot(error, wanted)) < 0.0
+        return np.asarray(command, dtype=np.float64), (candidate if keep else start.copy())
 
 
 def _names_for(prefix: str, count: int) -> list[str]:

@@ -160,7 +160,9 @@ class Report:
         for fig in figures:
             self.n_figures += 1
             number = fig.number if fig.number else f"Fig. {self.n_figures}"
-            anchor = "fig-" + "".join(ch if ch.isalnum() else "-" for ch in number.lower())
+            anchor = "fig-" + "".join(
+                ch if ch.isalnum() else "-" for ch in number.lower().removeprefix("fig.").strip()
+            )
             data = base64.b64encode(Path(fig.path).read_bytes()).decode("ascii")
             parts.append(
                 f"<figure id='{html.escape(anchor)}'>"
