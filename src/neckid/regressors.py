@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from neckid.data import IOData, as_experiments
+from neckid.validation import check_lag_list
 
 __all__ = ["Lags", "ResolvedLags"]
 
@@ -33,19 +34,9 @@ def _lag_list(
         if n < 0:
             raise ValueError(f"{argument} must be >= 0 when given as an order; got {n}")
         return tuple(range(int_means_from, int_means_from + n))
-    try:
-        lags = [int(v) for v in value]
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{argument} must be an int or a list of ints; got {value!r}") from exc
-    for v, raw in zip(lags, value, strict=True):
-        if v != raw:
-            raise TypeError(f"{argument} must hold whole numbers; got {raw!r}")
-    bad = [v for v in lags if v < minimum]
-    if bad:
-        raise ValueError(f"{argument} must hold lags >= {minimum}; got {bad[0]} in {list(lags)}")
-    if len(set(lags)) != len(lags):
-        raise ValueError(f"{argument} repeats a lag: {list(lags)}")
-    return tuple(sorted(lags))
+    if isinstance(value, str | bytes) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{argument} must be an int or a list of ints; got {value!r}")
+    return check_lag_list(list(value), argument, minimum)
 
 
 @dataclass(frozen=True)
