@@ -1,0 +1,197 @@
+"""The command line's application object, its one error policy, and the helpers the commands share."""
+
+from __future__ import annotations
+
+import functools
+import logging
+import warnings
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from neckid._version import __version__
+
+app = typer.Typer(
+    name="neckid",
+    help=(
+        "Identify dynamic models of a tendon-driven soft robotic neck from input/output logs. "
+        "Angles are in degrees, motor positions in rad and velocities in rad/s at the gearbox "
+        "output, time in seconds, unless a log's own units say otherwise."
+    ),
+    no_args_is_help=True,
+    add_completion=False,
+    # Markdown joins the lines of a docstring paragraph, so help text reflows to the terminal.
+    rich_markup_mode="markdown",
+)
+console = Console()
+error_console = Console(stderr=True)
+
+#: Set by ``--debug``: unexpected errors show their traceback.
+_STATE = {"debug": False}
+
+Command = TypeVar("Command", bound=Callable[..., Any])
+
+#: Errors that come from what the user gave (a file, a column, a value): one line, exit status 2.
+_USER_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError,
+    KeyError,
+    TypeError,
+    OSError,
+)
+
+
+def _version_callback(value: bool) -> None:
+    if value:
+        console.print(f"neckid {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: bool = typer.Option(
+        False,
+        "--version",
+        callback=_version_callback,
+        is_eager=True,
+        help="Print the version and exit.",
+    ),
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Log progress messages."),
+    debug: bool = typer.Option(
+        False, "--debug", help="Show the full traceback of an unexpected error."
+    ),
+) -> None:
+    """Identify dynamic models of a tendon-driven soft robotic neck from input/output logs."""
+    _STATE["debug"] = debug
+    logging.basicConfig(
+        level=logging.INFO if verbose else logging.WARNING, format="%(name)s: %(message)s"
+    )
+
+
+def _split(text: str | None) -> list[str] | None:
+    if text is None:
+        return None
+    return [p.strip() for p in text.split(",") if p.strip()]
+
+
+def _fail(message: str) -> None:
+    error_console.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
+    raise typer.Exit(code=2)
+
+
+def _message(exc: BaseException) -> str:
+    if isinstance(exc, KeyError) and exc.args:
+        return str(exc.args[0])
+    if isinstance(exc, OSError) and exc.strerror and exc.filename:
+        return f"{exc.filename}: {exc.strerror}"
+    return str(exc) or type(exc).__name__
+
+
+def _show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: Any = None,
+    line: str | None = None,
+) -> None:
+    """Print a library warning as one line (no file path): what the user can act on."""
+    text = str(message).splitlines()[0] if str(message) else category.__name__
+    error_console.print(f"[yellow]warning:[/yellow] {text}", highlight=False, soft_wrap=True)
+
+
+def handled(command: Command) -> Command:
+    """Run a command with the one error policy of the command line.
+
+    What the user gave wrong (:data:`_USER_ERRORS`) prints one ``error:`` line and exits with
+    status 2; Ctrl-C says that the run was interrupted and that no output was half written
+    (status 130); anything else prints one line with the error's type and the hint to rerun
+    with ``--debug`` (status 1), or the traceback with ``--debug``.
+    """
+
+    @functools.wraps(command)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        from neckid.models.base import ExtrapolationWarning
+
+        try:
+            with warnings.catch_warnings():
+                # The commands report extrapolation themselves; other warnings get one line each,
+                # once, without the library's file path.
+                warnings.simplefilter("ignore", ExtrapolationWarning)
+                warnings.showwarning = _show_warning
+                return command(*args, **kwargs)
+        except (typer.Exit, typer.Abort):
+            raise
+        except KeyboardInterrupt:
+            error_console.print(
+                "[yellow]interrupted[/yellow]: stopped before the end; outputs are written whole"
+                " or not at all, so no file was left half written"
+            )
+            raise typer.Exit(code=130) from None
+        except _USER_ERRORS as exc:
+            _fail(_message(exc))
+        except Exception as exc:
+            if _STATE["debug"]:
+                raise
+            error_console.print(
+                f"[red]unexpected error[/red] ({type(exc).__name__}): {_message(exc)}; rerun with"
+                " `neckid --debug ...` for the traceback and report it",
+                highlight=False,
+                soft_wrap=True,
+            )
+            raise typer.Exit(code=1) from None
+
+    return run  # type: ignore[return-value]
+
+
+FORCE_HELP = "Overwrite an existing output."
+
+
+def _model_channels(model: Any) -> tuple[list[str], list[str]]:
+    return list(model.input_names_), list(model.output_names_)
+
+
+def _method_name(name: str) -> str:
+    """The registry name of a method; an old spelling prints a deprecation line and maps over."""
+    from neckid.registry import DEPRECATED_NAMES, get_method
+
+    if name in DEPRECATED_NAMES:
+        console.print(
+            f"[yellow]deprecated:[/yellow] method name {name!r} will be removed in the next"
+            f" release; use {DEPRECATED_NAMES[name]!r}"
+        )
+        return DEPRECATED_NAMES[name]
+    return get_method(name).name
+
+
+def _metrics_table(title: str, rows: list[dict[str, Any]]) -> Table:
+    table = Table(title=title)
+    for key in rows[0]:
+        table.add_column(key, justify="right" if key != "output" else "left")
+    for row in rows:
+        table.add_row(*(f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.values()))
+    return table
+
+
+LOG_HELP = "Log file: CSV with a header row (or .parquet / .mat), or a headerless soft-neck log with --layout softneck."
+INPUTS_HELP = "Comma-separated input channel names (e.g. velocity_command)."
+OUTPUTS_HELP = "Comma-separated output channel names (e.g. inclination, in degrees)."
+TIME_HELP = "Name of the time column (seconds). Ignored when --ts is given."
+TS_HELP = "Sampling period in seconds, for a log without a time column."
+SEP_HELP = "Column separator of a CSV log, e.g. ';' or '\\t' (tab)."
+LAYOUT_HELP = (
+    "'csv' (a header row names the columns) or 'softneck' (the UC3M bench's headerless logs;"
+    " 3 columns: time, inclination_filtered, motor_position; 6 columns add inclination,"
+    " velocity_command, motor_velocity; 7 columns add control_filtered)."
+)
+MAP_HELP = (
+    "MODEL_CHANNEL=LOG_CHANNEL: read a model channel from a log column of another name, e.g."
+    " inclination=inclination_filtered (repeat the option for several)."
+)
+
+
+def _sep(text: str) -> str:
+    """The separator the user typed; a backslash and a t (as a shell passes it) means a tab."""
+    return "\t" if text == "\\t" else text

@@ -1,0 +1,178 @@
+"""Commands on logs and files: bandwidth of a chirp run, info on a log or a model."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from neckid.cli._app import (
+    FORCE_HELP,
+    LAYOUT_HELP,
+    SEP_HELP,
+    TIME_HELP,
+    TS_HELP,
+    _sep,
+    app,
+    console,
+    handled,
+)
+
+
+@app.command()
+@handled
+def bandwidth(
+    log: Path = typer.Argument(
+        ...,
+        help="A chirp run: CSV with a header row, or a bench log with --layout softneck.",
+        exists=True,
+        dir_okay=False,
+    ),
+    command: str = typer.Option(
+        ..., "--command", help="Column of the chirp command (e.g. reference, degrees)."
+    ),
+    response: str = typer.Option(
+        ..., "--response", help="Column of the measured response (same units)."
+    ),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    threshold: float = typer.Option(
+        0.9, "--threshold", help="Amplitude ratio that defines the bandwidth."
+    ),
+    rate: float = typer.Option(
+        None,
+        "--rate",
+        help="Chirp rate r of the paper's chirp sin(r t^2) (0.1 in the paper): its instantaneous"
+        " frequency 2 r t [rad/s] is then used instead of being estimated from the command.",
+    ),
+    plot: Path = typer.Option(
+        None, "--plot", help="Write a PNG of the envelopes (like the paper's Fig. 3)."
+    ),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+) -> None:
+    """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's.
+
+    The rule compares the two amplitudes, so command and response must be in one unit (the
+    paper's closed-loop reference and inclination, both in degrees): a run whose amplitude ratio
+    at the slow start of the chirp is far from 1 is refused.
+    """
+    import numpy as np
+
+    from neckid.outputs import atomic_path, check_output_file
+    from neckid.signals import bandwidth_from_chirp, paper_chirp_frequency
+    from neckid.workflow import read_log
+
+    if plot is not None:
+        check_output_file(plot, force=force, inputs=[log], option="--plot")
+    data = read_log(log, [command], [response], time=time, ts=ts, layout=layout, sep=_sep(sep))  # type: ignore[arg-type]
+    units = (data.input_units[0], data.output_units[0])
+    if all(units) and units[0] != units[1]:
+        raise ValueError(
+            f"--command {command!r} is in {units[0]} and --response {response!r} in {units[1]}:"
+            " the 90 % rule compares amplitudes in one unit; convert one of them"
+        )
+    t = data.time
+    result = bandwidth_from_chirp(
+        t,
+        data.u[:, 0],
+        data.y[:, 0],
+        threshold=threshold,
+        frequency=None if rate is None else paper_chirp_frequency(t, rate=rate),
+    )
+    start = result.ratio[: max(1, min(3, result.ratio.size))]
+    start_ratio = float(np.median(start)) if start.size else float("nan")
+    if np.isfinite(start_ratio) and not 0.5 <= start_ratio <= 2.0:
+        raise ValueError(
+            f"at the slow start of the chirp the response's amplitude is {start_ratio:.3g} times"
+            " the command's; the 90 % rule needs a response that follows the command in the same"
+            " unit (a closed loop's reference and output, e.g. both in degrees): check the units"
+            " (rad -> deg is x57.3) and that --command is the reference"
+        )
+    if result.status != "found":
+        explanation = {
+            "not_reached": "the response never stays below the threshold: chirp further",
+            "below_at_start": "the response is below the threshold from the start: chirp slower",
+        }.get(result.status, result.status)
+        explanation = getattr(result, "reason", "") or explanation
+        console.print(f"[yellow]no bandwidth found[/yellow]: {explanation}")
+    else:
+        console.print(
+            f"bandwidth: {result.omega:.3f} rad/s ({result.omega / (2 * np.pi):.3f} Hz)"
+            f" at ratio {threshold}"
+        )
+    if plot is not None:
+        from neckid.report.signal_plots import plot_bandwidth
+
+        with atomic_path(plot) as temporary:
+            plot_bandwidth(result).savefig(temporary, dpi=120, format="png")
+        console.print(f"figure written to {plot}")
+
+
+@app.command()
+@handled
+def info(
+    path: Path = typer.Argument(
+        None,
+        help="A log or a model file (.npz); without it, the versions of neckid and its libraries.",
+    ),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
+) -> None:
+    """Describe a log or a model file; without a path, print the versions of the libraries.
+
+    A log: channels, units, duration, sampling period, gaps. A model file: method, regressor,
+    channels, sampling period, the Set Membership prior, the training range of each channel.
+    """
+    from neckid.workflow import describe_log, describe_model
+
+    if path is None:
+        from neckid.report.html import library_versions
+
+        console.print_json(json.dumps(library_versions()))
+        return
+    if not path.exists():
+        raise FileNotFoundError(f"{str(path)!r} does not exist")
+    if path.suffix == ".npz":
+        from neckid.models.io import load_model
+
+        described = describe_model(load_model(path))
+        if as_json:
+            console.print_json(json.dumps(described))
+            return
+        table = Table(title=f"{path.name}: {described['method']}", show_header=False)
+        for key in ("class", "lags", "inputs", "outputs", "output_units", "ts_s",
+                    "initial_samples", "training_samples", "epsilon", "gamma"):  # fmt: skip
+            if key in described:
+                table.add_row(
+                    key.replace("_s", " [s]") if key == "ts_s" else key, str(described[key])
+                )
+        for name, (low, high) in described["training_ranges"].items():
+            table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
+        console.print(table)
+        return
+    described = describe_log(path, layout=layout, time=time, sep=_sep(sep))  # type: ignore[arg-type]
+    if as_json:
+        console.print_json(json.dumps(described))
+        return
+    console.print(
+        f"{described['file']}: {described['samples']} samples over {described['duration_s']:.4g} s,"
+        f" ts = {described['ts_s']:.6g} s (largest step {described['max_step_s']:.6g} s,"
+        f" {described['gaps']} gap(s) over 1.5 ts)"
+    )
+    table = Table(title="channels")
+    for column in ("channel", "kind", "unit", "min", "max", "mean", "non-numeric"):
+        table.add_column(
+            column, justify="left" if column in ("channel", "kind", "unit") else "right"
+        )
+    for name, channel in described["channels"].items():
+        table.add_row(
+            name, channel["kind"], channel["unit"] or "-", f"{channel['min']:.4g}",
+            f"{channel['max']:.4g}", f"{channel['mean']:.4g}", str(channel["non_numeric"]),
+        )  # fmt: skip
+    console.print(table)

@@ -1,0 +1,261 @@
+"""Commands on models: identify, validate, simulate."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from neckid.cli._app import (
+    FORCE_HELP,
+    INPUTS_HELP,
+    LAYOUT_HELP,
+    LOG_HELP,
+    MAP_HELP,
+    OUTPUTS_HELP,
+    SEP_HELP,
+    TIME_HELP,
+    TS_HELP,
+    _method_name,
+    _metrics_table,
+    _model_channels,
+    _sep,
+    _split,
+    app,
+    console,
+    error_console,
+    handled,
+)
+
+
+@app.command()
+@handled
+def identify(
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
+    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
+    method: str = typer.Option(
+        "sm",
+        "--method",
+        help="arx | rls | sm | sm-linear | sm-parallel | nn | scheduled (neckid.methods()).",
+    ),
+    lags: str = typer.Option(
+        "1-3/8-10",
+        "--lags",
+        help="OUTPUT_LAGS/INPUT_LAGS in samples, e.g. 1-3/8-10 (the paper's regressor).",
+    ),
+    save: Path = typer.Option(
+        Path("model.npz"), "--save", help="Where to write the model (.npz, no pickle)."
+    ),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    seed: int = typer.Option(
+        0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
+    ),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+) -> None:
+    """Identify a model from a log and save it.
+
+    Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --lags 1-3/8-10
+    """
+    from neckid.outputs import check_output_file
+    from neckid.workflow import make_estimator, parse_lags, read_log
+
+    save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
+    check_output_file(save, force=force, inputs=[log], option="--save")
+    data = read_log(
+        log,
+        _split(inputs),
+        _split(outputs),
+        time=time,
+        ts=ts,
+        layout=layout,  # type: ignore[arg-type]
+        sep=_sep(sep),
+    )
+    method = _method_name(method)
+    estimator = make_estimator(method, parse_lags(lags), random_state=seed)
+    estimator.fit(data)
+    result = estimator.simulate(data)  # a diverging model stops here, before it is saved
+    fits, rmses = result.fit_percent(data), result.rmse(data)
+    path = estimator.save(save)
+    rows = [
+        {"output": name, "fit %": float(f), f"RMSE [{unit or '-'}]": float(r)}
+        for name, unit, f, r in zip(data.output_names, data.output_units, fits, rmses, strict=True)
+    ]
+    console.print(
+        _metrics_table(
+            f"{_describe_model(estimator)} on {log.name} (free run, training data)", rows
+        )
+    )
+    console.print(f"model saved to {path}")
+
+
+def _load_for_model(
+    model_path: Path,
+    log: Path,
+    time: str,
+    ts: float | None,
+    layout: str,
+    sep: str = ",",
+    maps: list[str] | None = None,
+) -> tuple[Any, Any]:
+    from neckid.models.io import load_model
+    from neckid.workflow import map_channels, parse_mapping, read_log
+
+    model = load_model(model_path)
+    mapping = parse_mapping(maps or [])  # log name -> model name
+    to_log = {v: k for k, v in mapping.items()}
+    ins, outs = ([to_log.get(n, n) for n in names] for names in _model_channels(model))
+    data = read_log(log, ins, outs, time=time, ts=ts, layout=layout, sep=_sep(sep))  # type: ignore[arg-type]
+    return model, map_channels(data, mapping) if mapping else data
+
+
+def _describe_model(model: Any) -> str:
+    """The label of the model's method (``Set Membership + linear``), or its class name."""
+    from neckid.registry import method_of
+
+    method = method_of(model)
+    return method.label if method is not None else type(model).__name__
+
+
+def _print_prior(model: Any) -> None:
+    """ε and γ of a Set Membership model (or of the SM map of a parallel one), with units."""
+    sm = getattr(model, "sm_", model)
+    if not hasattr(sm, "gamma_") or getattr(sm.gamma_, "ndim", 1) != 1:
+        return  # a model with one prior per horizon describes itself (neckid info)
+    for name, unit, epsilon, gamma in zip(
+        model.output_names_, model.output_units_, sm.epsilon_, sm.gamma_, strict=True
+    ):
+        shown = f" {unit}" if unit else ""
+        console.print(
+            f"Set Membership prior for {name}: noise bound ε = {epsilon:.4g}{shown}, Lipschitz"
+            f" constant γ = {gamma:.4g}{shown} per unit of the scaled regressor"
+        )
+
+
+def _report_extrapolation(result: Any) -> None:
+    from neckid.models.base import EXTRAPOLATION_WARNING
+
+    shares = result.extras.get("extrapolation", {})
+    far = {k: v for k, v in shares.items() if v > EXTRAPOLATION_WARNING}
+    if far:
+        error_console.print(
+            "[yellow]warning:[/yellow] the log leaves the range the model was identified on: "
+            + ", ".join(f"{k} {v:.0%} of the samples" for k, v in far.items())
+            + "; expect a poor fit there",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
+@app.command()
+@handled
+def validate(
+    model_path: Path = typer.Argument(
+        ..., metavar="MODEL", help="A model file written by identify.", exists=True
+    ),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
+    plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+) -> None:
+    """Free-run simulate a saved model on a log and print fit (%), RMSE and MAE per output.
+
+    Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), skipping the initial samples.
+    A free run that diverges is reported as such (exit status 3).
+    """
+    from neckid.models.base import DivergenceError
+    from neckid.outputs import atomic_path, check_output_file
+
+    if plot is not None:
+        check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps)
+    try:
+        result = model.simulate(data)
+    except DivergenceError as exc:
+        error_console.print(f"[red]diverged:[/red] {exc}", highlight=False, soft_wrap=True)
+        raise typer.Exit(code=3) from None
+    fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
+    rows = [
+        {
+            "output": n,
+            "fit %": float(f),
+            f"RMSE [{unit or '-'}]": float(r),
+            f"MAE [{unit or '-'}]": float(m),
+        }
+        for n, unit, f, r, m in zip(
+            data.output_names, data.output_units, fits, rmses, maes, strict=True
+        )
+    ]
+    console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
+    _print_prior(model)
+    _report_extrapolation(result)
+    if plot is not None:
+        from neckid.report.plots import plot_simulation
+
+        label = _describe_model(model)
+        fig = plot_simulation(
+            data,
+            {label: result},
+            title=f"{label} on {log.name}: free run, fit {float(fits[0]):.1f} %",
+            residuals=True,
+        )
+        with atomic_path(plot) as temporary:
+            fig.savefig(temporary, dpi=120, format="png")
+        console.print(f"figure written to {plot}")
+
+
+@app.command()
+@handled
+def simulate(
+    model_path: Path = typer.Argument(
+        ..., metavar="MODEL", help="A model file written by identify.", exists=True
+    ),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    out: Path = typer.Option(
+        Path("simulation.csv"), "--out", help="CSV to write: time, inputs, outputs (and bounds)."
+    ),
+    time: str = typer.Option("time", "--time", help=TIME_HELP),
+    ts: float = typer.Option(None, "--ts", help=TS_HELP),
+    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
+    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
+    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    keep_diverged: bool = typer.Option(
+        False,
+        "--keep-diverged",
+        help="Write the run even when it diverges (non-finite values); exit status 3 still.",
+    ),
+) -> None:
+    """Free-run simulate a saved model with the inputs of a log; write time, inputs and outputs to CSV.
+
+    The log's first max-lag outputs are the initial conditions; Set Membership models add
+    OUTPUT_lower and OUTPUT_upper columns (OUTPUT: each output's name). A run that diverges is not written (exit status 3)
+    unless --keep-diverged.
+    """
+    from neckid.models.base import DivergenceError
+    from neckid.outputs import atomic_path, check_output_file
+
+    check_output_file(out, force=force, inputs=[log, model_path])
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps)
+    diverged: DivergenceError | None = None
+    try:
+        result = model.simulate(data)
+    except DivergenceError as exc:
+        diverged, result = exc, exc.result
+        error_console.print(f"[red]diverged:[/red] {exc}", highlight=False, soft_wrap=True)
+        if not keep_diverged:
+            raise typer.Exit(code=3) from None
+    with atomic_path(out) as temporary:
+        result.to_frame().to_csv(temporary, index=False)
+    console.print(f"{result.n_samples} samples written to {out}")
+    _report_extrapolation(result)
+    if diverged is not None:
+        raise typer.Exit(code=3)

@@ -1,0 +1,165 @@
+"""Commands that run a whole protocol: demo (simulated neck) and benchmark (real data)."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from neckid.cli._app import (
+    _method_name,
+    _split,
+    app,
+    console,
+    error_console,
+    handled,
+)
+
+
+@app.command()
+@handled
+def demo(
+    out: Path = typer.Option(
+        Path("neckid-demo"), "--out", help="Folder for report.html, metrics.json, figures, models."
+    ),
+    quick: bool = typer.Option(
+        False, "--quick", help="Shorter records and fewer lag candidates (about 3x faster)."
+    ),
+    paper_regressor: bool = typer.Option(
+        False,
+        "--paper-regressor",
+        help="Use the paper's regressor y(t-1..t-3), u(t-8..t-10) instead of selecting one.",
+    ),
+    seed: int = typer.Option(
+        0,
+        "--seed",
+        min=0,
+        help="Seed (>= 0) of the neck's noise, the excitations and the networks.",
+    ),
+    force: bool = typer.Option(
+        False, "--force", help="Replace the files of an existing --out folder."
+    ),
+) -> None:
+    """Run the paper's whole protocol on the built-in simulated neck and write a report.
+
+    Bandwidth from the up-chirp, identification by Set Membership (pure and with a linear part),
+    neural NARX 2x25, linear ARX and the CFF-RLS inclination-scheduled model, validation, and the
+    three closed-loop tests (2 rad/s sine, 5 deg staircase, 20 deg step). Fits are NRMSE fits [%]
+    of free-run simulations; errors are in degrees of inclination.
+    """
+    import numpy as np
+    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from neckid.experiments.paper import EXPERIMENTS, DemoSettings, run_demo
+
+    settings = DemoSettings.make(quick=quick, seed=seed, paper_regressor=paper_regressor)
+    n_steps = 7
+    with Progress(
+        SpinnerColumn(),
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as progress:
+        task = progress.add_task("starting", total=n_steps)
+
+        def on_step(text: str) -> None:
+            progress.update(task, description=text, advance=1)
+            if not console.is_terminal:  # no live bar: plain log lines
+                console.print(f"[{int(progress.tasks[0].completed)}/{n_steps}] {text}")
+
+        result = run_demo(out, settings, on_step=on_step, force=force)
+    console.print(
+        f"bandwidth of the simulated neck: {result.bandwidth:.2f} rad/s (paper: 4.2 rad/s)"
+    )
+    console.print(f"regressor: {result.lags!r}")
+    table = Table(title="Free-run fit [%] (ours above, the paper's own neck below)")
+    table.add_column("model")
+    for experiment in EXPERIMENTS:
+        table.add_column(experiment, justify="right")
+    for i, (name, row) in enumerate(result.table.iterrows()):
+        cells = [f"{v:.2f}" if np.isfinite(v) else "-" for v in row.to_numpy(dtype=float)]
+        table.add_row(str(name), *cells, end_section=i == len(result.mae) - 1)
+    console.print(table)
+    mae = Table(title="Mean absolute error [deg]")
+    mae.add_column("model")
+    for experiment in EXPERIMENTS:
+        mae.add_column(experiment, justify="right")
+    for name, row in result.mae.iterrows():
+        mae.add_row(str(name), *(f"{v:.3f}" for v in row.to_numpy(dtype=float)))
+    console.print(mae)
+    console.print(f"report: {result.files['report']}  ({result.wall_time:.1f} s)")
+
+
+@app.command()
+@handled
+def benchmark(
+    data_dir: Path = typer.Option(
+        ...,
+        "--data-dir",
+        help="Folder holding softneck/ and benchmarks/NAME/ (e.g. ../shared/data).",
+        exists=True,
+        file_okay=False,
+    ),
+    methods: str = typer.Option(
+        None,
+        "--methods",
+        help=(
+            "Comma-separated registry names: arx, sm, sm-linear, sm-parallel, nn, scheduled"
+            " (default all)."
+        ),
+    ),
+    only: str = typer.Option(
+        None,
+        "--only",
+        help="Comma-separated benchmarks: softneck, silverbox, cascaded_tanks, bouc_wen, robot_arm.",
+    ),
+    out: Path = typer.Option(
+        Path("neckid-benchmark"),
+        "--out",
+        help="Folder for benchmark.csv, published.csv, benchmark.json.",
+    ),
+    quick: bool = typer.Option(
+        False, "--quick", help="Smoke run on short subsets; not for reporting."
+    ),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed (>= 0) of the neural networks."),
+    force: bool = typer.Option(
+        False, "--force", help="Replace the files of an existing --out folder."
+    ),
+) -> None:
+    """Run the models on real logs and public benchmarks with their official protocols.
+
+    Free-run simulation; RMSE in each benchmark's unit (Silverbox mV, cascaded tanks V, Bouc-Wen m,
+    soft neck deg) next to the published figures; wall time of each method.
+    """
+    from neckid.experiments.benchmark import BENCHMARK_METHODS, run_benchmark
+
+    names = [_method_name(n) for n in dict.fromkeys(_split(methods) or BENCHMARK_METHODS)]
+    # Long work reports progress: one line per data set and method, in a terminal or a log file.
+    logging.getLogger("neckid.experiments.benchmark").setLevel(logging.INFO)
+    report = run_benchmark(
+        data_dir,
+        methods=names,
+        benchmarks=_split(only),
+        quick=quick,
+        seed=seed,
+        output_dir=out,
+        force=force,
+    )
+    console.print(report.rich_table())
+    if len(report.published):
+        console.print(report.published_rich_table())
+    if report.details.get("missing"):
+        console.print(f"not found under {data_dir}: {', '.join(report.details['missing'])}")
+    console.print(f"written to {out}/")
+    failed = report.table[report.table["note"].astype(str).str.startswith("failed")]
+    if len(failed):
+        pairs = sorted({f"{r.method} on {r.benchmark}" for r in failed.itertuples()})
+        error_console.print(
+            f"[red]error:[/red] {len(failed)} row(s) failed ({', '.join(pairs)}); the note column"
+            " of benchmark.csv says why"
+        )
+        raise typer.Exit(code=1)
