@@ -297,11 +297,9 @@ def edited_arrays(draw: st.DrawFn, arrays: dict[str, np.ndarray]) -> dict[str, n
             st.sampled_from([value.ravel(), np.zeros((value.shape[0] + 1, 2)), np.zeros(0)])
         )
     elif action == "value":
-        value = value.astype(np.float64)
-        value.flat[draw(st.integers(0, max(value.size - 1, 0)))] = (
-            draw(st.sampled_from([np.nan, np.inf, -1.0, 0.0, -1e-300, 1e308]))
-            if value.size
-            else 0.0
+        value = value.astype(np.float64)  # every array of a fitted model holds a value
+        value.flat[draw(st.integers(0, value.size - 1))] = draw(
+            st.sampled_from([np.nan, np.inf, -1.0, 0.0, -1e-300, 1e308])
         )
         edited[name] = value
     elif action == "dtype":

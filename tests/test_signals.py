@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -261,8 +262,16 @@ def test_random_binary_bad_input(kwargs: dict, error: type, match: str) -> None:
 
 
 # ---------------------------------------------------------------------------------- bandwidth
-def first_order_response(t: np.ndarray, command: np.ndarray, tau: float) -> np.ndarray:
-    _, y, _ = sps.lsim(([1.0], [tau, 1.0]), command, t, X0=[command[0] / tau])
+def first_order_response(
+    t: np.ndarray, command: np.ndarray, tau: float, *, at_rest: bool = False
+) -> np.ndarray:
+    """Response of ``1 / (tau s + 1)``, starting in steady state at the first command (or at 0).
+
+    ``lsim`` realises it as ``x' = -x / tau + u``, ``y = x / tau``: steady state is
+    ``x = tau * u``.
+    """
+    x0 = 0.0 if at_rest else tau * command[0]
+    _, y, _ = sps.lsim(([1.0], [tau, 1.0]), command, t, X0=[x0])
     return y
 
 
@@ -341,6 +350,89 @@ def test_bandwidth_not_reached_and_below_at_start() -> None:
     assert low.status == "below_at_start" and math.isnan(low.bandwidth)
 
 
+SLOW_LAG_TAU = 0.5  # 1 / (0.5 s + 1): |G| = 0.9 at 0.9686 rad/s
+SLOW_LAG_BANDWIDTH = math.sqrt(1.0 / 0.81 - 1.0) / SLOW_LAG_TAU
+
+
+def _advice(reason: str) -> tuple[float, float]:
+    found = re.search(
+        r"start the chirp at or below ([0-9.]+) rad/s and sweep it no faster than ([0-9.e-]+)"
+        r" rad/s\^2",
+        reason,
+    )
+    assert found is not None, reason
+    return float(found[1]), float(found[2])
+
+
+@pytest.mark.parametrize("given_frequency", [True, False])
+def test_bandwidth_below_the_first_measured_window_is_explained_and_the_advice_measures_it(
+    given_frequency: bool,
+) -> None:
+    # The paper's chirp passes 0.97 rad/s after 4.8 s, less than half a cycle (phase 0.1 t^2 =
+    # 2.3 rad): its first window spans 0 .. 1.6 rad/s. No amplitude at 0.97 rad/s is in the
+    # record, so no bandwidth is reported, and the result says why and which chirp measures it.
+    t = np.arange(0.0, 70.0, TS)
+    command = paper_chirp(t)
+    response = first_order_response(t, command, SLOW_LAG_TAU)
+    with pytest.warns(UserWarning, match="below threshold=0.9 in every measured window"):
+        result = bandwidth_from_chirp(
+            t, command, response, frequency=paper_chirp_frequency if given_frequency else None
+        )
+    assert result.status == "below_at_start" and math.isnan(result.bandwidth)
+    first = result.first_measured
+    assert first >= 1 and result.crossing_index == first
+    assert np.all(result.ratio[first:] < 0.9)
+    # What the reason claims is true: the bandwidth lies below the first measured frequency.
+    assert result.frequency[first] > SLOW_LAG_BANDWIDTH
+    assert f"below about {result.frequency[first]:.3g} rad/s" in result.reason
+    assert "the first window" in result.reason and "start transient" in result.reason
+    start, rate = _advice(result.reason)
+    assert start == pytest.approx(result.frequency[first] / 3, rel=0.01)
+    assert start < SLOW_LAG_BANDWIDTH
+    # Following the advice measures it within 5 %.
+    end = 3.0
+    duration = (end - start) / rate
+    t = np.arange(0.0, duration, TS)
+    command = chirp(t, start, end, duration, amplitude=4.0, offset=5.0)
+    advised = bandwidth_from_chirp(
+        t,
+        command,
+        first_order_response(t, command, SLOW_LAG_TAU),
+        frequency=(lambda s: chirp_frequency(s, start, end, duration)) if given_frequency else None,
+    )
+    assert advised.status == "found", advised.reason
+    assert advised.bandwidth == pytest.approx(SLOW_LAG_BANDWIDTH, rel=0.05)
+
+
+def test_start_transient_does_not_make_a_bandwidth() -> None:
+    # The lag starts at rest while the command starts at 5: in the first window the response
+    # rises by 5, which the first-harmonic fit reads as a ratio of 1.8. That window used to be
+    # the last one above 0.9, giving "found" at 1.46 rad/s for a 0.97 rad/s bandwidth.
+    t = np.arange(0.0, 70.0, TS)
+    command = paper_chirp(t)
+    response = first_order_response(t, command, SLOW_LAG_TAU, at_rest=True)
+    with pytest.warns(UserWarning, match="below threshold"):
+        result = bandwidth_from_chirp(t, command, response, frequency=paper_chirp_frequency)
+    assert result.ratio[0] > 1.0  # the transient
+    assert result.status == "below_at_start"
+
+
+def test_every_result_says_how_it_was_reached() -> None:
+    t = np.arange(0.0, 70.0, TS)
+    command = paper_chirp(t)
+    found = bandwidth_from_chirp(
+        t, command, first_order_response(t, command, 0.1), frequency=paper_chirp_frequency
+    )
+    assert found.status == "found"
+    assert f"at {found.bandwidth:.4g} rad/s by linear interpolation" in found.reason
+    assert found.first_measured == 1  # the first window, the start transient, is not used
+    with pytest.warns(UserWarning) as record:
+        short = bandwidth_from_chirp(t[:3000], command[:3000], command[:3000])
+    assert short.status == "not_reached"
+    assert str(record[0].message) == short.reason
+    assert "use a longer or faster chirp" in short.reason
+
+
 def test_bandwidth_does_not_mutate_inputs() -> None:
     t = np.arange(0.0, 40.0, TS)
     command = paper_chirp(t)
@@ -365,10 +457,31 @@ def test_plot_bandwidth_returns_figure_without_showing() -> None:
     assert len(fig.axes) == 1
     ax = fig.axes[0]
     assert len(ax.lines) == 4  # command, threshold, response, bandwidth
+    assert ax.get_xlabel() == "frequency [rad/s]"
+    assert ax.get_ylabel() == "amplitude [unit of the command]"
+    assert len(ax.patches) == 1  # the windows not measured
     _, other = plt.subplots()
-    assert plot_bandwidth(result, ax=other) is other.figure
+    assert plot_bandwidth(result, ax=other, unit="deg") is other.figure
+    assert other.get_ylabel() == "amplitude [deg]"
     with pytest.raises(TypeError, match="BandwidthResult"):
         plot_bandwidth("nope")  # type: ignore[arg-type]
+
+
+def test_plot_bandwidth_marks_where_the_bandwidth_lies_below() -> None:
+    t = np.arange(0.0, 70.0, TS)
+    command = paper_chirp(t)
+    with pytest.warns(UserWarning):
+        result = bandwidth_from_chirp(
+            t,
+            command,
+            first_order_response(t, command, SLOW_LAG_TAU),
+            frequency=paper_chirp_frequency,
+        )
+    ax = plot_bandwidth(result).axes[0]
+    below = ax.lines[-1]
+    assert below.get_linestyle() == ":"
+    assert below.get_xdata()[0] == result.frequency[result.first_measured]
+    assert "no bandwidth" in ax.get_title()
 
 
 # --------------------------------------------------------------------------------- bad input

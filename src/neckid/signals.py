@@ -40,7 +40,6 @@ from neckid.validation import (
 )
 
 __all__ = [
-    "MAX_WINDOW_SWEEP",
     "BandwidthResult",
     "bandwidth_from_chirp",
     "chirp",
@@ -680,7 +679,7 @@ BandwidthStatus = Literal["found", "not_reached", "below_at_start"]
 
 #: A window is measured when the command's mean frequency over its second half is within this
 #: fraction of that over its first half (and the other way round, for a down-chirp).
-MAX_WINDOW_SWEEP = 0.5
+_MAX_WINDOW_SWEEP = 0.5
 
 
 @dataclass(frozen=True)
@@ -721,10 +720,12 @@ class BandwidthResult:
         would measure it (for example ``"... start the chirp at or below 0.56 rad/s and sweep it
         no faster than 0.025 rad/s^2 ..."``); the warning of a run without a bandwidth says the same.
     first_measured : int
-        Index of the first window the rule uses. The windows before it sweep too fast: the
-        command's frequency changes by more than half from their first half to their second (at
-        the start of a chirp from 0 rad/s, one cycle spans 0 to twice its mean frequency), so they
-        hold no amplitude at one frequency; they are kept in the arrays, for the figure.
+        Index of the first window the rule uses (1 or more). The first window holds the plant's
+        start transient; the next ones are skipped while they sweep too fast: the command's
+        frequency changes by more than half from their first half to their second (at the start
+        of a chirp from 0 rad/s, one cycle spans 0 to twice its mean frequency), so they hold no
+        amplitude at one frequency. They are kept in the arrays, for the figure. ``n_windows``
+        when no window can be measured.
     """
 
     bandwidth: float
@@ -891,8 +892,7 @@ def bandwidth_from_chirp(
     *Windows that sweep too fast.* A window holds an amplitude at one frequency only if the
     frequency changes little along it. With :math:`\bar\omega_1, \bar\omega_2` the mean
     frequencies of its two halves, a window is measured when
-    :math:`\max(\bar\omega_2/\bar\omega_1, \bar\omega_1/\bar\omega_2) - 1 \le 0.5`
-    (:data:`MAX_WINDOW_SWEEP`). At the start of a chirp from 0 rad/s this fails: its first cycle
+    :math:`\max(\bar\omega_2/\bar\omega_1, \bar\omega_1/\bar\omega_2) - 1 \le 0.5`. At the start of a chirp from 0 rad/s this fails: its first cycle
     spans 0 to twice its mean frequency (the ratio of the halves is :math:`1/(\sqrt2 - 1) = 2.4`
     for any rate). The first window is never measured: it holds the plant's start transient
     (and the edge of the Hilbert estimate, when the frequency is not given). The leading windows
@@ -901,11 +901,12 @@ def bandwidth_from_chirp(
     A linear chirp of rate :math:`\alpha` sweeps :math:`2\pi\alpha c/\omega` rad/s over a window of
     :math:`c` cycles at :math:`\omega`, so a bandwidth :math:`\omega_b` can be measured only if
     the chirp dwells below it: when the ratio is below ``threshold`` in every measured window, the
-    result advises a start frequency :math:`\omega_s` of half the first measured frequency and a
-    rate :math:`\alpha \le \omega_s^2 / (4\pi c)` (a sweep of a quarter within the first window).
-    The paper's chirp (:math:`\alpha = 0.2` rad/s², from 0) therefore cannot measure a bandwidth
-    below about 1.1 rad/s: a lag :math:`1/(0.5 s + 1)` (0.97 rad/s) gets ``"below_at_start"``
-    and the advice to start at or below 0.56 rad/s at no more than 0.025 rad/s².
+    result advises a start frequency :math:`\omega_s` of a third of the first measured frequency
+    and a rate :math:`\alpha \le \omega_s^2 / (4\pi c)` (a sweep of a quarter within the first
+    window). The paper's chirp (:math:`\alpha = 0.2` rad/s², from 0) therefore cannot measure a
+    bandwidth below about 1.5 rad/s, its first measured window: a lag :math:`1/(0.5 s + 1)`
+    (0.97 rad/s) gets ``"below_at_start"`` and the advice to start at or below 0.51 rad/s and
+    sweep no faster than 0.021 rad/s², a chirp that measures it within 2 %.
 
     *Rule.* ``ratio = response amplitude / command amplitude``. The bandwidth is taken after the
     last measured window whose ratio is at or above ``threshold``: from there on the ratio never rises to
@@ -1015,7 +1016,7 @@ def bandwidth_from_chirp(
 
     # The first window holds the plant's start transient (and the Hilbert edge effect when the
     # phase is estimated): never measured. Then those that sweep too fast.
-    unmeasured = np.asarray(sweeps) > MAX_WINDOW_SWEEP
+    unmeasured = np.asarray(sweeps) > _MAX_WINDOW_SWEEP
     unmeasured[0] = True
     first = int(np.argmin(unmeasured)) if not unmeasured.all() else ratio.size
     above = np.flatnonzero(ratio[first:] >= threshold_value) + first
@@ -1035,9 +1036,8 @@ def bandwidth_from_chirp(
             f"the amplitude ratio is below threshold={threshold_value:g} in every measured window,"
             f" already {ratio[first]:.3g} at {freq_array[first]:.3g} rad/s (the first measured),"
             f" so the bandwidth is below about {freq_array[first]:.3g} rad/s, or the response is"
-            " not in the command's unit (its gain at low frequency is not 1)"
-            + (f"; {skipped}" if first else "")
-            + f". To measure it, start the chirp at or below {start:.3g} rad/s and sweep it no"
+            f" not in the command's unit (its gain at low frequency is not 1); {skipped}."
+            f" To measure it, start the chirp at or below {start:.3g} rad/s and sweep it no"
             f" faster than {rate:.2g} rad/s^2 (neckid.signals.chirp with"
             f" omega_start <= {start:.3g} and (omega_end - omega_start) / duration <= {rate:.2g})"
         )
@@ -1059,7 +1059,7 @@ def bandwidth_from_chirp(
         reason = (
             f"the amplitude ratio falls below threshold={threshold_value:g} for good between"
             f" {f0:.4g} and {f1:.4g} rad/s (ratio {r0:.3g} and {r1:.3g}), at {bandwidth:.4g} rad/s"
-            " by linear interpolation" + (f"; {skipped}" if first else "")
+            f" by linear interpolation; {skipped}"
         )
     if status != "found":
         warnings.warn(reason, stacklevel=2)
@@ -1074,7 +1074,7 @@ def bandwidth_from_chirp(
         ratio=ratio,
         crossing_index=crossing,
         reason=reason,
-        first_measured=min(first, ratio.size - 1),
+        first_measured=first,
     )
 
 
@@ -1099,20 +1099,19 @@ def _advised_chirp(frequency: float, cycles: int) -> tuple[float, float]:
 
 
 def _skipped_windows(first: int, frequency: FloatArray, sweeps: list[float]) -> str:
-    """Words for the leading windows the rule does not use."""
-    if first == 0:
-        return ""
+    """Words for the leading windows the rule does not use (``first >= 1``)."""
     last = frequency[min(first, frequency.size) - 1]
     what = (
         f"the first window ({frequency[0]:.3g} rad/s) is"
         if first == 1
         else f"the first {first} windows ({frequency[0]:.3g} to {last:.3g} rad/s) are"
     )
-    fast = [s for s in sweeps[:first] if s > MAX_WINDOW_SWEEP]
+    fast = [s for s in sweeps[:first] if s > _MAX_WINDOW_SWEEP]
     sweep = (
-        f", and the command's frequency changes by more than {MAX_WINDOW_SWEEP:.0%} within"
+        f", and the command's frequency changes by more than {_MAX_WINDOW_SWEEP:.0%} within"
         f" {'it' if first == 1 else 'them'} ({max(fast):.0%})"
         if fast
         else ""
     )
-    return f"{what} not used: the first holds the start transient{sweep}"
+    holder = "it" if first == 1 else "the first"
+    return f"{what} not used: {holder} holds the start transient{sweep}"

@@ -215,19 +215,6 @@ class ModelResult:
         return frame
 
 
-def as_input_matrix(u: ArrayLike, n_inputs: int, argument: str = "u") -> FloatArray:
-    """Validate an input sequence for a model with ``n_inputs`` channels; return it 2-D."""
-    array = np.asarray(u, dtype=np.float64)
-    if array.ndim == 1:
-        array = array[:, None] if n_inputs == 1 else array[None, :]
-    if array.ndim != 2 or array.shape[1] != n_inputs:
-        raise ValueError(
-            f"{argument} must have {n_inputs} columns (one per input); got shape {np.shape(u)}"
-        )
-    check_finite(array, argument)
-    return np.ascontiguousarray(array)
-
-
 class Estimator(BaseEstimator, ModelFile):
     """What every neckid estimator shares (see the module docstring for the contract).
 

@@ -13,7 +13,7 @@ from typing import Protocol
 
 from numpy.typing import ArrayLike
 
-__all__ = ["Controller", "Plant"]
+__all__ = ["BoundedSimulator", "Controller", "Plant", "Simulator"]
 
 
 class Plant(Protocol):
@@ -59,3 +59,39 @@ class Controller(Protocol):
 
     def step(self, reference: ArrayLike, measurement: ArrayLike) -> ArrayLike:  # pragma: no cover
         """One control period: the command(s) from the reference and the last measurement."""
+
+
+class Simulator(Protocol):
+    """An identified model's step-by-step free run (``model.simulator()``): a plant with a history.
+
+    ``reset(y0, u0)`` sets the past outputs and inputs (rows oldest first, one row repeated;
+    default zeros); ``step(u)`` takes the input of sample ``t`` and returns the model output of
+    sample ``t``. After ``reset(y0=y[:m], u0=u[:m])`` (``m`` the model's ``max_lag_``), stepping
+    ``u[m:]`` gives what ``model.simulate`` gives. With no arguments ``reset()`` starts from
+    rest, so a simulator is a :class:`Plant` and runs in :func:`~neckid.plant.closed_loop`.
+
+    Notes
+    -----
+    A model with an input lag of 0 has direct feedthrough: ``step(u)`` returns an output that
+    depends on ``u``, which a :class:`Plant` should not. :func:`~neckid.plant.closed_loop` still
+    runs it as intended, because it computes the command of sample ``k`` from the output of
+    sample ``k - 1``; the model then answers the command within the sample.
+    """
+
+    def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> object:
+        """Start again from the given (or zero) past outputs and inputs."""  # pragma: no cover
+
+    def step(self, u: ArrayLike) -> ArrayLike:  # pragma: no cover - protocol
+        """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y(t)``."""
+
+
+class BoundedSimulator(Simulator, Protocol):
+    """A :class:`Simulator` that also gives each step's band (the Set Membership models).
+
+    ``step_bounds(u)`` advances like ``step`` and returns ``(y, lower, upper)``, each of shape
+    ``(n_outputs,)``; :func:`neckid.experiments.model_in_loop.model_in_the_loop` carries the band
+    along a closed loop.
+    """
+
+    def step_bounds(self, u: ArrayLike) -> tuple[ArrayLike, ArrayLike, ArrayLike]:
+        """Advance one sample; return the central output and the band."""  # pragma: no cover

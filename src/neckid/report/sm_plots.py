@@ -119,10 +119,9 @@ def plot_gamma_curve(
         )
     ax.set_xscale("log")
     ax.set_yscale("log")
-    # Plain numbers on the γ axis (2, 3, 4, 6, 10, 20 ...), not a mix of 10^1 and 6x10^0.
-    plain = mticker.FuncFormatter(lambda value, _position: f"{value:g}")
-    ax.yaxis.set_major_formatter(plain)
-    ax.yaxis.set_minor_formatter(plain)
+    # Plain numbers on the γ axis (1, 2, 3, 5, 10, 20 ...), not a mix of 10^1 and 6x10^0.
+    ax.yaxis.set_major_formatter(mticker.FuncFormatter(lambda value, _: f"{value:g}"))
+    ax.yaxis.set_minor_formatter(mticker.FuncFormatter(_minor_label))
     ax.set_xlabel(f"noise bound ε [{unit}] (log scale)")
     ax.set_ylabel(f"γ*(ε) [{unit} per unit of scaled regressor]")
     ax.set_title(
@@ -133,6 +132,14 @@ def plot_gamma_curve(
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper right", fontsize=8)
     return fig
+
+
+def _minor_label(value: float, _position: Any) -> str:
+    """Label the minor ticks 2, 3 and 5 of each decade of a log axis; leave the others bare."""
+    if not value > 0:
+        return ""
+    mantissa = round(value / 10.0 ** np.floor(np.log10(value)), 6)
+    return f"{value:g}" if mantissa in (2.0, 3.0, 5.0) else ""
 
 
 def _per_output(chosen: tuple[ArrayLike, ArrayLike], n_outputs: int) -> tuple[Any, Any]:
