@@ -154,3 +154,17 @@ def test_gamma_star_kernel_matches_reference_property(seed: int, n: int, dims: i
     grid = np.sort(rng.uniform(0, 1, size=6))
     fast = gamma_star(x, y, grid[:, None], n_blocks=3)[:, 0]
     np.testing.assert_allclose(fast, gamma_star_reference(x, y[:, 0], grid), rtol=1e-12)
+
+
+def test_a_few_queries_without_threads_give_the_same_bits() -> None:
+    from neckid.models._sm_kernels import SERIAL_QUERIES
+
+    rng = np.random.default_rng(5)
+    x, y = rng.normal(size=(3000, 4)), rng.normal(size=(3000, 2))
+    tree = SMTree(x, y)
+    queries = rng.normal(size=(SERIAL_QUERIES * 2, 4))
+    eps, gamma = np.array([0.1, 0.2]), np.array([1.5, 3.0])
+    many_lower, many_upper = tree.bounds(queries, eps, gamma)  # threaded kernel
+    few_lower, few_upper = tree.bounds(queries[:5], eps, gamma)  # serial kernel
+    np.testing.assert_array_equal(few_lower, many_lower[:5])
+    np.testing.assert_array_equal(few_upper, many_upper[:5])

@@ -286,6 +286,42 @@ def _bounds_many_kernel(
 
 
 @njit(cache=True)
+def _bounds_few_kernel(
+    queries: FloatArray,
+    points: FloatArray,
+    targets: FloatArray,
+    gamma: FloatArray,
+    start: IntArray,
+    end: IntArray,
+    left: IntArray,
+    right: IntArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    ymin: FloatArray,
+    ymax: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+) -> None:  # pragma: no cover - compiled; tested against the parallel kernel and the reference
+    """:func:`_bounds_many_kernel` without threads, for a few rows (a simulator's one step).
+
+    Starting the thread pool costs more than a handful of queries, and much more on a busy
+    machine; the results are identical (same traversal, same sums).
+    """
+    node_stack = np.empty(_STACK_DEPTH, np.int64)
+    dist_stack = np.empty(_STACK_DEPTH)
+    for i in range(queries.shape[0]):
+        for c in range(targets.shape[1]):
+            lower[i, c], upper[i, c] = _query_one(
+                queries[i], points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin,
+                ymax, node_stack, dist_stack,
+            )  # fmt: skip
+
+
+#: Below this many queries the bounds are evaluated without threads.
+SERIAL_QUERIES = 64
+
+
+@njit(cache=True)
 def _free_run_kernel(
     u: FloatArray,
     y: FloatArray,
@@ -398,7 +434,8 @@ class SMTree:
         lower = np.empty((queries.shape[0], n_out))
         upper = np.empty((queries.shape[0], n_out))
         points, targets, start, end, left, right, lo, hi, ymin, ymax = self.kernel_arrays()
-        _bounds_many_kernel(
+        kernel = _bounds_few_kernel if queries.shape[0] < SERIAL_QUERIES else _bounds_many_kernel
+        kernel(
             queries, points, targets, gamma, start, end, left, right, lo, hi, ymin, ymax,
             lower, upper,
         )  # fmt: skip
