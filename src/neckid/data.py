@@ -609,6 +609,29 @@ class IOData:
         self.to_frame().to_csv(Path(path), index=False)
 
     @classmethod
+    def from_rosbag(
+        cls,
+        path: str | Path,
+        channels: Mapping[str, Any],
+        *,
+        ts: float | None = None,
+        name: str | None = None,
+        stamps: str = "header",
+    ) -> IOData:
+        """Read chosen fields of a ROS 2 bag (sqlite3 or MCAP), resampled onto one uniform grid.
+
+        ``channels`` maps a channel name to ``(topic, field, kind, unit)``, e.g.
+        ``{"inclination": ("/imu/tilt", "vector.x", "output", "deg")}``. Messages are timed by
+        their ``header.stamp`` when they have one (``stamps="receive"``: the recorder's time)
+        and interpolated linearly onto a grid of period ``ts`` (default: the median period of
+        the slowest topic) over the span every topic covers. Needs the ``[ros]`` extra
+        (the ``rosbags`` package, no ROS install). See :func:`neckid.data_rosbag.rosbag_fields`.
+        """
+        from neckid.data_rosbag import rosbag_fields
+
+        return cls(**rosbag_fields(path, channels, ts=ts, name=name, stamps=stamps))  # type: ignore[arg-type]
+
+    @classmethod
     def from_mat(
         cls,
         path: str | Path,

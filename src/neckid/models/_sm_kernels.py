@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
@@ -287,26 +288,14 @@ def _bounds_many_kernel(
 
 @njit(cache=True)
 def _bounds_few_kernel(
-    queries: FloatArray,
-    points: FloatArray,
-    targets: FloatArray,
-    gamma: FloatArray,
-    start: IntArray,
-    end: IntArray,
-    left: IntArray,
-    right: IntArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    ymin: FloatArray,
-    ymax: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
+    queries: FloatArray, gamma: FloatArray, tree: Any, lower: FloatArray, upper: FloatArray
 ) -> None:  # pragma: no cover - compiled; tested against the parallel kernel and the reference
     """:func:`_bounds_many_kernel` without threads, for a few rows (a simulator's one step).
 
     Starting the thread pool costs more than a handful of queries, and much more on a busy
     machine; the results are identical (same traversal, same sums).
     """
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree  # SMTree.kernel_arrays()
     node_stack = np.empty(_STACK_DEPTH, np.int64)
     dist_stack = np.empty(_STACK_DEPTH)
     for i in range(queries.shape[0]):
@@ -433,9 +422,11 @@ class SMTree:
         n_out = self.targets.shape[1]
         lower = np.empty((queries.shape[0], n_out))
         upper = np.empty((queries.shape[0], n_out))
+        if queries.shape[0] < SERIAL_QUERIES:
+            _bounds_few_kernel(queries, gamma, self.kernel_arrays(), lower, upper)
+            return lower - epsilon, upper + epsilon
         points, targets, start, end, left, right, lo, hi, ymin, ymax = self.kernel_arrays()
-        kernel = _bounds_few_kernel if queries.shape[0] < SERIAL_QUERIES else _bounds_many_kernel
-        kernel(
+        _bounds_many_kernel(
             queries, points, targets, gamma, start, end, left, right, lo, hi, ymin, ymax,
             lower, upper,
         )  # fmt: skip
