@@ -588,3 +588,28 @@ def test_importing_the_loader_does_not_import_rosbags() -> None:
     code = "import sys, neckid.datasets; print('rosbags' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"
+
+
+# --- the command line ----------------------------------------------------------------------------
+
+
+@needs_rosbags
+def test_the_command_line_identifies_and_validates_on_a_bag(bag: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    channels = ["--channel", "cmd=/motor/cmd:data:input:rad/s",
+                "--channel", "tilt=/imu/tilt:vector.x:output:deg"]  # fmt: skip
+    model = tmp_path / "bag_model.npz"
+    runner = CliRunner()
+    done = runner.invoke(app, ["identify", str(bag), "--layout", "rosbag", *channels,
+                               "--method", "arx", "--lags", "1/1", "--save", str(model)])  # fmt: skip
+    assert done.exit_code == 0, done.output
+    assert "fit %" in done.output and model.exists()
+    done = runner.invoke(app, ["validate", str(model), str(bag), "--layout", "rosbag", *channels])
+    assert done.exit_code == 0, done.output
+    assert "RMSE [deg]" in done.output
+    done = runner.invoke(app, ["identify", str(bag), "--layout", "rosbag", "--method", "arx",
+                               "--lags", "1/1", "--save", str(tmp_path / "m2.npz")])  # fmt: skip
+    assert done.exit_code == 2 and "needs --channel" in done.output

@@ -15,6 +15,7 @@ __all__ = [
     "describe_model",
     "make_estimator",
     "map_channels",
+    "parse_channels",
     "parse_lags",
     "parse_mapping",
     "read_log",
@@ -70,8 +71,9 @@ def read_log(
     *,
     time: str | None = "time",
     ts: float | None = None,
-    layout: Literal["csv", "softneck"] = "csv",
+    layout: Literal["csv", "softneck", "rosbag"] = "csv",
     sep: str = ",",
+    channels: Sequence[str] = (),
 ) -> IOData:
     """Read a log for identification.
 
@@ -90,10 +92,19 @@ def read_log(
     sep : str, default ","
         Column separator of a CSV log (``";"`` for logs written with a decimal comma locale,
         a tab for tab-separated ones).
+    channels : sequence of str
+        With ``layout="rosbag"``: one ``NAME=TOPIC:FIELD:KIND[:UNIT]`` per channel, e.g.
+        ``inclination=/imu/tilt:vector.x:output:deg`` (see :meth:`IOData.from_rosbag`);
+        ``inputs``/``outputs`` then select among them.
     """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
+    if layout == "rosbag":
+        data = IOData.from_rosbag(path, parse_channels(channels), ts=ts)
+        wanted_in = list(inputs) if inputs else list(data.input_names)
+        wanted_out = list(outputs) if outputs else list(data.output_names)
+        return data.select(inputs=wanted_in, outputs=wanted_out)
     if layout == "softneck":
         from neckid.datasets import load_softneck_log
 
@@ -107,7 +118,7 @@ def read_log(
             )
         return data.select(inputs=list(inputs), outputs=list(outputs))
     if layout != "csv":
-        raise ValueError(f"layout must be 'csv' or 'softneck'; got {layout!r}")
+        raise ValueError(f"layout must be 'csv', 'softneck' or 'rosbag'; got {layout!r}")
     if not inputs:
         raise ValueError("--inputs is required for a CSV log: name the input column(s)")
     if path.suffix.lower() not in (".parquet", ".mat"):
@@ -177,6 +188,32 @@ def map_channels(data: IOData, mapping: Mapping[str, str]) -> IOData:
         t0=data.t0,
         name=data.name,
     )
+
+
+def parse_channels(texts: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """Read ``NAME=TOPIC:FIELD:KIND[:UNIT]`` channel specifications of a ROS 2 bag.
+
+    Examples
+    --------
+    >>> parse_channels(["inclination=/imu/tilt:vector.x:output:deg"])
+    {'inclination': ('/imu/tilt', 'vector.x', 'output', 'deg')}
+    """
+    if not texts:
+        raise ValueError(
+            "--layout rosbag needs --channel NAME=TOPIC:FIELD:KIND[:UNIT] for each channel, e.g."
+            " --channel inclination=/imu/tilt:vector.x:output:deg"
+        )
+    channels: dict[str, tuple[str, ...]] = {}
+    for text in texts:
+        name, sep, rest = text.partition("=")
+        parts = tuple(p.strip() for p in rest.split(":"))
+        if not sep or not name.strip() or len(parts) not in (3, 4) or not all(parts[:3]):
+            raise ValueError(
+                f"--channel must look like NAME=TOPIC:FIELD:KIND[:UNIT], e.g."
+                f" inclination=/imu/tilt:vector.x:output:deg; got {text!r}"
+            )
+        channels[name.strip()] = parts
+    return channels
 
 
 def parse_mapping(texts: Sequence[str]) -> dict[str, str]:

@@ -77,7 +77,9 @@ def _split(text: str | None) -> list[str] | None:
 
 
 def _fail(message: str) -> None:
-    error_console.print(f"[red]error:[/red] {message}", highlight=False, soft_wrap=True)
+    from rich.markup import escape
+
+    error_console.print(f"[red]error:[/red] {escape(message)}", highlight=False, soft_wrap=True)
     raise typer.Exit(code=2)
 
 
@@ -98,8 +100,12 @@ def _show_warning(
     line: str | None = None,
 ) -> None:
     """Print a library warning as one line (no file path): what the user can act on."""
+    from rich.markup import escape
+
     text = str(message).splitlines()[0] if str(message) else category.__name__
-    error_console.print(f"[yellow]warning:[/yellow] {text}", highlight=False, soft_wrap=True)
+    error_console.print(
+        f"[yellow]warning:[/yellow] {escape(text)}", highlight=False, soft_wrap=True
+    )
 
 
 def handled(command: Command) -> Command:
@@ -113,6 +119,8 @@ def handled(command: Command) -> Command:
 
     @functools.wraps(command)
     def run(*args: Any, **kwargs: Any) -> Any:
+        from rich.markup import escape
+
         from neckid.models.base import ExtrapolationWarning
 
         try:
@@ -136,7 +144,7 @@ def handled(command: Command) -> Command:
             if _STATE["debug"]:
                 raise
             error_console.print(
-                f"[red]unexpected error[/red] ({type(exc).__name__}): {_message(exc)}; rerun with"
+                f"[red]unexpected error[/red] ({type(exc).__name__}): {escape(_message(exc))}; rerun with"
                 " `neckid --debug ...` for the traceback and report it",
                 highlight=False,
                 soft_wrap=True,
@@ -167,15 +175,23 @@ def _method_name(name: str) -> str:
 
 
 def _metrics_table(title: str, rows: list[dict[str, Any]]) -> Table:
-    table = Table(title=title)
+    from rich.markup import escape
+
+    # Headers such as "RMSE [deg]" are text, not rich markup.
+    table = Table(title=escape(title))
     for key in rows[0]:
-        table.add_column(key, justify="right" if key != "output" else "left")
+        table.add_column(escape(key), justify="right" if key != "output" else "left")
     for row in rows:
-        table.add_row(*(f"{v:.3f}" if isinstance(v, float) else str(v) for v in row.values()))
+        table.add_row(
+            *(f"{v:.3f}" if isinstance(v, float) else escape(str(v)) for v in row.values())
+        )
     return table
 
 
-LOG_HELP = "Log file: CSV with a header row (or .parquet / .mat), or a headerless soft-neck log with --layout softneck."
+LOG_HELP = (
+    "Log: CSV with a header row (or .parquet / .mat), a headerless soft-neck log with --layout"
+    " softneck, or a ROS 2 bag with --layout rosbag."
+)
 INPUTS_HELP = "Comma-separated input channel names (e.g. velocity_command)."
 OUTPUTS_HELP = "Comma-separated output channel names (e.g. inclination, in degrees)."
 TIME_HELP = "Name of the time column (seconds). Ignored when --ts is given."
@@ -184,7 +200,12 @@ SEP_HELP = "Column separator of a CSV log, e.g. ';' or '\\t' (tab)."
 LAYOUT_HELP = (
     "'csv' (a header row names the columns) or 'softneck' (the UC3M bench's headerless logs;"
     " 3 columns: time, inclination_filtered, motor_position; 6 columns add inclination,"
-    " velocity_command, motor_velocity; 7 columns add control_filtered)."
+    " velocity_command, motor_velocity; 7 columns add control_filtered) or 'rosbag' (a ROS 2"
+    " bag folder or file, with --channel)."
+)
+CHANNEL_HELP = (
+    "With --layout rosbag: NAME=TOPIC:FIELD:KIND[:UNIT] for each channel of the bag, e.g."
+    " inclination=/imu/tilt:vector.x:output:deg (repeat the option)."
 )
 MAP_HELP = (
     "MODEL_CHANNEL=LOG_CHANNEL: read a model channel from a log column of another name, e.g."

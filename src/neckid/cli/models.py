@@ -6,8 +6,10 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich.markup import escape
 
 from neckid.cli._app import (
+    CHANNEL_HELP,
     FORCE_HELP,
     INPUTS_HELP,
     LAYOUT_HELP,
@@ -32,7 +34,7 @@ from neckid.cli._app import (
 @app.command()
 @handled
 def identify(
-    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True),
     inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
     outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
     method: str = typer.Option(
@@ -52,6 +54,7 @@ def identify(
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
     sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    channels: list[str] = typer.Option(None, "--channel", help=CHANNEL_HELP),
     seed: int = typer.Option(
         0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
     ),
@@ -74,6 +77,7 @@ def identify(
         ts=ts,
         layout=layout,  # type: ignore[arg-type]
         sep=_sep(sep),
+        channels=channels or (),
     )
     method = _method_name(method)
     estimator = make_estimator(method, parse_lags(lags), random_state=seed)
@@ -101,6 +105,7 @@ def _load_for_model(
     layout: str,
     sep: str = ",",
     maps: list[str] | None = None,
+    channels: list[str] | None = None,
 ) -> tuple[Any, Any]:
     from neckid.models.io import load_model
     from neckid.workflow import map_channels, parse_mapping, read_log
@@ -109,7 +114,16 @@ def _load_for_model(
     mapping = parse_mapping(maps or [])  # log name -> model name
     to_log = {v: k for k, v in mapping.items()}
     ins, outs = ([to_log.get(n, n) for n in names] for names in _model_channels(model))
-    data = read_log(log, ins, outs, time=time, ts=ts, layout=layout, sep=_sep(sep))  # type: ignore[arg-type]
+    data = read_log(
+        log,
+        ins,
+        outs,
+        time=time,
+        ts=ts,
+        layout=layout,  # type: ignore[arg-type]
+        sep=_sep(sep),
+        channels=channels or (),
+    )
     return model, map_channels(data, mapping) if mapping else data
 
 
@@ -157,11 +171,12 @@ def validate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
     ),
-    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True),
     time: str = typer.Option("time", "--time", help=TIME_HELP),
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
     sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    channels: list[str] = typer.Option(None, "--channel", help=CHANNEL_HELP),
     maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
@@ -176,11 +191,13 @@ def validate(
 
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
-    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps)
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps, channels)
     try:
         result = model.simulate(data)
     except DivergenceError as exc:
-        error_console.print(f"[red]diverged:[/red] {exc}", highlight=False, soft_wrap=True)
+        error_console.print(
+            f"[red]diverged:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True
+        )
         raise typer.Exit(code=3) from None
     fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
     rows = [
@@ -218,7 +235,7 @@ def simulate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
     ),
-    log: Path = typer.Argument(..., help=LOG_HELP, exists=True, dir_okay=False),
+    log: Path = typer.Argument(..., help=LOG_HELP, exists=True),
     out: Path = typer.Option(
         Path("simulation.csv"), "--out", help="CSV to write: time, inputs, outputs (and bounds)."
     ),
@@ -226,6 +243,7 @@ def simulate(
     ts: float = typer.Option(None, "--ts", help=TS_HELP),
     layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
     sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    channels: list[str] = typer.Option(None, "--channel", help=CHANNEL_HELP),
     maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
     force: bool = typer.Option(False, "--force", help=FORCE_HELP),
     keep_diverged: bool = typer.Option(
@@ -244,13 +262,15 @@ def simulate(
     from neckid.outputs import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
-    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps)
+    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps, channels)
     diverged: DivergenceError | None = None
     try:
         result = model.simulate(data)
     except DivergenceError as exc:
         diverged, result = exc, exc.result
-        error_console.print(f"[red]diverged:[/red] {exc}", highlight=False, soft_wrap=True)
+        error_console.print(
+            f"[red]diverged:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True
+        )
         if not keep_diverged:
             raise typer.Exit(code=3) from None
     with atomic_path(out) as temporary:

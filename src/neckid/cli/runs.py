@@ -69,7 +69,8 @@ def demo(
         def on_step(text: str) -> None:
             progress.update(task, description=text, advance=1)
             if not console.is_terminal:  # no live bar: plain log lines
-                console.print(f"[{int(progress.tasks[0].completed)}/{n_steps}] {text}")
+                done = int(progress.tasks[0].completed)
+                console.print(f"step {done}/{n_steps}: {text}", markup=False)
 
         result = run_demo(out, settings, on_step=on_step, force=force)
     console.print(
