@@ -19,7 +19,7 @@ import pandas as pd
 
 from neckid._version import __version__
 
-__all__ = ["Figure", "Link", "Report", "library_versions"]
+__all__ = ["Figure", "Link", "Report", "library_versions", "settings_frame"]
 
 
 def library_versions() -> dict[str, str]:
@@ -40,6 +40,49 @@ def library_versions() -> dict[str, str]:
         "numba": numba.__version__,
         "matplotlib": matplotlib.__version__,
     }
+
+
+def settings_frame(
+    values: Mapping[str, Any],
+    units: Mapping[str, tuple[str, str]],
+    ts: float | None = None,
+) -> pd.DataFrame:
+    """Settings as a table for a report: name, value, unit and meaning.
+
+    Parameters
+    ----------
+    values : mapping of str to object
+        Setting name to value (numbers, text, or sequences of numbers).
+    units : mapping of str to (str, str)
+        Setting name to its unit (``"s"``, ``"rad/s"``, ``""`` for none) and a few words on what
+        it is; a name missing here gets neither.
+    ts : float, optional
+        Sampling period [s]: then a setting in seconds also says how many samples it spans.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``setting``, ``value``, ``unit``, ``meaning``, one row per setting, as text.
+
+    Examples
+    --------
+    >>> settings_frame({"ts": 0.02, "duration": 60.0, "bands": (1, 2.5)},
+    ...                {"duration": ("s", "record length"), "bands": ("rad/s", "")},
+    ...                ts=0.02).to_dict("list")["unit"]
+    ['', 's (3000 samples)', 'rad/s']
+    """
+    rows = []
+    for key, value in values.items():
+        unit, meaning = units.get(key, ("", ""))
+        if isinstance(value, tuple | list):
+            shown = ", ".join(f"{v:g}" for v in value)
+        else:
+            shown = f"{value:g}" if isinstance(value, float) else str(value)
+        if unit == "s" and ts is not None and isinstance(value, int | float):
+            count = round(value / ts)
+            unit = f"s ({count} samples)" if count != 1 else f"s (1 sample, {1 / ts:g} Hz)"
+        rows.append((key, shown, unit, meaning))
+    return pd.DataFrame(rows, columns=["setting", "value", "unit", "meaning"])
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from neckid.models.scheduled import GainScheduledModel
 if TYPE_CHECKING:
     from neckid.experiments.operating_points import OperatingPointResult
 
-__all__ = ["GAIN_UNIT", "plot_gain_schedule"]
+__all__ = ["GAIN_UNIT", "operating_points_frame", "plot_gain_schedule"]
 
 #: Unit of the gain ``N``: inclination rate per velocity command.
 GAIN_UNIT = "(deg/s)/(rad/s)"
@@ -141,6 +141,45 @@ def plot_gain_schedule(
     elif heading:
         fig.suptitle(heading)
     return fig
+
+
+def operating_points_frame(points: pd.DataFrame | OperatingPointResult) -> pd.DataFrame:
+    """The operating-point table as text for a report, with the units in its headers.
+
+    Parameters
+    ----------
+    points : pandas.DataFrame or OperatingPointResult
+        ``OperatingPointResult.table`` (columns ``target``, ``inclination``, ``gain``, ``pole``,
+        ``converged``, ``settled_at``, ``n_samples``) or the result itself.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``target [deg]``, ``inclination [deg]``, ``gain N [(deg/s)/(rad/s)]``,
+        ``pole P [-]``, ``converged`` (yes/no), ``settled at [sample]`` (empty when never) and
+        ``log length [samples]``, numbers formatted as text.
+
+    Examples
+    --------
+    >>> table = pd.DataFrame({"target": [10.0], "inclination": [9.81], "gain": [2.87846],
+    ...     "pole": [0.54], "converged": [False], "settled_at": [-1], "n_samples": [999]})
+    >>> operating_points_frame(table).iloc[0].tolist()
+    ['10.0', '9.81', '2.8785', '0.5400', 'no', '', '999']
+    """
+    table = _points_table(points)
+    if table is None:
+        raise TypeError("points must be a pandas DataFrame or an OperatingPointResult; got None")
+    return pd.DataFrame(
+        {
+            "target [deg]": [f"{v:.1f}" for v in table["target"]],
+            "inclination [deg]": [f"{v:.2f}" for v in table["inclination"]],
+            f"gain N [{GAIN_UNIT}]": [f"{v:.4f}" for v in table["gain"]],
+            "pole P [-]": [f"{v:.4f}" for v in table["pole"]],
+            "converged": ["yes" if v else "no" for v in table["converged"]],
+            "settled at [sample]": [f"{v:.0f}" if v >= 0 else "" for v in table["settled_at"]],
+            "log length [samples]": [f"{v:.0f}" for v in table["n_samples"]],
+        }
+    )
 
 
 def _points_table(points: pd.DataFrame | OperatingPointResult | None) -> pd.DataFrame | None:

@@ -94,8 +94,15 @@ def plot_gamma_curve(
         if picks is None:
             k = choose_epsilon(eps, gamma)
             if eps[k] > 0:
-                ax.plot([eps[k]], [gamma[k]], "o", mfc="none", ms=10, color=color,
-                        label=f"{name}: knee of the curve")  # fmt: skip
+                ax.plot(
+                    [eps[k]],
+                    [gamma[k]],
+                    "o",
+                    mfc="none",
+                    ms=10,
+                    color=color,
+                    label=f"{name}: knee of the curve",
+                )
             continue
         epsilon, lipschitz = float(picks[0][c]), float(picks[1][c])
         text = f"{name}: ε = {epsilon:.3g} {unit}, γ = {lipschitz:.3g}"
@@ -105,8 +112,19 @@ def plot_gamma_curve(
             continue
         # ε = 0 (a noise bound given as 0) sits on the left edge, like γ*(0).
         where = (0.0, edge) if epsilon == 0 else (epsilon, ax.transData)
-        ax.plot([where[0]], [lipschitz], "*", ms=14, color=color, mec="black", mew=0.6, zorder=4,
-                transform=where[1], clip_on=False, label=f"{name}: chosen (ε, γ)")  # fmt: skip
+        ax.plot(
+            [where[0]],
+            [lipschitz],
+            "*",
+            ms=14,
+            color=color,
+            mec="black",
+            mew=0.6,
+            zorder=4,
+            transform=where[1],
+            clip_on=False,
+            label=f"{name}: chosen (ε, γ)",
+        )
         ax.annotate(
             text,
             xy=(where[0], lipschitz),
