@@ -8,7 +8,8 @@ The public API, re-exported here:
   :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
 - the operating-point protocol: :func:`identify_operating_points`, :func:`operating_points_from_logs`
-- modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`
+- modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`,
+  :mod:`neckid.interop` (python-control)
 
 Notes
 -----
@@ -26,7 +27,7 @@ from typing import TYPE_CHECKING
 from neckid._version import __version__
 
 if TYPE_CHECKING:
-    from neckid import datasets, metrics, plant, signals
+    from neckid import datasets, interop, metrics, plant, signals
     from neckid.data import IOData, as_experiments
     from neckid.experiments.operating_points import (
         OperatingPointResult,
@@ -68,6 +69,7 @@ __all__ = [
     "gamma_curve",
     "get_method",
     "identify_operating_points",
+    "interop",
     "lag_grid",
     "lipschitz_quotients",
     "load_model",
@@ -82,7 +84,7 @@ __all__ = [
 ]
 
 # Public submodules, and the module each other public name lives in (the same imports as above).
-_SUBMODULES = frozenset({"datasets", "metrics", "plant", "signals"})
+_SUBMODULES = frozenset({"datasets", "interop", "metrics", "plant", "signals"})
 _NAME_TO_MODULE = {
     "IOData": "neckid.data",
     "as_experiments": "neckid.data",

@@ -55,7 +55,7 @@ def demo(
     from neckid.experiments.paper import EXPERIMENTS, DemoSettings, run_demo
 
     settings = DemoSettings.make(quick=quick, seed=seed, paper_regressor=paper_regressor)
-    n_steps = 7
+    n_steps = 8
     with Progress(
         SpinnerColumn(),
         TextColumn("{task.description}"),

@@ -76,6 +76,7 @@ def write_outputs(
     lags: Lags,
     *,
     sensor_delay: int,
+    loop: dict[str, pd.DataFrame] | None = None,
 ) -> dict[str, Path]:
     """Write the demo's figures, model files, chirp run and report into the staged folder.
 
@@ -213,6 +214,23 @@ def write_outputs(
         ["model", *(f"{e}, MAE [deg]" for e in EXPERIMENTS)], axis=1
     )
     report.add_table("Mean absolute error [deg]", errors, float_format="{:.3f}")
+    if loop is not None:
+        tests = list(loop["fit"].columns)
+        free = table.loc[list(loop["fit"].index), tests]
+        both = pd.concat(
+            {"free run, fit [%]": free, "in the loop, fit [%]": loop["fit"],
+             "in the loop, command fit [%]": loop["command_fit"]},
+            axis=1,
+        )  # fmt: skip
+        both.columns = [f"{column[1]}: {column[0]}" for column in both.columns]
+        report.add_table(
+            "Models in the loop: tests 1-3, fit [%]",
+            both.reset_index(names="model"),
+            note="Free run: the model driven by the motor signal recorded in the neck's closed"
+            " loop. In the loop: the model in place of the neck, with the same PI controller and"
+            " references; the command fit compares the controller's velocity command [rad/s]"
+            " with the one recorded on the neck. Fits skip each model's initial samples.",
+        )
     report.add_table(
         f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f}), Fig. 6",
         operating_points_frame(points.table),

@@ -47,6 +47,7 @@ from neckid.experiments.demo_settings import (
     DemoResult,
     DemoSettings,
 )
+from neckid.experiments.model_in_loop import model_in_the_loop
 from neckid.models.base import ModelResult
 from neckid.outputs import StagedFolder
 from neckid.plant import InclinationController, SoftNeck, closed_loop
@@ -236,6 +237,9 @@ def _run_protocol(
             )
             maes.loc[name, experiment] = float(result.mae(record.select(outputs=[OUTPUT]).y)[0])
             rmses.loc[name, experiment] = float(result.rmse(record.select(outputs=[OUTPUT]).y)[0])
+    # 6b. the models in the loop: each model in place of the neck, same PI and references ---------
+    notify("models in the loop: tests 1-3")
+    loop = _models_in_the_loop({**narx_models, "Scheduled CFF-RLS": scheduled}, records, settings)
     paper = pd.DataFrame(PAPER_FITS, index=list(EXPERIMENTS)).T
     table = pd.concat([fits, paper])
     table.index.name = "model"
@@ -258,6 +262,7 @@ def _run_protocol(
         selection_table,
         lags,
         sensor_delay=neck.delay_samples,
+        loop=loop,
     )
     metrics: dict[str, Any] = {
         "settings": {
@@ -274,6 +279,12 @@ def _run_protocol(
             k: dict(zip(EXPERIMENTS, v, strict=True)) for k, v in PAPER_FITS.items()
         },
         "fit_time_s": fit_times,
+        "model_in_the_loop": {
+            "fit_percent": _nested(loop["fit"]),
+            "command_fit_percent": _nested(loop["command_fit"]),
+            "rmse_deg": _nested(loop["rmse"]),
+            "band_coverage": _nested(loop["band_coverage"]),
+        },
         "set_membership": {
             name: {"epsilon": float(model.epsilon_[0]), "gamma": float(model.gamma_[0])}
             for name, model in narx_models.items()
@@ -291,6 +302,34 @@ def _run_protocol(
     out.path("metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
     files["metrics"] = out.final("metrics.json")
     return DemoResult(table, maes, metrics, bandwidth, lags, files, wall)
+
+
+def _models_in_the_loop(
+    models: dict[str, Any], records: dict[str, IOData], settings: DemoSettings
+) -> dict[str, pd.DataFrame]:
+    """Each model in place of the neck in the PI loop of tests 1-3 (issue: models in the loop).
+
+    Returns tables (model x test) of the inclination's fit [%] and RMSE [deg], the velocity
+    command's fit [%], and the SM band's coverage of the measured inclination (NaN without a
+    band). NARX models get the motor position from the neck's drive law
+    (:class:`~neckid.experiments.model_in_loop.VelocityDrive`); the scheduled model takes the
+    command itself.
+    """
+    tests = list(EXPERIMENTS[1:])
+    tables = {
+        k: pd.DataFrame(index=list(models), columns=tests, dtype=float)
+        for k in ("fit", "command_fit", "rmse", "band_coverage")
+    }
+    for experiment in tests:
+        for name, model in models.items():
+            scores = model_in_the_loop(
+                model, InclinationController(ts=settings.ts), records[experiment]
+            ).scores()
+            tables["fit"].loc[name, experiment] = scores["output_fit"]
+            tables["command_fit"].loc[name, experiment] = scores["command_fit"]
+            tables["rmse"].loc[name, experiment] = scores["output_rmse"]
+            tables["band_coverage"].loc[name, experiment] = scores["band_coverage"]
+    return tables
 
 
 def _nested(frame: pd.DataFrame) -> dict[str, dict[str, float | None]]:
