@@ -58,7 +58,16 @@ def fitted(request: pytest.FixtureRequest):
 
 
 def test_the_registry_lists_every_method() -> None:
-    assert METHODS == ["arx", "nn", "rls", "scheduled", "sm", "sm-linear", "sm-parallel"]
+    assert METHODS == [
+        "arx",
+        "nn",
+        "rls",
+        "scheduled",
+        "sm",
+        "sm-linear",
+        "sm-multistep",
+        "sm-parallel",
+    ]
     for name, method in neckid.methods().items():
         assert method.name == name
         assert method.label and method.summary

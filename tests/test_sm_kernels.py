@@ -168,3 +168,17 @@ def test_a_few_queries_without_threads_give_the_same_bits() -> None:
     few_lower, few_upper = tree.bounds(queries[:5], eps, gamma)  # serial kernel
     np.testing.assert_array_equal(few_lower, many_lower[:5])
     np.testing.assert_array_equal(few_upper, many_upper[:5])
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_gamma_star_with_a_repeated_epsilon_matches_the_reference(seed: int) -> None:
+    # A grid holding one ε twice (SetMembership adds a given ε to its grid) once stopped the
+    # pair loop early and gave a γ* that was too small.
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(120, 2))
+    y = np.tanh(x.sum(axis=1, keepdims=True)) + 0.1 * rng.standard_t(2, size=(120, 1))
+    grid = np.sort(rng.uniform(0.0, 0.5, size=6))
+    grid = np.sort(np.concatenate([grid, grid[[1, 3, 3]]]))[:, None]
+    np.testing.assert_allclose(
+        gamma_star(x, y, grid)[:, 0], gamma_star_reference(x, y[:, 0], grid[:, 0]), rtol=1e-12
+    )

@@ -10,7 +10,7 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'nn', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-parallel']
+['arx', 'nn', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)

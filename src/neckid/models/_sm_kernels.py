@@ -533,7 +533,12 @@ def _gamma_star_rows_kernel(
                     gap = ratio - g[e, c]
                     if gap > 0.0:
                         g[e, c] = ratio
-                    elif gap <= previous and previous > -np.inf:
+                    elif (
+                        gap <= previous
+                        and previous > -np.inf
+                        and twice_eps[e, c] > twice_eps[e - 1, c]
+                    ):
+                        # (a repeated ε of the grid has its own entry: never stop on it)
                         break
                     previous = gap
 
