@@ -29,6 +29,7 @@ from neckid.cli._app import (
     error_console,
     handled,
 )
+from neckid.registry import methods
 
 
 @app.command()
@@ -40,7 +41,7 @@ def identify(
     method: str = typer.Option(
         "sm",
         "--method",
-        help="arx | rls | sm | sm-linear | sm-parallel | nn | scheduled (neckid.methods()).",
+        help=" | ".join(methods()) + " (neckid.methods()).",
     ),
     lags: str = typer.Option(
         "1-3/8-10",
@@ -150,6 +151,25 @@ def _print_prior(model: Any) -> None:
         )
 
 
+def _print_band(result: Any, data: Any) -> None:
+    """Mean width and coverage of a result's band, and which kind of band it is."""
+    if result.lower is None or result.upper is None:
+        return
+    from neckid.metrics import coverage, mean_width
+
+    kind = result.extras.get("band", "guaranteed bounds of the noise-free output (SM)")
+    skip = result.n_initial
+    widths = mean_width(result.lower, result.upper, skip=skip)
+    covered = coverage(data.y, result.lower, result.upper, skip=skip)
+    for j, name in enumerate(data.output_names):
+        unit = f" {data.output_units[j]}" if data.output_units[j] else ""
+        console.print(
+            f"band of {name} ({kind}): mean width {widths[j]:.4g}{unit}, holds"
+            f" {covered[j]:.1%} of the measured samples",
+            markup=False,
+        )
+
+
 def _report_extrapolation(result: Any) -> None:
     from neckid.models.base import EXTRAPOLATION_WARNING
 
@@ -213,6 +233,7 @@ def validate(
     ]
     console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
     _print_prior(model)
+    _print_band(result, data)
     _report_extrapolation(result)
     if plot is not None:
         from neckid.report.plots import plot_simulation
