@@ -216,3 +216,13 @@ MAP_HELP = (
 def _sep(text: str) -> str:
     """The separator the user typed; a backslash and a t (as a shell passes it) means a tab."""
     return "\t" if text == "\\t" else text
+
+
+# Options shared by the commands that read a log (one definition, reused as defaults).
+TIME_OPTION = typer.Option("time", "--time", help=TIME_HELP)
+TS_OPTION = typer.Option(None, "--ts", help=TS_HELP)
+LAYOUT_OPTION = typer.Option("csv", "--layout", help=LAYOUT_HELP)
+SEP_OPTION = typer.Option(",", "--sep", help=SEP_HELP)
+CHANNEL_OPTION = typer.Option(None, "--channel", help=CHANNEL_HELP)
+MAP_OPTION = typer.Option(None, "--map", help=MAP_HELP)
+FORCE_OPTION = typer.Option(False, "--force", help=FORCE_HELP)

@@ -9,11 +9,11 @@ import typer
 from rich.table import Table
 
 from neckid.cli._app import (
-    FORCE_HELP,
-    LAYOUT_HELP,
-    SEP_HELP,
-    TIME_HELP,
-    TS_HELP,
+    FORCE_OPTION,
+    LAYOUT_OPTION,
+    SEP_OPTION,
+    TIME_OPTION,
+    TS_OPTION,
     _sep,
     app,
     console,
@@ -36,10 +36,10 @@ def bandwidth(
     response: str = typer.Option(
         ..., "--response", help="Column of the measured response (same units)."
     ),
-    time: str = typer.Option("time", "--time", help=TIME_HELP),
-    ts: float = typer.Option(None, "--ts", help=TS_HELP),
-    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
-    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    time: str = TIME_OPTION,
+    ts: float = TS_OPTION,
+    layout: str = LAYOUT_OPTION,
+    sep: str = SEP_OPTION,
     threshold: float = typer.Option(
         0.9, "--threshold", help="Amplitude ratio that defines the bandwidth."
     ),
@@ -52,7 +52,7 @@ def bandwidth(
     plot: Path = typer.Option(
         None, "--plot", help="Write a PNG of the envelopes (like the paper's Fig. 3)."
     ),
-    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    force: bool = FORCE_OPTION,
 ) -> None:
     """Find the bandwidth (rad/s) of a chirp run: where the response amplitude stays below 90 % of the command's.
 
@@ -119,9 +119,9 @@ def info(
         None,
         help="A log or a model file (.npz); without it, the versions of neckid and its libraries.",
     ),
-    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
-    time: str = typer.Option("time", "--time", help=TIME_HELP),
-    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
+    layout: str = LAYOUT_OPTION,
+    time: str = TIME_OPTION,
+    sep: str = SEP_OPTION,
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
 ) -> None:
     """Describe a log or a model file; without a path, print the versions of the libraries.

@@ -9,16 +9,16 @@ import typer
 from rich.markup import escape
 
 from neckid.cli._app import (
-    CHANNEL_HELP,
-    FORCE_HELP,
+    CHANNEL_OPTION,
+    FORCE_OPTION,
     INPUTS_HELP,
-    LAYOUT_HELP,
+    LAYOUT_OPTION,
     LOG_HELP,
-    MAP_HELP,
+    MAP_OPTION,
     OUTPUTS_HELP,
-    SEP_HELP,
-    TIME_HELP,
-    TS_HELP,
+    SEP_OPTION,
+    TIME_OPTION,
+    TS_OPTION,
     _method_name,
     _metrics_table,
     _model_channels,
@@ -51,15 +51,15 @@ def identify(
     save: Path = typer.Option(
         Path("model.npz"), "--save", help="Where to write the model (.npz, no pickle)."
     ),
-    time: str = typer.Option("time", "--time", help=TIME_HELP),
-    ts: float = typer.Option(None, "--ts", help=TS_HELP),
-    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
-    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
-    channels: list[str] = typer.Option(None, "--channel", help=CHANNEL_HELP),
+    time: str = TIME_OPTION,
+    ts: float = TS_OPTION,
+    layout: str = LAYOUT_OPTION,
+    sep: str = SEP_OPTION,
+    channels: list[str] = CHANNEL_OPTION,
     seed: int = typer.Option(
         0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
     ),
-    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    force: bool = FORCE_OPTION,
 ) -> None:
     """Identify a model from a log and save it.
 
@@ -192,14 +192,14 @@ def validate(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
     ),
     log: Path = typer.Argument(..., help=LOG_HELP, exists=True),
-    time: str = typer.Option("time", "--time", help=TIME_HELP),
-    ts: float = typer.Option(None, "--ts", help=TS_HELP),
-    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
-    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
-    channels: list[str] = typer.Option(None, "--channel", help=CHANNEL_HELP),
-    maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
+    time: str = TIME_OPTION,
+    ts: float = TS_OPTION,
+    layout: str = LAYOUT_OPTION,
+    sep: str = SEP_OPTION,
+    channels: list[str] = CHANNEL_OPTION,
+    maps: list[str] = MAP_OPTION,
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
-    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    force: bool = FORCE_OPTION,
 ) -> None:
     """Free-run simulate a saved model on a log and print fit (%), RMSE and MAE per output.
 
@@ -260,13 +260,13 @@ def simulate(
     out: Path = typer.Option(
         Path("simulation.csv"), "--out", help="CSV to write: time, inputs, outputs (and bounds)."
     ),
-    time: str = typer.Option("time", "--time", help=TIME_HELP),
-    ts: float = typer.Option(None, "--ts", help=TS_HELP),
-    layout: str = typer.Option("csv", "--layout", help=LAYOUT_HELP),
-    sep: str = typer.Option(",", "--sep", help=SEP_HELP),
-    channels: list[str] = typer.Option(None, "--channel", help=CHANNEL_HELP),
-    maps: list[str] = typer.Option(None, "--map", help=MAP_HELP),
-    force: bool = typer.Option(False, "--force", help=FORCE_HELP),
+    time: str = TIME_OPTION,
+    ts: float = TS_OPTION,
+    layout: str = LAYOUT_OPTION,
+    sep: str = SEP_OPTION,
+    channels: list[str] = CHANNEL_OPTION,
+    maps: list[str] = MAP_OPTION,
+    force: bool = FORCE_OPTION,
     keep_diverged: bool = typer.Option(
         False,
         "--keep-diverged",
