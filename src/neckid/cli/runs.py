@@ -25,7 +25,9 @@ def demo(
         Path("neckid-demo"), "--out", help="Folder for report.html, metrics.json, figures, models."
     ),
     quick: bool = typer.Option(
-        False, "--quick", help="Shorter records and fewer lag candidates (about 3x faster)."
+        False,
+        "--quick",
+        help="Shorter records and fewer lag candidates (about 1.6x faster on 2 cores).",
     ),
     paper_regressor: bool = typer.Option(
         False,
