@@ -629,14 +629,19 @@ class NarxSimulator:
         self._y = history_rows(y0, m, self.n_outputs, "y0")
         self._u = history_rows(u0, m, self.n_inputs, "u0")
 
-    def step(self, u: ArrayLike) -> FloatArray:
-        """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y`` (``(n_outputs,)``)."""
+    def _input_row(self, u: ArrayLike) -> FloatArray:
+        """The input of one step as a checked row: ``n_inputs`` finite values."""
         u_now = np.asarray(u, dtype=np.float64).reshape(-1)
         if u_now.shape[0] != self.n_inputs:
             raise ValueError(
                 f"u must have {self.n_inputs} values (one per input); got {u_now.shape[0]}"
             )
         check_finite(u_now[None, :], "u")
+        return u_now
+
+    def step(self, u: ArrayLike) -> FloatArray:
+        """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y`` (``(n_outputs,)``)."""
+        u_now = self._input_row(u)
         u_hist = np.vstack([self._u, u_now[None, :]])
         y_hist = np.vstack([self._y, np.zeros((1, self.n_outputs))])
         t = u_hist.shape[0] - 1

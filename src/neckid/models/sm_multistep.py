@@ -39,12 +39,11 @@ from neckid.models.base import (
     NarxModel,
     NarxSimulator,
     check_is_fitted,
-    history_rows,
 )
 from neckid.models.set_membership import DEFAULT_GAMMA_MARGIN, SetMembership, _term_weights
 from neckid.models.sm_prior import ProgressOption, _gamma_star
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Interval, Options, check_finite
+from neckid.validation import Interval, Options
 
 __all__ = [
     "MAD_TO_STD",
@@ -700,20 +699,14 @@ class MultiStepSimulator(NarxSimulator):
         u0 : array_like, shape (n_inputs,) or (max_lag, n_inputs), optional
             Past inputs (oldest first); a single row is repeated. Default zeros.
         """
-        self._y = history_rows(y0, self._history, self.n_outputs, "y0")
-        self._u = history_rows(u0, self._history, self.n_inputs, "u0")
+        super().reset(y0, u0)
         self._steps = 0
         self.lower = np.full(self.n_outputs, np.nan)
         self.upper = np.full(self.n_outputs, np.nan)
 
     def step_bounds(self, u: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Advance one sample with input ``u``; return ``(y, lower, upper)``, each ``(n_outputs,)``."""
-        u_now = np.asarray(u, dtype=np.float64).reshape(-1)
-        if u_now.shape[0] != self.n_inputs:
-            raise ValueError(
-                f"u must have {self.n_inputs} values (one per input); got {u_now.shape[0]}"
-            )
-        check_finite(u_now[None, :], "u")
+        u_now = self._input_row(u)
         self._u = np.vstack([self._u, u_now[None, :]])
         k = self._steps + 1
         model = self._model.estimators_[k - 1]
