@@ -190,3 +190,21 @@ def test_cascaded_tanks_below_published_gp_narx():
     rmse = report.table.set_index("method")["rmse"]
     assert rmse["sm-parallel"] <= 0.6
     assert rmse["sm-parallel"] < rmse["arx"]
+
+
+def test_a_log_outside_the_training_range_warns_once_naming_the_parallel_model() -> None:
+    import warnings
+
+    from neckid.models.base import ExtrapolationWarning
+
+    rng = np.random.default_rng(0)
+    u = rng.uniform(0.0, 1.0, 600)
+    y = np.zeros(600)
+    for t in range(1, 600):
+        y[t] = 0.9 * y[t - 1] + 0.1 * u[t - 1]
+    model = ParallelSetMembership(Lags.arx(1, 1)).fit(IOData(u, y, ts=1.0))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.simulate(IOData(3 * u, 3 * y, ts=1.0))
+    messages = [str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)]
+    assert len(messages) == 1 and "ParallelSetMembership" in messages[0]

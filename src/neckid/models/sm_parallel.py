@@ -32,6 +32,7 @@ not one-step, bounds matter).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -43,6 +44,7 @@ from neckid.models.arx import LinearARX
 from neckid.models.base import (
     DivergenceError,
     Estimator,
+    ExtrapolationWarning,
     ModelResult,
     check_is_fitted,
     history_rows,
@@ -209,7 +211,10 @@ class ParallelSetMembership(Estimator):
     def _linear_run(self, data: IOData, argument: str) -> IOData:
         """``data`` with the linear model's free run appended as ``<output>_linear`` inputs."""
         try:
-            simulated = self.linear_.simulate(data).y
+            with warnings.catch_warnings():
+                # The parallel model reports the log's extrapolation itself, once.
+                warnings.simplefilter("ignore", ExtrapolationWarning)
+                simulated = self.linear_.simulate(data).y
         except DivergenceError as exc:  # said below, naming the record
             simulated = exc.result.y
         bad = np.flatnonzero(~np.isfinite(simulated).all(axis=1))
