@@ -236,3 +236,51 @@ def test_a_log_with_other_channels_is_refused(fitted) -> None:
     )
     with pytest.raises(ValueError, match="torque"):
         model.simulate(renamed)
+
+
+def _payload_runs() -> list[IOData]:
+    """Three runs of the synthetic system whose gain and offset depend on a payload [kg]."""
+    runs = []
+    for seed, payload in enumerate((0.0, 0.3, 0.6)):
+        base = _data(seed, n=600)
+        y = base.y[:, 0] * (1.0 - payload) + 0.5 * payload
+        runs.append(
+            IOData(
+                base.u, y, ts=base.ts, input_names=base.input_names,
+                output_names=base.output_names, input_units=base.input_units,
+                output_units=base.output_units, name=f"payload-{payload}",
+                conditions={"payload": payload, "controller": "pi"},
+                condition_units={"payload": "kg"},
+            )
+        )  # fmt: skip
+    return runs
+
+
+@pytest.mark.parametrize("name", METHODS)
+def test_conditions_are_inputs_through_the_lags(name: str, tmp_path) -> None:
+    """Lags(..., conditions=[...]) makes a condition a constant input of every NARX-type method."""
+    import warnings
+
+    train, held_out, other = _payload_runs()[0], _payload_runs()[2], _payload_runs()[1]
+    lags = Lags([1], [1], conditions=["payload"])
+    model = neckid.methods()[name].make(lags, quick=True)
+    if name == "scheduled":  # schedules on the inclination only: says so
+        with pytest.raises(ValueError, match="no conditions"):
+            model.fit([train, held_out])
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit([train, held_out])
+        result = model.simulate(other)
+    assert model.input_names_ == ("command", "payload")
+    assert model.training_ranges_["payload"] == (0.0, 0.6)
+    assert np.isfinite(result.y).all()
+    model.save(tmp_path / "model")
+    loaded = neckid.load_model(next(tmp_path.iterdir()))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        np.testing.assert_allclose(loaded.simulate(other).y, result.y)
+    bare = IOData(other.u, other.y, ts=other.ts, input_names=other.input_names,
+                  output_names=other.output_names)  # fmt: skip
+    with pytest.raises(KeyError, match="condition 'payload'"):
+        model.simulate(bare)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from neckid.conditions import ConditionValue, check_conditions
 from neckid.validation import check_finite, check_ts
 
 if TYPE_CHECKING:
@@ -97,6 +98,12 @@ class IOData:
         Time of the first sample, in seconds.
     name : str, optional
         A label for the experiment (for example the file it came from).
+    conditions : mapping of str to float or str, optional
+        Constants of the experiment (payload mass, controller, ...): a number or a label per name
+        (:mod:`neckid.conditions`). Models use numeric ones as inputs through
+        ``Lags(..., conditions=[...])``.
+    condition_units : mapping of str to str, optional
+        Unit of each condition (``{"payload": "kg"}``).
 
     Raises
     ------
@@ -121,6 +128,8 @@ class IOData:
     __slots__ = (
         "_u",
         "_y",
+        "condition_units",
+        "conditions",
         "input_names",
         "input_units",
         "name",
@@ -142,6 +151,8 @@ class IOData:
         output_units: Sequence[str] | None = None,
         t0: float = 0.0,
         name: str | None = None,
+        conditions: Mapping[str, ConditionValue] | None = None,
+        condition_units: Mapping[str, str] | None = None,
     ) -> None:
         u_arr = _as_2d(u, "u")
         y_arr = _as_2d(y, "y", n_samples=u_arr.shape[0])
@@ -167,6 +178,9 @@ class IOData:
             raise ValueError(f"t0 must be a finite number of seconds; got {t0!r}")
         self.t0 = t0_value
         self.name = name
+        self.conditions, self.condition_units = check_conditions(
+            conditions, condition_units, self.input_names + self.output_names
+        )
         # Own copies, read-only: nothing the user passed in is changed, and nothing changes ours.
         self._u = u_arr.copy()
         self._y = y_arr.copy()
@@ -214,6 +228,8 @@ class IOData:
 
     def __repr__(self) -> str:
         label = f", name={self.name!r}" if self.name else ""
+        if self.conditions:
+            label += f", conditions={dict(self.conditions)!r}"
         return (
             f"IOData(n_samples={self.n_samples}, ts={self.ts!r}, inputs={list(self.input_names)},"
             f" outputs={list(self.output_names)}{label})"
@@ -229,6 +245,8 @@ class IOData:
             and self.output_names == other.output_names
             and self.input_units == other.input_units
             and self.output_units == other.output_units
+            and dict(self.conditions) == dict(other.conditions)
+            and dict(self.condition_units) == dict(other.condition_units)
             and np.array_equal(self._u, other._u)
             and np.array_equal(self._y, other._y)
         )
@@ -246,6 +264,8 @@ class IOData:
             "output_units": self.output_units,
             "t0": self.t0,
             "name": self.name,
+            "conditions": self.conditions,
+            "condition_units": self.condition_units,
         }
         fields.update(changes)
         return IOData(**fields)
@@ -259,6 +279,43 @@ class IOData:
         'run 2'
         """
         return self._replace(name=name)
+
+    def with_conditions(
+        self, units: Mapping[str, str] | None = None, **values: ConditionValue
+    ) -> IOData:
+        """The same log with conditions added (or replaced), e.g. ``with_conditions(payload=0.2)``.
+
+        Examples
+        --------
+        >>> d = IOData(u=[1.0, 2.0], ts=0.1).with_conditions(units={"payload": "kg"}, payload=0.2)
+        >>> dict(d.conditions), dict(d.condition_units)
+        ({'payload': 0.2}, {'payload': 'kg'})
+        """
+        merged_units = {**self.condition_units, **(units or {})}
+        return self._replace(conditions={**self.conditions, **values}, condition_units=merged_units)
+
+    def conditions_as_inputs(self, names: Sequence[str]) -> IOData:
+        """Append numeric conditions as constant input channels (with their units), in order.
+
+        Names that are already input channels are left as they are (a log made by this method,
+        or one that logged the value as a channel), so calling it twice changes nothing.
+
+        Raises
+        ------
+        KeyError
+            If a name is neither a condition nor an input of this log.
+        ValueError
+            If the condition is a label, not a number.
+
+        Examples
+        --------
+        >>> d = IOData(u=[1.0, 2.0], ts=0.1, conditions={"payload": 0.2})
+        >>> d.conditions_as_inputs(["payload"]).channel("payload")
+        array([0.2, 0.2])
+        """
+        from neckid.conditions import conditions_as_inputs
+
+        return conditions_as_inputs(self, names)
 
     # ------------------------------------------------------------------ channel access
     def channel(self, name: str) -> FloatArray:
@@ -498,6 +555,9 @@ class IOData:
         frame.attrs["inputs"] = list(self.input_names)
         frame.attrs["outputs"] = list(self.output_names)
         frame.attrs["ts"] = self.ts
+        if self.conditions:
+            frame.attrs["conditions"] = dict(self.conditions)
+            frame.attrs["condition_units"] = dict(self.condition_units)
         return frame
 
     @classmethod
@@ -682,6 +742,8 @@ class IOData:
             "input_units": list(self.input_units),
             "output_units": list(self.output_units),
             "name": self.name,
+            "conditions": dict(self.conditions),
+            "condition_units": dict(self.condition_units),
         }
 
     def describe(self) -> str:
@@ -694,6 +756,11 @@ class IOData:
             for j, (n, unit) in enumerate(zip(names, units, strict=True)):
                 col = arr[:, j]
                 lines.append(f"  {kind} {n} [{unit}]: min {col.min():.4g}, max {col.max():.4g}")
+        for n, value in self.conditions.items():
+            unit = self.condition_units.get(n, "")
+            lines.append(
+                f"  condition {n} [{unit}]: {value}" if unit else f"  condition {n}: {value}"
+            )
         return "\n".join(lines)
 
 

@@ -57,6 +57,9 @@ class ResolvedLags:
         The channels the lags were resolved against.
     max_lag : int
         Largest lag; the first ``max_lag`` samples of a record are initial conditions.
+    conditions : tuple of str
+        The inputs that are experimental conditions (constant per experiment, lag 0), made from
+        a log's conditions by :meth:`neckid.IOData.conditions_as_inputs`.
     """
 
     source: NDArray[np.int64]
@@ -66,6 +69,7 @@ class ResolvedLags:
     input_names: tuple[str, ...]
     output_names: tuple[str, ...]
     max_lag: int
+    conditions: tuple[str, ...] = ()
 
     @property
     def n_terms(self) -> int:
@@ -118,7 +122,7 @@ class ResolvedLags:
                 outputs[self.output_names[c]].append(int(lag))
             else:
                 inputs[self.input_names[c]].append(int(lag))
-        return Lags(outputs=outputs, inputs=inputs)
+        return Lags(outputs=outputs, inputs=inputs, conditions=self.conditions)
 
     def to_dict(self) -> dict[str, object]:
         """JSON-serialisable description (for model files)."""
@@ -130,6 +134,7 @@ class ResolvedLags:
             "input_names": list(self.input_names),
             "output_names": list(self.output_names),
             "max_lag": self.max_lag,
+            "conditions": list(self.conditions),
         }
 
     @classmethod
@@ -143,6 +148,7 @@ class ResolvedLags:
             input_names=tuple(d["input_names"]),  # type: ignore[arg-type]
             output_names=tuple(d["output_names"]),  # type: ignore[arg-type]
             max_lag=int(d["max_lag"]),  # type: ignore[call-overload]
+            conditions=tuple(d.get("conditions") or ()),  # type: ignore[arg-type]
         )
 
 
@@ -158,6 +164,10 @@ class Lags:
     inputs : int, sequence of int, or mapping of str to int/sequence, default 0
         Input lags (each >= 0). An int ``n`` means lags ``1..n`` of every input (one sample of delay);
         a list means those lags of every input; a mapping gives lags per input channel by name.
+    conditions : sequence of str, default ()
+        Experimental conditions (``IOData.conditions``, e.g. ``"payload"``) used as extra inputs:
+        each is a constant input of lag 0 (whatever ``inputs`` says), added to the log by the
+        model (:meth:`neckid.IOData.conditions_as_inputs`) when it fits, predicts or simulates.
 
     Examples
     --------
@@ -174,11 +184,24 @@ class Lags:
     ('y(t-1)', 'y(t-2)', 'y(t-3)', 'u1(t-8)')
     >>> Lags.arx(na=2, nb=2, delay=1)
     Lags(outputs=[1, 2], inputs=[1, 2])
+
+    A payload mass as a constant extra input:
+
+    >>> run = data.with_conditions(payload=0.4)
+    >>> Lags(2, 1, conditions=["payload"]).resolve(run.conditions_as_inputs(["payload"])).names
+    ('y(t-1)', 'y(t-2)', 'u1(t-1)', 'u2(t-1)', 'u3(t-1)', 'payload(t)')
     """
 
-    def __init__(self, outputs: LagSpec = 0, inputs: LagSpec = 0) -> None:
+    def __init__(
+        self, outputs: LagSpec = 0, inputs: LagSpec = 0, conditions: Sequence[str] = ()
+    ) -> None:
         self.outputs = self._normalise(outputs, "outputs", minimum=1)
         self.inputs = self._normalise(inputs, "inputs", minimum=0)
+        if isinstance(conditions, str) or not all(isinstance(c, str) for c in conditions):
+            raise TypeError(f"conditions must be a list of names (str); got {conditions!r}")
+        if len(set(conditions)) != len(tuple(conditions)):
+            raise ValueError(f"conditions names a condition twice: {list(conditions)}")
+        self.conditions = tuple(conditions)
         if self.max_lag == 0 and not self._has_terms():
             raise ValueError("Lags has no term at all; give output lags, input lags or both")
 
@@ -231,18 +254,33 @@ class Lags:
                 return repr({k: list(v) for k, v in spec.items()})
             return repr(list(spec))
 
-        return f"Lags(outputs={show(self.outputs)}, inputs={show(self.inputs)})"
+        extra = f", conditions={list(self.conditions)}" if self.conditions else ""
+        return f"Lags(outputs={show(self.outputs)}, inputs={show(self.inputs)}{extra})"
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Lags):
             return NotImplemented
-        return self.outputs == other.outputs and self.inputs == other.inputs
+        return (
+            self.outputs == other.outputs
+            and self.inputs == other.inputs
+            and self.conditions == other.conditions
+        )
 
     __hash__ = None  # type: ignore[assignment]
 
     def resolve(self, data: IOData | Sequence[IOData]) -> ResolvedLags:
-        """Bind the lags to the channels of ``data`` (names are checked here)."""
+        """Bind the lags to the channels of ``data`` (names are checked here).
+
+        The conditions must be inputs of ``data`` already (``data.conditions_as_inputs``); they
+        get lag 0 and no other.
+        """
         first = as_experiments(data)[0]
+        missing = [c for c in self.conditions if c not in first.input_names]
+        if missing:
+            raise KeyError(
+                f"Lags uses condition {missing[0]!r}, which is not an input of the data; make it"
+                f" one with data.conditions_as_inputs({list(self.conditions)})"
+            )
         source: list[int] = []
         channel: list[int] = []
         lag: list[int] = []
@@ -261,6 +299,11 @@ class Lags:
                 per_channel = [spec.get(n, ()) for n in channel_names]
             else:
                 per_channel = [spec] * len(channel_names)
+            if kind == 1:
+                per_channel = [
+                    (0,) if n in self.conditions else lags
+                    for n, lags in zip(channel_names, per_channel, strict=True)
+                ]
             for c, (n, lags) in enumerate(zip(channel_names, per_channel, strict=True)):
                 for lg in lags:
                     source.append(kind)
@@ -280,6 +323,7 @@ class Lags:
             input_names=first.input_names,
             output_names=first.output_names,
             max_lag=max(lag),
+            conditions=self.conditions,
         )
 
     def build(
@@ -299,7 +343,7 @@ class Lags:
         ValueError
             If an experiment is shorter than ``max_lag + 1`` samples.
         """
-        experiments = as_experiments(data)
+        experiments = [d.conditions_as_inputs(self.conditions) for d in as_experiments(data)]
         resolved = self.resolve(experiments)
         parts = [resolved.build_one(d) for d in experiments]
         return np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])

@@ -74,8 +74,9 @@ def read_log(
     layout: Literal["csv", "softneck", "rosbag"] = "csv",
     sep: str = ",",
     channels: Sequence[str] = (),
+    conditions: Sequence[str] = (),
 ) -> IOData:
-    """Read a log for identification.
+    """Read a log for identification, with its experimental conditions.
 
     Parameters
     ----------
@@ -96,10 +97,30 @@ def read_log(
         With ``layout="rosbag"``: one ``NAME=TOPIC:FIELD:KIND[:UNIT]`` per channel, e.g.
         ``inclination=/imu/tilt:vector.x:output:deg`` (see :meth:`IOData.from_rosbag`);
         ``inputs``/``outputs`` then select among them.
+    conditions : sequence of str
+        ``name=value`` conditions of the experiment (``"payload=0.4kg"``). They override those of
+        the log's sidecar ``<stem>.conditions.json`` (:func:`neckid.conditions.read_sidecar`),
+        which override those the loader reads from a soft-neck file name.
     """
+    from neckid.conditions import apply_conditions
+
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
+    data = _read_channels(path, inputs, outputs, time, ts, layout, sep, channels)
+    return apply_conditions(data, path, conditions)
+
+
+def _read_channels(
+    path: Path,
+    inputs: Sequence[str] | None,
+    outputs: Sequence[str] | None,
+    time: str | None,
+    ts: float | None,
+    layout: str,
+    sep: str,
+    channels: Sequence[str],
+) -> IOData:
     if layout == "rosbag":
         data = IOData.from_rosbag(path, parse_channels(channels), ts=ts)
         wanted_in = list(inputs) if inputs else list(data.input_names)

@@ -158,7 +158,9 @@ FORCE_HELP = "Overwrite an existing output."
 
 
 def _model_channels(model: Any) -> tuple[list[str], list[str]]:
-    return list(model.input_names_), list(model.output_names_)
+    """The channels to read from a log for ``model``: its inputs but its conditions, its outputs."""
+    conditions = set(model._condition_names())
+    return [n for n in model.input_names_ if n not in conditions], list(model.output_names_)
 
 
 def _method_name(name: str) -> str:
@@ -213,6 +215,13 @@ MAP_HELP = (
 )
 
 
+CONDITION_HELP = (
+    "NAME=VALUE: a condition of the experiment, a number with an optional unit or a label, e.g."
+    " payload=0.4kg or controller=ada (repeat the option). Overrides the log's sidecar"
+    " <stem>.conditions.json and what a soft-neck file name says."
+)
+
+
 def _sep(text: str) -> str:
     """The separator the user typed; a backslash and a t (as a shell passes it) means a tab."""
     return "\t" if text == "\\t" else text
@@ -226,3 +235,4 @@ SEP_OPTION = typer.Option(",", "--sep", help=SEP_HELP)
 CHANNEL_OPTION = typer.Option(None, "--channel", help=CHANNEL_HELP)
 MAP_OPTION = typer.Option(None, "--map", help=MAP_HELP)
 FORCE_OPTION = typer.Option(False, "--force", help=FORCE_HELP)
+CONDITION_OPTION = typer.Option(None, "--condition", help=CONDITION_HELP)

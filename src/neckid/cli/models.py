@@ -10,6 +10,7 @@ from rich.markup import escape
 
 from neckid.cli._app import (
     CHANNEL_OPTION,
+    CONDITION_OPTION,
     FORCE_OPTION,
     INPUTS_HELP,
     LAYOUT_OPTION,
@@ -35,7 +36,12 @@ from neckid.registry import methods
 @app.command()
 @handled
 def identify(
-    log: Path = typer.Argument(..., help=LOG_HELP, exists=True),
+    logs: list[Path] = typer.Argument(
+        ...,
+        metavar="LOG...",
+        help=LOG_HELP + " Several logs are several experiments of one model.",
+        exists=True,
+    ),
     inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
     outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
     method: str = typer.Option(
@@ -59,41 +65,60 @@ def identify(
     seed: int = typer.Option(
         0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
     ),
+    conditions: list[str] = CONDITION_OPTION,
+    use_conditions: str = typer.Option(
+        None,
+        "--use-conditions",
+        help="Comma-separated conditions the model takes as constant inputs (e.g. payload);"
+        " each log must have them (file name, sidecar or --condition).",
+    ),
     force: bool = FORCE_OPTION,
 ) -> None:
-    """Identify a model from a log and save it.
+    """Identify a model from one log or several (one experiment each) and save it.
 
     Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --lags 1-3/8-10
     """
     from neckid.outputs import check_output_file
+    from neckid.regressors import Lags
     from neckid.workflow import make_estimator, parse_lags, read_log
 
     save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
-    check_output_file(save, force=force, inputs=[log], option="--save")
-    data = read_log(
-        log,
-        _split(inputs),
-        _split(outputs),
-        time=time,
-        ts=ts,
-        layout=layout,  # type: ignore[arg-type]
-        sep=_sep(sep),
-        channels=channels or (),
-    )
-    method = _method_name(method)
-    estimator = make_estimator(method, parse_lags(lags), random_state=seed)
-    estimator.fit(data)
-    result = estimator.simulate(data)  # a diverging model stops here, before it is saved
-    fits, rmses = result.fit_percent(data), result.rmse(data)
-    path = estimator.save(save)
-    rows = [
-        {"output": name, "fit %": float(f), f"RMSE [{unit or '-'}]": float(r)}
-        for name, unit, f, r in zip(data.output_names, data.output_units, fits, rmses, strict=True)
-    ]
-    console.print(
-        _metrics_table(
-            f"{_describe_model(estimator)} on {log.name} (free run, training data)", rows
+    check_output_file(save, force=force, inputs=list(logs), option="--save")
+    experiments = [
+        read_log(
+            log,
+            _split(inputs),
+            _split(outputs),
+            time=time,
+            ts=ts,
+            layout=layout,  # type: ignore[arg-type]
+            sep=_sep(sep),
+            channels=channels or (),
+            conditions=conditions or (),
         )
+        for log in logs
+    ]
+    method = _method_name(method)
+    parsed = parse_lags(lags)
+    regressor = Lags(parsed.outputs, parsed.inputs, conditions=_split(use_conditions) or ())
+    estimator = make_estimator(method, regressor, random_state=seed)
+    estimator.fit(experiments if len(experiments) > 1 else experiments[0])
+    rows = []
+    for log, data in zip(logs, experiments, strict=True):
+        result = estimator.simulate(data)  # a diverging model stops here, before it is saved
+        fits, rmses = result.fit_percent(data), result.rmse(data)
+        rows.extend(
+            {"log": log.name, "output": name, "fit %": float(f), f"RMSE [{unit or '-'}]": float(r)}
+            for name, unit, f, r in zip(
+                data.output_names, data.output_units, fits, rmses, strict=True
+            )
+        )
+    path = estimator.save(save)
+    if len(logs) == 1:
+        rows = [{k: v for k, v in row.items() if k != "log"} for row in rows]
+    where = logs[0].name if len(logs) == 1 else f"{len(logs)} logs"
+    console.print(
+        _metrics_table(f"{_describe_model(estimator)} on {where} (free run, training data)", rows)
     )
     console.print(f"model saved to {path}")
 
@@ -107,6 +132,7 @@ def _load_for_model(
     sep: str = ",",
     maps: list[str] | None = None,
     channels: list[str] | None = None,
+    conditions: list[str] | None = None,
 ) -> tuple[Any, Any]:
     from neckid.models.io import load_model
     from neckid.workflow import map_channels, parse_mapping, read_log
@@ -124,6 +150,7 @@ def _load_for_model(
         layout=layout,  # type: ignore[arg-type]
         sep=_sep(sep),
         channels=channels or (),
+        conditions=conditions or (),
     )
     return model, map_channels(data, mapping) if mapping else data
 
@@ -198,6 +225,7 @@ def validate(
     sep: str = SEP_OPTION,
     channels: list[str] = CHANNEL_OPTION,
     maps: list[str] = MAP_OPTION,
+    conditions: list[str] = CONDITION_OPTION,
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
     force: bool = FORCE_OPTION,
 ) -> None:
@@ -211,7 +239,9 @@ def validate(
 
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
-    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps, channels)
+    model, data = _load_for_model(
+        model_path, log, time, ts, layout, sep, maps, channels, conditions
+    )
     try:
         result = model.simulate(data)
     except DivergenceError as exc:
@@ -266,6 +296,7 @@ def simulate(
     sep: str = SEP_OPTION,
     channels: list[str] = CHANNEL_OPTION,
     maps: list[str] = MAP_OPTION,
+    conditions: list[str] = CONDITION_OPTION,
     force: bool = FORCE_OPTION,
     keep_diverged: bool = typer.Option(
         False,
@@ -283,7 +314,9 @@ def simulate(
     from neckid.outputs import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
-    model, data = _load_for_model(model_path, log, time, ts, layout, sep, maps, channels)
+    model, data = _load_for_model(
+        model_path, log, time, ts, layout, sep, maps, channels, conditions
+    )
     diverged: DivergenceError | None = None
     try:
         result = model.simulate(data)

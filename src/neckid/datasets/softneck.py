@@ -27,10 +27,11 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +44,7 @@ __all__ = [
     "SOFTNECK_LAYOUTS",
     "SOFTNECK_TS",
     "SoftneckLayout",
+    "conditions_from_name",
     "load_softneck_directory",
     "load_softneck_log",
 ]
@@ -231,6 +233,35 @@ def _regularise_time(
     return keep, ts_value, t0
 
 
+_NAME_PATTERN = re.compile(r"^(ada|fra|int)?(\d{3})(?:step)?response\.csv$")
+
+
+def conditions_from_name(name: str) -> dict[str, dict[str, Any]]:
+    """The conditions a soft-neck log's file name encodes, as ``IOData`` keyword arguments.
+
+    ``<controller><payload in g>[step]response.csv``: the controller is ``ada`` (adaptive
+    fractional), ``fra`` (fixed fractional) or ``int`` (integer PI), absent for open-loop or
+    unlabelled runs; the payload is in grams in the name and in kilograms in the result. Other
+    names give no conditions.
+
+    Examples
+    --------
+    >>> conditions_from_name("int400response.csv")
+    {'conditions': {'payload': 0.4, 'controller': 'int'}, 'condition_units': {'payload': 'kg'}}
+    >>> conditions_from_name("600stepresponse.csv")["conditions"]
+    {'payload': 0.6}
+    >>> conditions_from_name("my_run.csv")
+    {}
+    """
+    match = _NAME_PATTERN.match(name)
+    if not match:
+        return {}
+    conditions: dict[str, Any] = {"payload": int(match.group(2)) / 1000.0}
+    if match.group(1):
+        conditions["controller"] = match.group(1)
+    return {"conditions": conditions, "condition_units": {"payload": "kg"}}
+
+
 def load_softneck_log(
     path: str | Path,
     *,
@@ -274,7 +305,9 @@ def load_softneck_log(
     Returns
     -------
     IOData
-        Named after the file (``name`` is the file name), ``t0`` the first time stamp.
+        Named after the file (``name`` is the file name), ``t0`` the first time stamp. The
+        experiment's conditions come from the file name (:func:`conditions_from_name`): the
+        payload on the head [kg] and the controller that ran (``"ada"``, ``"fra"``, ``"int"``).
 
     Raises
     ------
@@ -301,9 +334,12 @@ def load_softneck_log(
     >>> data = load_softneck_log(path)
     >>> data
     IOData(n_samples=4, ts=0.025, inputs=['motor_position', 'velocity_command', 'motor_velocity'],
-           outputs=['inclination', 'inclination_filtered'], name='fra000stepresponse.csv')
+           outputs=['inclination', 'inclination_filtered'], name='fra000stepresponse.csv',
+           conditions={'payload': 0.0, 'controller': 'fra'})
     >>> data.t0, data.unit("motor_position"), data.unit("inclination")
     (20.0, 'rad', 'deg')
+    >>> dict(data.conditions), data.condition_units["payload"]
+    ({'payload': 0.0, 'controller': 'fra'}, 'kg')
     >>> load_softneck_log(path, inputs=["motor_position"], outputs=["inclination"])
     IOData(n_samples=4, ts=0.025, inputs=['motor_position'], outputs=['inclination'], name=...)
     """
@@ -328,6 +364,7 @@ def load_softneck_log(
         output_units=[CHANNELS[n][0] for n in output_names],
         t0=t0,
         name=path.name,
+        **conditions_from_name(path.name),
     )
     if inputs is not None or outputs is not None:
         data = data.select(inputs=inputs, outputs=outputs)

@@ -300,6 +300,28 @@ class Estimator(BaseEstimator, ModelFile):
                 shares[name] = float(np.mean((values < low) | (values > high)))
         return shares
 
+    def _condition_names(self, fitting: bool = False) -> tuple[str, ...]:
+        """The experimental conditions the model takes as inputs (from its lags)."""
+        resolved = None if fitting else getattr(self, "lags_", None)
+        if isinstance(resolved, ResolvedLags):
+            return resolved.conditions
+        lags = getattr(self, "lags", None)
+        return lags.conditions if isinstance(lags, Lags) else ()
+
+    def _with_conditions(self, data: Any, fitting: bool = False) -> Any:
+        """``data`` (one log or a list) with the model's conditions appended as inputs.
+
+        Every public entry point (``fit``, ``predict``, ``simulate``, ...) calls it first, so a
+        log that carries ``conditions={"payload": 0.4}`` runs through a model identified with
+        ``Lags(..., conditions=["payload"])`` as it is.
+        """
+        names = self._condition_names(fitting)
+        if not names:
+            return data
+        if isinstance(data, IOData):
+            return data.conditions_as_inputs(names)
+        return [d.conditions_as_inputs(names) for d in as_experiments(data)]
+
     def _set_channels(self, data: IOData) -> None:
         self.input_names_ = tuple(data.input_names)
         self.output_names_ = tuple(data.output_names)
@@ -509,7 +531,7 @@ class NarxModel(Estimator):
 
     def _prepare_fit(self, data: IOData | Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
         self._validate_params()
-        experiments = as_experiments(data)
+        experiments = as_experiments(self._with_conditions(data, fitting=True))
         lags = self._lags()
         resolved = lags.resolve(experiments)
         self._check_training(experiments)
@@ -534,6 +556,7 @@ class NarxModel(Estimator):
     def predict(self, data: IOData) -> ModelResult:
         """One-step-ahead prediction: the regressor holds the measured past outputs."""
         check_is_fitted(self)
+        data = self._with_conditions(data)
         self._check_inputs(data)
         x, _ = self.lags_.build_one(data)
         y = np.array(data.y, dtype=np.float64)
@@ -552,6 +575,7 @@ class NarxModel(Estimator):
             The first outputs (oldest first; one row is repeated).
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         y0 = self._initial_outputs(data, initial)
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
             y = _free_run(self.lags_, self._predict_rows, data.u, y0)

@@ -147,6 +147,7 @@ def predict_ahead(model: Any, data: IOData, steps: int) -> ModelResult:
     if hasattr(model, "predict_ahead"):
         result: ModelResult = model.predict_ahead(data, steps=k)
         return result
+    data = model._with_conditions(data)
     model._check_inputs(data)
     m = int(model.max_lag_)
     n = data.n_samples

@@ -432,7 +432,7 @@ class RecursiveARX(NarxModel):
             shorter than ``max_lag + 1`` samples.
         """
         self._validate_params()
-        experiments = as_experiments(data)
+        experiments = as_experiments(self._with_conditions(data, fitting=True))
         first = experiments[0]
         if first.n_outputs != 1:
             raise ValueError(
@@ -453,7 +453,7 @@ class RecursiveARX(NarxModel):
         """
         if not hasattr(self, "theta_"):
             return self.fit(data)
-        for experiment in as_experiments(data):
+        for experiment in as_experiments(self._with_conditions(data)):
             self._check_inputs(experiment)
             self._online = None
             self._run_batch(experiment)

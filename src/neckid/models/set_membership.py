@@ -522,6 +522,7 @@ class SetMembership(NarxModel):
         bounds are NaN.
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         self._check_inputs(data)
         x, _ = self.lags_.build_one(data)
         m = self.lags_.max_lag
@@ -541,6 +542,7 @@ class SetMembership(NarxModel):
         those of ``f_o`` at the simulated regressor.
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         y0 = self._initial_outputs(data, initial)
         r = self.lags_
         y, lower, upper = free_run(
@@ -572,7 +574,7 @@ class SetMembership(NarxModel):
             One per experiment (a list when a list was given).
         """
         check_is_fitted(self)
-        experiments = as_experiments(data)
+        experiments = as_experiments(self._with_conditions(data))
         results = []
         for d in experiments:
             x, y_meas = self.lags_.build_one(d)

@@ -125,9 +125,15 @@ def horizon_lags(lags: ResolvedLags, steps: int) -> Lags:
     for source, channel, lag in zip(lags.source, lags.channel, lags.lag, strict=True):
         if source == 0:
             outputs[lags.output_names[channel]].append(int(lag) + steps - 1)
+        elif lags.input_names[channel] in lags.conditions:  # constant: lag 0 says it all
+            inputs[lags.input_names[channel]].add(0)
         else:
             inputs[lags.input_names[channel]].update(range(int(lag), int(lag) + steps))
-    return Lags(outputs=outputs, inputs={n: sorted(v) for n, v in inputs.items()})
+    return Lags(
+        outputs=outputs,
+        inputs={n: sorted(v) for n, v in inputs.items()},
+        conditions=lags.conditions,
+    )
 
 
 class MultiStepSetMembership(NarxModel):
@@ -338,6 +344,7 @@ class MultiStepSetMembership(NarxModel):
         Regressors never straddle two experiments; every experiment must be longer than the
         longest k-step regressor (``max_lag + max(horizons_) − 1`` samples).
         """
+        data = self._with_conditions(data, fitting=True)
         self._prepare_fit(data)
         experiments = as_experiments(data)
         horizons = self._horizon_set()
@@ -454,6 +461,7 @@ class MultiStepSetMembership(NarxModel):
             or is too short for the k-step regressor.
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         self._check_inputs(data)
         model = self._estimator(steps)
         if data.n_outputs == 0:
@@ -512,6 +520,7 @@ class MultiStepSetMembership(NarxModel):
             If ``data`` holds no outputs or other channels.
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         self._check_inputs(data)
         if data.n_outputs == 0:
             raise ValueError("predict_receding needs the measured outputs; data holds inputs only")
@@ -560,6 +569,7 @@ class MultiStepSetMembership(NarxModel):
             only); ``extras["steps"]`` the horizon used for each row.
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         y = self._initial_outputs(data, initial)
         m = self.max_lag_
         simulator = self.simulator()

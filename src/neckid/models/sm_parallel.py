@@ -190,7 +190,10 @@ class ParallelSetMembership(Estimator):
     def _sm_lags(self, input_names: Sequence[str], output_names: Sequence[str]) -> Lags:
         linear = check_lag_list(self.linear_lags, "linear_lags")
         inputs = check_lag_list(self.input_lags, "input_lags")
-        spec: dict[str, list[int]] = {name: list(inputs) for name in input_names}
+        conditions = self.lags.conditions if isinstance(self.lags, Lags) else ()
+        spec: dict[str, list[int]] = {
+            name: [0] if name in conditions else list(inputs) for name in input_names
+        }
         for name in output_names:
             spec[name + LINEAR_SUFFIX] = list(linear)
         if not linear and not inputs:
@@ -198,7 +201,7 @@ class ParallelSetMembership(Estimator):
                 "linear_lags and input_lags are both empty: the SM map would have no regressor;"
                 " give linear_lags (e.g. [0, 1]) or input_lags"
             )
-        return Lags(outputs=0, inputs=spec)
+        return Lags(outputs=0, inputs=spec, conditions=conditions)
 
     def _augment(self, data: IOData, simulated: FloatArray) -> IOData:
         out = data
@@ -239,8 +242,8 @@ class ParallelSetMembership(Estimator):
         ParallelSetMembership
             ``self``.
         """
-        experiments = as_experiments(data)
         self._validate_params()
+        experiments = as_experiments(self._with_conditions(data, fitting=True))
         self._check_training(experiments)
         first = experiments[0]
         taken = set(first.input_names) | set(first.output_names)
@@ -288,6 +291,7 @@ class ParallelSetMembership(Estimator):
         them.
         """
         check_is_fitted(self)
+        data = self._with_conditions(data)
         y = self._initial_outputs(data, initial)
         with_initial = IOData(
             data.u,
@@ -324,7 +328,7 @@ class ParallelSetMembership(Estimator):
         run, so a sample outside the band falsifies the prior along the whole simulated record.
         """
         check_is_fitted(self)
-        experiments = as_experiments(data)
+        experiments = as_experiments(self._with_conditions(data))
         augmented = [self._linear_run(d, f"experiment {i}") for i, d in enumerate(experiments)]
         result = self.sm_.invalidation(augmented)
         assert isinstance(result, list)

@@ -104,6 +104,8 @@ def softneck_protocol(log: IOData) -> IOData:
         output_units=["deg"],
         t0=data.t0,
         name=log.name,
+        conditions=log.conditions,
+        condition_units=log.condition_units,
     )
 
 
