@@ -15,6 +15,7 @@ from neckid.cli import app
 from neckid.experiments.benchmark import (
     BENCHMARK_METHODS,
     BENCHMARKS,
+    CROSS_RUN_BENCHMARKS,
     LAG_GRIDS,
     SOFTNECK_STAIR_EDGES,
     SOFTNECK_TRAINING_LOG,
@@ -63,7 +64,7 @@ def data_dir(tmp_path: Path) -> Path:
     (root / "softneck" / "stair").mkdir(parents=True)
     (root / "softneck" / "step").mkdir()
     np.savetxt(
-        root / "softneck" / SOFTNECK_TRAINING_LOG, neck_log(rng, 900, 1.1, 0.0), delimiter=", "
+        root / "softneck" / SOFTNECK_TRAINING_LOG, neck_log(rng, 1300, 1.1, 0.0), delimiter=", "
     )
     np.savetxt(
         root / "softneck" / "stair" / "fra200response.csv",
@@ -96,7 +97,12 @@ def test_quick_benchmark_on_written_data(data_dir, tmp_path):
     )
     table = report.table
     assert set(table["benchmark"]) == {"softneck", "cascaded_tanks"}
-    assert set(report.details["missing"]) == {"silverbox", "bouc_wen", "robot_arm"}
+    assert set(report.details["missing"]) == {
+        "silverbox",
+        "bouc_wen",
+        "robot_arm",
+        *CROSS_RUN_BENCHMARKS,  # the folder lacks their staircases
+    }
     assert set(table["method"]) == {"arx", "sm", "sm-parallel"}  # the registry's names
     neck = table[table["benchmark"] == "softneck"]
     # Two validation logs with a raw inclination (the 3-column log is left out), plus the mean.
@@ -126,11 +132,41 @@ def test_quick_benchmark_on_written_data(data_dir, tmp_path):
 
 
 def test_scheduled_runs_on_the_soft_neck_only(data_dir):
-    # The synthetic training log is 22.5 s long: its stairs at 0-20 and 20-22.5 s give two
-    # operating points, enough for the lines with converged_only=False.
+    # The synthetic training log is 32.5 s long: its stairs at 0-20 and 20-30 s give two
+    # operating points (30-32.5 s is under half a stair: left out), enough for the lines.
     report = run_benchmark(data_dir, methods="scheduled", quick=True)
     assert set(report.table["benchmark"]) == {"softneck"}
     assert report.table["settings"].str.contains("window=50").all()
+
+
+def test_cross_run_protocols_train_on_several_runs_with_the_payload(tmp_path):
+    """Both cross-run protocols on written staircases: one model per method over several runs."""
+    rng = np.random.default_rng(5)
+    stair = tmp_path / "softneck" / "stair"
+    stair.mkdir(parents=True)
+    for controller in ("ada", "fra", "int"):
+        for grams in ("000", "200", "400", "600"):
+            log = neck_log(rng, 600, 1.0 + int(grams) / 1000, 0.0)
+            np.savetxt(stair / f"{controller}{grams}response.csv", log, delimiter=", ")
+    report = run_benchmark(
+        tmp_path, methods=["arx", "sm-parallel"], benchmarks=sorted(CROSS_RUN_BENCHMARKS),
+        quick=True, errors="raise",
+    )  # fmt: skip
+    table = report.table
+    payload = table[table["benchmark"] == "softneck-payload"]
+    assert set(payload["test"]) == {
+        "stair/ada200response.csv",
+        "stair/ada400response.csv",
+        "stair/fra200response.csv",
+        "mean",
+    }  # quick: 3 test logs
+    controller = table[table["benchmark"] == "softneck-controller"]
+    assert set(controller["test"]) - {"mean"} <= {f"stair/int{g}response.csv" for g in
+                                                  ("000", "200", "400", "600")}  # fmt: skip
+    assert table["settings"].str.contains("conditions=['payload']", regex=False).all()
+    assert np.isfinite(table["fit_percent"]).all()
+    assert (table[table["method"] == "arx"]["fit_percent"] > 90).all()
+    assert "sm-parallel_minus_arx" in report.details["benchmarks"]["softneck-payload"]
 
 
 @pytest.mark.parametrize(("old", "new"), sorted(DEPRECATED_NAMES.items()))
@@ -178,7 +214,7 @@ def test_missing_data_dir(tmp_path):
 def test_benchmark_methods_are_registry_names():
     assert set(BENCHMARK_METHODS) <= set(methods())
     assert list(BENCHMARK_METHODS) == [m for m in methods() if m in BENCHMARK_METHODS]
-    assert set(LAG_GRIDS) == set(BENCHMARKS)
+    assert set(LAG_GRIDS) | CROSS_RUN_BENCHMARKS == set(BENCHMARKS)
 
 
 def test_candidates_are_made_by_the_registry(data_dir):
@@ -346,14 +382,19 @@ def test_scheduled_candidate_is_one_point_per_stair():
         if train.t0 + a < train.time[-1]
     ]
     points = operating_points_from_logs(
-        stairs, input="motor_velocity", output="inclination", skip=40, window=100
+        stairs,
+        input="motor_displacement",
+        output="inclination",
+        skip=40,
+        window=100,
+        form="position",
     ).table
     assert len(points) == len(model.inclinations_) == 8
     np.testing.assert_allclose(model.inclinations_, points["inclination"], rtol=1e-12)
     np.testing.assert_allclose(model.gains_, points["gain"], rtol=1e-12)
     np.testing.assert_allclose(model.poles_, points["pole"], rtol=1e-12)
     reference = GainScheduledModel.from_points(
-        points["inclination"], points["gain"], points["pole"], ts=train.ts
+        points["inclination"], points["gain"], points["pole"], ts=train.ts, form="position"
     )
     np.testing.assert_allclose(model.gain_coefficients_, reference.gain_coefficients_, rtol=1e-12)
     np.testing.assert_allclose(model.pole_coefficients_, reference.pole_coefficients_, rtol=1e-12)

@@ -7,8 +7,8 @@ import pytest
 
 from neckid import IOData, Lags, NotFittedError
 from neckid.models.base import _free_run
-from neckid.models.io import load_model
-from neckid.models.neural import NeuralNARX, forward_pass
+from neckid.models.io import load_model, write_model_file
+from neckid.models.neural import NeuralNARX, forward_pass, member_seeds
 
 
 def true_system(n: int, seed: int, noise: float = 0.02) -> IOData:
@@ -26,7 +26,9 @@ LAGS = Lags(outputs=[1], inputs=[1, 2])
 
 @pytest.fixture(scope="module")
 def fitted() -> NeuralNARX:
-    return NeuralNARX(LAGS, hidden_layer_sizes=(25, 25), random_state=0).fit(true_system(1500, 1))
+    return NeuralNARX(LAGS, hidden_layer_sizes=(25, 25), n_networks=3, random_state=0).fit(
+        true_system(1500, 1)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -54,8 +56,17 @@ def test_fast_free_run_equals_generic_loop(fitted: NeuralNARX, validation: IODat
 def test_numpy_forward_pass_equals_mlpregressor(fitted: NeuralNARX, validation: IOData) -> None:
     x, _ = LAGS.build(validation)
     xs = (x - fitted.x_mean_) / fitted.x_scale_
-    ours = forward_pass(xs, fitted.coefs_, fitted.intercepts_, fitted.activation)[:, 0]
-    np.testing.assert_allclose(ours, fitted.network_.predict(xs), rtol=1e-12, atol=1e-12)
+    assert len(fitted.networks_) == 3 and fitted.n_iter_.shape == (3,)
+    members = []
+    for m, network in enumerate(fitted.networks_):
+        coefs = [w[m] for w in fitted.coefs_]
+        intercepts = [b[m] for b in fitted.intercepts_]
+        ours = forward_pass(xs, coefs, intercepts, fitted.activation)[:, 0]
+        np.testing.assert_allclose(ours, network.predict(xs), rtol=1e-12, atol=1e-12)
+        members.append(ours)
+    # The model's one-step map is the mean of its networks, de-standardised.
+    expected = fitted.y_mean_[0] + fitted.y_scale_[0] * np.mean(members, axis=0)
+    np.testing.assert_allclose(fitted._predict_rows(x)[:, 0], expected, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.parametrize("activation", ["tanh", "relu", "logistic", "identity"])
@@ -85,10 +96,13 @@ def test_save_load_round_trip_identical(fitted: NeuralNARX, validation: IOData, 
     assert path.suffix == ".npz"
     with np.load(path, allow_pickle=False) as archive:  # plain arrays, no pickle
         assert {"coef_0", "coef_1", "coef_2", "x_mean", "y_scale"} <= set(archive.files)
+        assert archive["coef_1"].shape == (3, 25, 25) and archive["intercept_2"].shape == (3, 1)
     loaded = NeuralNARX.load(path)
     assert isinstance(load_model(path), NeuralNARX)
-    assert not hasattr(loaded, "network_")
+    assert not hasattr(loaded, "networks_")
     assert loaded.get_params()["hidden_layer_sizes"] == (25, 25)
+    assert loaded.n_networks == 3
+    np.testing.assert_array_equal(loaded.n_iter_, fitted.n_iter_)
     assert loaded.lags_.names == fitted.lags_.names == ("y(t-1)", "u(t-1)", "u(t-2)")
     np.testing.assert_array_equal(loaded.predict(validation).y, fitted.predict(validation).y)
     np.testing.assert_array_equal(loaded.simulate(validation).y, fitted.simulate(validation).y)
@@ -98,7 +112,12 @@ def test_save_load_round_trip_identical(fitted: NeuralNARX, validation: IOData, 
 def test_simulation_tuning_keeps_best_free_run_candidate() -> None:
     data = true_system(800, 3)
     model = NeuralNARX(
-        LAGS, hidden_layer_sizes=(8,), simulation_tuning=2, random_state=1, max_iter=200
+        LAGS,
+        hidden_layer_sizes=(8,),
+        simulation_tuning=2,
+        n_networks=2,
+        random_state=1,
+        max_iter=200,
     ).fit(data)
     assert model.simulation_fits_.shape == (3,)
     # The kept network is the best candidate: re-score it on the same held-out end.
@@ -120,7 +139,9 @@ def test_multi_output_and_multi_experiment_fit() -> None:
             y[t, 0] = 0.5 * y[t - 1, 0] + np.tanh(u[t - 1, 0])
             y[t, 1] = 0.3 * y[t - 1, 1] + 0.5 * u[t - 1, 1] * u[t - 1, 0]
         records.append(IOData(u, y, ts=0.1))
-    model = NeuralNARX(Lags(outputs=1, inputs=1), hidden_layer_sizes=(10,), random_state=0)
+    model = NeuralNARX(
+        Lags(outputs=1, inputs=1), hidden_layer_sizes=(10,), n_networks=2, random_state=0
+    )
     model.fit(records)
     result = model.simulate(records[0])
     assert result.y.shape == (300, 2)
@@ -172,6 +193,8 @@ def test_init_stores_parameters_unchanged() -> None:
             ValueError,
             r"simulation_tuning must be a whole number >= 0; got -1",
         ),
+        ({"n_networks": 0}, ValueError, r"n_networks must be a whole number >= 1; got 0"),
+        ({"n_networks": 2.5}, ValueError, r"n_networks must be a whole number >= 1; got 2.5"),
         ({"lags": None}, ValueError, r"needs lags=Lags\(\.\.\.\); got None"),
         ({"lags": 3}, TypeError, r"lags must be None or a neckid.Lags; got 3"),
     ],
@@ -197,3 +220,90 @@ def test_wrong_channels_refused(fitted: NeuralNARX) -> None:
     other = IOData(np.zeros(20), np.zeros(20), ts=0.02, input_names=["cmd"], output_names=["y"])
     with pytest.raises(ValueError, match=r"data has inputs \['cmd'\], but the model was fitted on"):
         fitted.simulate(other)
+
+
+# ---------------------------------------------------------------------- the ensemble
+SMALL = {"hidden_layer_sizes": (8,), "max_iter": 150, "learning_rate_init": 3e-3}
+
+
+@pytest.fixture(scope="module")
+def small_data() -> IOData:
+    return true_system(500, 6)
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_ensemble_is_the_mean_of_single_networks_of_its_seeds(small_data: IOData) -> None:
+    ensemble = NeuralNARX(LAGS, n_networks=3, random_state=4, **SMALL).fit(small_data)
+    singles = [
+        NeuralNARX(LAGS, n_networks=1, random_state=seed, **SMALL).fit(small_data)
+        for seed in member_seeds(4, 3)
+    ]
+    # Every network of the ensemble is the single network its seed gives ...
+    for m, single in enumerate(singles):
+        for stacked, own in zip(ensemble.coefs_, single.coefs_, strict=True):
+            np.testing.assert_array_equal(stacked[m], own[0])
+    # ... and the ensemble predicts their mean, one step ahead.
+    mean = np.mean([s.predict(small_data).y for s in singles], axis=0)
+    np.testing.assert_allclose(ensemble.predict(small_data).y, mean, rtol=1e-12, atol=1e-12)
+    # A free run feeds back the mean: the batched loop equals the generic one and the simulator.
+    fast = ensemble.simulate(small_data).y
+    generic = _free_run(ensemble.lags_, ensemble._predict_rows, small_data.u, small_data.y)
+    np.testing.assert_allclose(fast, generic, rtol=1e-12, atol=1e-12)
+    simulator = ensemble.simulator()
+    simulator.reset(y0=small_data.y[:2], u0=small_data.u[:2])
+    stepped = np.array([simulator.step(small_data.u[t]) for t in range(2, 80)])
+    np.testing.assert_allclose(stepped, fast[2:80], rtol=1e-12)
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_one_network_is_the_mlpregressor_of_random_state(small_data: IOData) -> None:
+    from sklearn.neural_network import MLPRegressor
+
+    model = NeuralNARX(LAGS, n_networks=1, random_state=9, **SMALL).fit(small_data)
+    x, y = LAGS.build(small_data)
+    reference = MLPRegressor(
+        hidden_layer_sizes=(8,), activation="tanh", max_iter=150, learning_rate_init=3e-3, tol=1e-5,
+        n_iter_no_change=20, early_stopping=True, validation_fraction=0.15, random_state=9,
+    ).fit((x - x.mean(axis=0)) / x.std(axis=0), ((y - y.mean()) / y.std())[:, 0])  # fmt: skip
+    for ours, theirs in zip(model.coefs_, reference.coefs_, strict=True):
+        np.testing.assert_array_equal(ours[0], theirs)
+
+
+def test_member_seeds() -> None:
+    assert member_seeds(None, 3) == [None, None, None]
+    assert member_seeds(5, 1) == [5]
+    a, b = member_seeds(np.random.RandomState(1), 3), member_seeds(np.random.RandomState(1), 3)
+    assert a[1:] == b[1:] and len(set(a[1:])) == 2
+    assert all(0 <= s < 2**32 for s in member_seeds(2**31, 4)[1:])
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_file_of_a_single_network_before_n_networks_loads(small_data: IOData, tmp_path) -> None:
+    model = NeuralNARX(LAGS, n_networks=1, random_state=2, **SMALL).fit(small_data)
+    arrays, meta = model._get_state()
+    # The layout written before ensembles: one network's 2-D weights and 1-D biases, no
+    # "n_networks" among the parameters, "n_iter" a number.
+    old = {k: (v[0] if k.startswith(("coef_", "intercept_")) else v) for k, v in arrays.items()}
+    assert old["coef_0"].shape == (3, 8) and old["intercept_0"].shape == (8,)
+    del meta["params"]["n_networks"]
+    meta["n_iter"] = int(model.n_iter_[0])
+    path = write_model_file(tmp_path / "old.npz", "NeuralNARX", old, meta)
+    loaded = load_model(path)
+    assert loaded.n_networks == 1 and loaded.coefs_[0].shape == (1, 3, 8)
+    np.testing.assert_array_equal(loaded.n_iter_, model.n_iter_)
+    np.testing.assert_array_equal(loaded.simulate(small_data).y, model.simulate(small_data).y)
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_load_refuses_networks_that_do_not_match_n_networks(small_data: IOData, tmp_path) -> None:
+    model = NeuralNARX(LAGS, n_networks=2, random_state=2, **SMALL).fit(small_data)
+    arrays, meta = model._get_state()
+    meta["params"]["n_networks"] = 3
+    path = write_model_file(tmp_path / "bad.npz", "NeuralNARX", arrays, meta)
+    with pytest.raises(ValueError, match=r"invalid NeuralNARX file: n_iter must have shape \(3,\)"):
+        load_model(path)
+    meta["params"]["n_networks"] = 2
+    arrays["coef_1"] = arrays["coef_1"][:1]
+    path = write_model_file(tmp_path / "bad2.npz", "NeuralNARX", arrays, meta)
+    with pytest.raises(ValueError, match=r"coef_1 must have shape \(2, 8, 1\)"):
+        load_model(path)

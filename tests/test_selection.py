@@ -2,18 +2,23 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
 
 from neckid import IOData, Lags, LinearARX
+from neckid.experiments.benchmark.runner import _select
+from neckid.metrics import fit_percent
 from neckid.models.neural import NeuralNARX
 from neckid.report.selection_plots import plot_lipschitz_index
 from neckid.selection import (
     LagSelection,
     lag_grid,
     lipschitz_quotients,
+    score_candidates,
     select_lags,
 )
 
@@ -191,6 +196,177 @@ def test_select_lags_refuses_mismatched_channels() -> None:
 def test_best_tolerance_validated(selection: LagSelection) -> None:
     with pytest.raises(ValueError, match="tolerance must be a finite number >= 0; got -1"):
         selection.best(tolerance=-1)
+
+
+def test_validation_scheme_is_named_and_worst_equals_mean(selection: LagSelection) -> None:
+    table = selection.table
+    assert selection.scheme == "validation" == table.attrs["scheme"]
+    assert (table["scheme"] == "validation").all() and (table["n_folds"] == 1).all()
+    for kind in ("prediction", "simulation"):
+        np.testing.assert_array_equal(table[f"fit_{kind}_worst"], table[f"fit_{kind}"])
+
+
+# ---------------------------------------------------------------------- grouped selection
+def three_runs() -> list[IOData]:
+    """Three experiments of the same ARX system, of different lengths, inputs and gains."""
+    runs = []
+    for seed, (n, gain) in enumerate([(400, 1.0), (500, 0.6), (350, 1.5)]):
+        run = arx_system(n, 10 + seed)
+        runs.append(IOData(gain * run.u, gain * run.y, ts=run.ts, input_names=["cmd"],
+                           output_names=["incl"], name=f"run{seed}"))  # fmt: skip
+    return runs
+
+
+def test_leave_one_experiment_out_equals_hand_computed_average() -> None:
+    runs = three_runs()
+    grid = [TRUE_LAGS, Lags.arx(1, 1, 1), Lags.arx(2, 1, 3)]
+    result = select_lags(runs, None, grid, LinearARX(), n_jobs=2, progress=False)
+    assert result.scheme == "leave-one-experiment-out"
+    table = result.table.set_index("candidate")
+    assert (table["scheme"] == "leave-one-experiment-out").all() and (table["n_folds"] == 3).all()
+    assert result.table.attrs["folds"] == [["run0"], ["run1"], ["run2"]]
+    for i, lags in enumerate(grid):
+        fits: dict[str, list[float]] = {"prediction": [], "simulation": []}
+        for held in range(3):
+            model = LinearARX(lags).fit([r for j, r in enumerate(runs) if j != held])
+            record = runs[held]
+            for kind, result_ in (
+                ("prediction", model.predict(record)),
+                ("simulation", model.simulate(record)),
+            ):
+                fits[kind].append(fit_percent(record.y, result_.y, skip=lags.max_lag)[0])
+        for kind, values in fits.items():
+            assert table.loc[i, f"fit_{kind}"] == pytest.approx(np.mean(values), rel=1e-12)
+            assert table.loc[i, f"fit_{kind}_worst"] == pytest.approx(min(values), rel=1e-12)
+            assert table.loc[i, f"fit_{kind}[incl]"] == pytest.approx(np.mean(values), rel=1e-12)
+    assert result.best(tolerance=0.05) == TRUE_LAGS
+
+
+@pytest.mark.filterwarnings("ignore::neckid.models.base.ExtrapolationWarning")
+def test_grouped_k_fold_holds_out_every_kth_experiment() -> None:
+    runs = three_runs()
+    lags = Lags.arx(1, 1, 1)
+    options = [("arx", LinearARX(lags))]
+    table = score_candidates(options, runs, criteria=["simulation"], folds=2)
+    assert table.attrs["folds"] == [["run0", "run2"], ["run1"]]
+    assert table["scheme"].iloc[0] == "grouped-k-fold" and table["n_folds"].iloc[0] == 2
+    # Fold 0 fits on run1 and scores run0 and run2 (mean of the two); fold 1 the other way.
+    first = LinearARX(lags).fit(runs[1])
+    fold0 = np.mean([first.fit_percent(runs[0])[0], first.fit_percent(runs[2])[0]])
+    fold1 = LinearARX(lags).fit([runs[0], runs[2]]).fit_percent(runs[1])[0]
+    assert table["fit_simulation"].iloc[0] == pytest.approx((fold0 + fold1) / 2, rel=1e-12)
+    assert table["fit_simulation_worst"].iloc[0] == pytest.approx(min(fold0, fold1), rel=1e-12)
+    assert table["rmse_simulation_worst"].iloc[0] >= table["rmse_simulation"].iloc[0]
+
+
+def encoder_run(n: int, seed: int, encoder_zero: float) -> IOData:
+    """A neck whose inclination follows the motor *displacement*; the log has the absolute position.
+
+    ``y(t) = 0.8 y(t-1) + 0.5 d(t-1)`` with ``d = position - encoder_zero``: the encoder zero
+    differs between runs (as the soft neck's does), and ``velocity(t) = position(t) -
+    position(t-1)``. A model on the absolute position needs an intercept that holds for one run
+    only; ``y(t) = 1.8 y(t-1) - 0.8 y(t-2) + 0.5 velocity(t-1)`` holds for every run.
+    """
+    rng = np.random.default_rng(seed)
+    displacement = np.repeat(rng.uniform(0.0, 3.0, size=n // 40 + 1), 40)[:n]
+    displacement[:40] = 0.0
+    position = encoder_zero + displacement
+    velocity = np.diff(position, prepend=position[0])
+    y = np.zeros(n)
+    for t in range(1, n):
+        y[t] = 0.8 * y[t - 1] + 0.5 * displacement[t - 1]
+    u = np.column_stack([position, velocity])
+    return IOData(u, y, ts=0.025, input_names=["position", "velocity"], output_names=["incl"])
+
+
+ON_POSITION = Lags(outputs=[1], inputs={"position": [1]})
+ON_VELOCITY = Lags(outputs=[1, 2], inputs={"velocity": [1]})
+
+
+def test_grouped_selection_picks_what_carries_over_to_other_runs() -> None:
+    runs = [encoder_run(600, seed, zero) for seed, zero in enumerate([0.0, 2.0, 4.0])]
+    grid = [ON_POSITION, ON_VELOCITY]
+    # The tail of one run cannot tell the two apart: both fit it exactly, and the parsimonious
+    # choice is the absolute position, whose intercept holds for that run only.
+    single = select_lags(runs[0][:450], runs[0][450:], grid, LinearARX(), progress=False)
+    assert (single.table["fit_simulation"] > 99.9).all()
+    assert single.best(tolerance=0.5) == ON_POSITION
+    grouped = select_lags(runs, None, grid, LinearARX(), progress=False)
+    table = grouped.table.set_index("lags")
+    assert table.loc[repr(ON_VELOCITY), "fit_simulation_worst"] > 99.0
+    assert table.loc[repr(ON_POSITION), "fit_simulation"] < 90.0
+    assert (
+        table.loc[repr(ON_POSITION), "fit_simulation_worst"]
+        < table.loc[repr(ON_POSITION), "fit_simulation"]
+    )
+    assert grouped.best(tolerance=0.5) == ON_VELOCITY
+
+
+def test_a_failing_fold_fails_the_candidate() -> None:
+    runs = three_runs()
+    runs[1] = runs[1][:60]  # too short for a lag of 80, to fit on or to score
+    too_long = Lags(outputs=[1], inputs=[80])
+    result = select_lags(runs, None, [too_long, TRUE_LAGS], LinearARX(), progress=False)
+    row = result.table.set_index("lags").loc[repr(too_long)]
+    assert row["fit_simulation"] == -np.inf and row["fit_simulation_worst"] == -np.inf
+    errors = row["error"].split("; ")
+    assert [e[:8] for e in errors] == ["fold 0: ", "fold 1: ", "fold 2: "]
+    assert all("run1 has 60 samples, too few for lags up to 80" in e for e in errors)
+    assert result.best_lags == TRUE_LAGS
+
+
+def test_score_candidates_and_select_lags_agree_on_grouped_scores() -> None:
+    runs = three_runs()
+    grid = [TRUE_LAGS, Lags.arx(1, 1, 1)]
+    selection = select_lags(runs, None, grid, LinearARX(), folds=3, progress=False)
+    scores = score_candidates([(repr(g), LinearARX(g)) for g in grid], runs, n_jobs=2)
+    by_candidate = selection.table.set_index("candidate").sort_index()
+    for column in ("fit_simulation", "fit_simulation_worst", "fit_prediction_worst"):
+        np.testing.assert_array_equal(by_candidate[column], scores[column])
+    assert list(scores["scheme"]) == ["leave-one-experiment-out"] * 2
+
+
+@pytest.mark.parametrize(
+    ("train", "kwargs", "error", "match"),
+    [
+        (1, {}, ValueError, r"validation is None.* at least 2 experiments; got 1"),
+        ("one", {}, ValueError, r"validation is None.* at least 2 experiments; got 1"),
+        (3, {"folds": 1}, ValueError, r"folds must be in \[2, 3\] .*; got 1"),
+        (3, {"folds": 4}, ValueError, r"folds must be in \[2, 3\] .*; got 4"),
+        (3, {"folds": 2.0}, TypeError, r"folds must be an int or None; got 2.0"),
+        (3, {"folds": 2, "validation": "given"}, ValueError, r"folds applies only when"),
+        (3, {"candidates": None}, TypeError, r"select_lags needs candidates=; got None"),
+        (3, {"estimator": None}, TypeError, r"select_lags needs estimator=; got None"),
+    ],
+)
+def test_grouped_selection_bad_input(train: Any, kwargs: dict, error: type, match: str) -> None:
+    runs = three_runs()
+    arguments = {
+        "train": runs[0] if train == "one" else runs[:train],
+        "validation": None,
+        "candidates": [Lags.arx(1, 1, 1)],
+        "estimator": LinearARX(),
+        "progress": False,
+        **kwargs,
+    }
+    if arguments["validation"] == "given":
+        arguments["validation"] = runs[0]
+    with pytest.raises(error, match=match):
+        select_lags(**arguments)
+
+
+# ---------------------------------------------------------------------- the benchmark's selection
+def test_benchmark_selects_on_held_out_experiments_given_a_list() -> None:
+    runs = [encoder_run(600, seed, zero) for seed, zero in enumerate([0.0, 2.0, 4.0])]
+    options = [("position", LinearARX(ON_POSITION)), ("velocity", LinearARX(ON_VELOCITY))]
+    (chosen, _), scores = _select(options, runs, None)
+    assert chosen == "velocity"
+    assert [s["scheme"] for s in scores] == ["leave-one-experiment-out"] * 2
+    assert scores[0]["worst_fold_rmse"] >= scores[0]["holdout_rmse"] > scores[1]["holdout_rmse"]
+    # One record (or a list of one): the held-out end of it, as before; no scheme key.
+    for train in (runs[0], runs[:1]):
+        _, single = _select(options, train, None)
+        assert "scheme" not in single[0] and set(single[0]) >= {"settings", "holdout_rmse"}
 
 
 # ---------------------------------------------------------------------- Lipschitz index

@@ -4,9 +4,11 @@ Two complementary tools:
 
 - :func:`select_lags` trains a copy of any estimator (NeuralNARX, SetMembership, LinearARX, ...)
   on every candidate lag set and ranks them by one-step or free-run fit on a validation record, as
-  the seed paper chose its network's regressor. The scoring itself is :func:`score_candidates`
-  (any list of named estimators, also what the benchmark ranks its candidates with), and a free
-  run with a protocol's initial samples is :func:`free_run`.
+  the seed paper chose its network's regressor, or, given a list of experiments and no validation
+  record, by how well a model fitted on the other experiments fits each held-out one
+  (leave-one-experiment-out, or k folds of experiments). The scoring itself is
+  :func:`score_candidates` (any list of named estimators, also what the benchmark ranks its
+  candidates with), and a free run with a protocol's initial samples is :func:`free_run`.
 - :func:`lipschitz_quotients` computes He & Asada's order index from the data alone, no model
   needed; :func:`neckid.report.selection_plots.plot_lipschitz_index` draws it against the
   order.
@@ -45,6 +47,8 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 Criterion = Literal["prediction", "simulation"]
+#: How candidates were scored: on the validation records given, or on held-out experiments.
+Scheme = Literal["validation", "leave-one-experiment-out", "grouped-k-fold"]
 
 
 # ---------------------------------------------------------------------- candidates
@@ -123,18 +127,24 @@ class LagSelection:
     table : pandas.DataFrame
         One row per candidate, best first. Columns: ``candidate`` (position in the list given),
         ``lags`` (repr), ``n_terms``, ``max_lag``, ``fit_prediction`` and ``fit_simulation`` (mean
-        NRMSE fit in % over outputs and validation records; ``-inf`` for a failed candidate),
-        ``fit_prediction[<output>]`` / ``fit_simulation[<output>]`` per output, ``fit_time_s``
-        (seconds to train) and ``error`` (empty, or the error of a failed candidate).
+        NRMSE fit in % over outputs and validation records, then over folds; ``-inf`` for a
+        failed candidate), ``fit_prediction_worst`` and ``fit_simulation_worst`` (the fit of the
+        worst fold), ``fit_prediction[<output>]`` / ``fit_simulation[<output>]`` per output (mean
+        over folds), ``fit_time_s`` (seconds to train, summed over folds), ``scheme``,
+        ``n_folds`` and ``error`` (empty, or the error of a failed candidate).
     candidates : tuple of Lags
         The candidates, in the order given (``table.candidate`` indexes into it).
     criterion : {"prediction", "simulation"}
         The column the table is sorted by (``fit_<criterion>``).
+    scheme : {"validation", "leave-one-experiment-out", "grouped-k-fold"}, default "validation"
+        How the fits were measured (see :func:`score_candidates`); with ``"validation"`` there
+        is one fold, so the worst-fold fit equals the mean.
     """
 
     table: pd.DataFrame
     candidates: tuple[Lags, ...]
     criterion: Criterion
+    scheme: Scheme = "validation"
     column: str = field(init=False)
 
     def __post_init__(self) -> None:
@@ -297,31 +307,114 @@ def _fit_and_score(
     return row
 
 
+def _experiment_folds(n: int, folds: int | None) -> tuple[list[list[int]], Scheme]:
+    """The held-out experiments of every fold: experiment ``i`` is held out in fold ``i mod k``."""
+    if n < 2:
+        raise ValueError(
+            "validation is None, so the candidates are scored on held-out experiments"
+            " (leave-one-experiment-out), which needs train to be a list of at least 2"
+            f" experiments; got {n}. Give validation records, or train as a list of experiments"
+        )
+    if folds is None:
+        k = n
+    elif isinstance(folds, bool) or not isinstance(folds, int | np.integer):
+        raise TypeError(f"folds must be an int or None; got {folds!r}")
+    elif not 2 <= folds <= n:
+        raise ValueError(
+            f"folds must be in [2, {n}] (the number of experiments in train), or None for"
+            f" leave-one-experiment-out; got {folds}"
+        )
+    else:
+        k = int(folds)
+    held_out = [list(range(j, n, k)) for j in range(k)]
+    return held_out, "leave-one-experiment-out" if k == n else "grouped-k-fold"
+
+
+def _splits(
+    train: list[IOData], validation: IOData | Sequence[IOData] | None, folds: int | None
+) -> tuple[list[tuple[list[IOData], list[IOData]]], list[list[str]], Scheme]:
+    """``(fit on, score on)`` per fold, the names of the records scored per fold, the scheme."""
+    if validation is None:
+        held_out, scheme = _experiment_folds(len(train), folds)
+        splits = [
+            ([d for i, d in enumerate(train) if i not in fold], [train[i] for i in fold])
+            for fold in held_out
+        ]
+        return splits, [[train[i].name or f"train[{i}]" for i in f] for f in held_out], scheme
+    if folds is not None:
+        raise ValueError(
+            f"folds applies only when validation is None; got folds={folds!r} and validation"
+            " records: drop one of them"
+        )
+    records = as_experiments(validation, "validation")
+    as_experiments([train[0], records[0]], "[train[0], validation[0]]")
+    names = [d.name or f"validation[{i}]" for i, d in enumerate(records)]
+    return [(train, records)], [names], "validation"
+
+
+def _combine_folds(
+    folds: list[dict[str, Any]], kinds: Sequence[Criterion], output_names: Sequence[str]
+) -> dict[str, Any]:
+    """One candidate's row from its rows per fold: the mean and the worst fold of every score."""
+    row: dict[str, Any] = {
+        "name": folds[0]["name"],
+        "fit_time_s": float(sum(f.get("fit_time_s", np.nan) for f in folds)),
+    }
+    for kind in kinds:
+        for label, missing, worst in (("fit", -np.inf, np.min), ("rmse", np.inf, np.max)):
+            for name in (f"{label}_{kind}", *(f"{label}_{kind}[{n}]" for n in output_names)):
+                values = np.array([f.get(name, missing) for f in folds], dtype=np.float64)
+                row[name] = float(np.mean(values))
+                if name == f"{label}_{kind}":
+                    row[f"{name}_worst"] = float(worst(values))
+    errors = [(j, f["error"]) for j, f in enumerate(folds) if f.get("error")]
+    if errors:
+        row["error"] = (
+            errors[0][1] if len(folds) == 1 else "; ".join(f"fold {j}: {e}" for j, e in errors)
+        )
+    return row
+
+
 def score_candidates(
     candidates: Sequence[tuple[str, Any]],
     train: IOData | Sequence[IOData],
-    validation: IOData | Sequence[IOData],
+    validation: IOData | Sequence[IOData] | None = None,
     *,
     criteria: Sequence[Criterion] = ("prediction", "simulation"),
     n_initial: int | None = None,
     n_jobs: int | None = None,
     progress: bool = False,
+    folds: int | None = None,
 ) -> pd.DataFrame:
-    """Fit a copy of every candidate estimator on ``train`` and score it on ``validation``.
+    """Fit a copy of every candidate estimator and score it on held-out records.
 
     Each estimator is copied with ``sklearn.base.clone`` (the ones given are not changed), fitted
-    on ``train`` and scored on every validation record, per criterion: one-step-ahead prediction
-    (``"prediction"``) and free-run simulation (``"simulation"``, :func:`free_run`), by the NRMSE
-    fit ``100 (1 − ||y − ŷ|| / ||y − mean(y)||)`` and the RMSE, each per output, skipping
-    ``n_initial`` or the candidate's ``max_lag_`` initial samples, averaged over the validation
-    records (and, for the overall columns, over the outputs).
+    and scored on held-out records, per criterion: one-step-ahead prediction (``"prediction"``)
+    and free-run simulation (``"simulation"``, :func:`free_run`), by the NRMSE fit
+    ``100 (1 − ||y − ŷ|| / ||y − mean(y)||)`` and the RMSE, each per output, skipping
+    ``n_initial`` or the candidate's ``max_lag_`` initial samples, averaged over the held-out
+    records of a fold (and, for the overall columns, over the outputs), then over the folds.
+
+    Two schemes:
+
+    - ``validation`` given (``scheme == "validation"``): one fold, fitted on ``train`` and scored
+      on ``validation``.
+    - ``validation`` is None and ``train`` a list of ``n >= 2`` experiments: fold ``j`` of ``k``
+      holds out the experiments ``i`` with ``i mod k == j`` and fits on the others. ``k = n``
+      by default (``"leave-one-experiment-out"``), ``folds=k`` otherwise (``"grouped-k-fold"``).
+      A model is scored on whole experiments it has not seen, so the score says how a setting
+      carries over to another run (payload, controller, tendon slack), which the tail of one
+      record does not.
 
     Parameters
     ----------
     candidates : sequence of (str, estimator)
         A name for the table and an unfitted estimator, per candidate.
-    train, validation : IOData or list of IOData
-        Training and validation records, with the same channels.
+    train : IOData or list of IOData
+        Training records (with ``validation=None``, the experiments the folds are made of).
+    validation : IOData, list of IOData or None, default None
+        Validation records, with the channels of ``train``; ``None`` scores on held-out
+        experiments of ``train``.
     criteria : sequence of {"prediction", "simulation"}, default both
         What to score, in this order (prediction first: an unstable model keeps its one-step
         scores).
@@ -329,31 +422,41 @@ def score_candidates(
         Initial samples of the validation protocol (see :func:`free_run`); default the
         candidate's own ``max_lag_``.
     n_jobs : int or None, default None
-        Parallel workers (joblib); ``None`` means 1 unless inside a ``joblib.parallel_config``
-        context, -1 means all cores.
+        Parallel workers (joblib) over candidates and folds; ``None`` means 1 unless inside a
+        ``joblib.parallel_config`` context, -1 means all cores.
     progress : bool, default False
         Show a rich progress bar (on standard error).
+    folds : int or None, default None
+        With ``validation=None``: the number of folds ``k`` in ``[2, n]``; ``None`` is one fold
+        per experiment. Must be None when ``validation`` is given.
 
     Returns
     -------
     pandas.DataFrame
         One row per candidate, in the order given: ``candidate`` (position), ``name``, then per
-        criterion ``fit_<kind>``, ``rmse_<kind>``, ``fit_<kind>[<output>]``,
-        ``rmse_<kind>[<output>]``, and ``fit_time_s`` (seconds to train) and ``error`` (empty, or
-        the error of a failed candidate). A candidate that fails (a training error, a free run
-        that diverges) has fit ``-inf`` and RMSE ``inf`` for every score not computed.
+        criterion ``fit_<kind>``, ``fit_<kind>_worst`` (the worst fold's fit), ``rmse_<kind>``,
+        ``rmse_<kind>_worst`` (the worst fold's RMSE), ``fit_<kind>[<output>]``,
+        ``rmse_<kind>[<output>]`` (means over folds), and ``fit_time_s`` (seconds to train,
+        summed over folds), ``scheme``, ``n_folds`` and ``error`` (empty, or the error of a
+        failed candidate, per fold). A candidate that fails in a fold (a training error, a free
+        run that diverges) has fit ``-inf`` and RMSE ``inf`` for every score not computed there,
+        so its mean and worst fold are ``-inf`` / ``inf`` too. ``table.attrs["folds"]`` lists
+        the names (or positions) of the held-out experiments per fold.
 
     Raises
     ------
     TypeError
-        If a candidate is not a ``(name, estimator)`` pair.
+        If a candidate is not a ``(name, estimator)`` pair, or ``folds`` is not an int.
     ValueError
-        If a criterion is unknown, ``n_initial`` is negative, or the records do not share
-        channels.
+        If a criterion is unknown, ``n_initial`` is negative, the records do not share
+        channels, ``validation`` is None and ``train`` holds fewer than 2 experiments, or
+        ``folds`` is out of range or given with ``validation``.
 
     Notes
     -----
-    Warnings raised while fitting (e.g. convergence warnings) are silenced.
+    Warnings raised while fitting (e.g. convergence warnings) are silenced. The folds are
+    deterministic (no shuffling): order the experiments so that every fold mixes the conditions
+    you care about, or use leave-one-experiment-out.
 
     Examples
     --------
@@ -369,6 +472,10 @@ def score_candidates(
     >>> table = score_candidates(options, data[:300], data[300:], criteria=["simulation"])
     >>> table["name"][table["rmse_simulation"].idxmin()]
     'delay 2'
+    >>> runs = [data[:130], data[130:260], data[260:]]
+    >>> grouped = score_candidates(options, runs, criteria=["simulation"])
+    >>> grouped["scheme"][0], int(grouped["n_folds"][0])
+    ('leave-one-experiment-out', 3)
     """
     kinds = list(criteria)
     if not kinds or any(k not in ("prediction", "simulation") for k in kinds):
@@ -382,15 +489,14 @@ def score_candidates(
         if not (isinstance(option, tuple) and len(option) == 2 and isinstance(option[0], str)):
             raise TypeError(f"candidates[{i}] must be a (name, estimator) pair; got {option!r}")
     train_list = as_experiments(train, "train")
-    validation_list = as_experiments(validation, "validation")
-    as_experiments([train_list[0], validation_list[0]], "[train[0], validation[0]]")
-
+    splits, names, scheme = _splits(train_list, validation, folds)
     jobs = (
-        delayed(_fit_and_score)(name, estimator, train_list, validation_list, kinds, n_initial)
+        delayed(_fit_and_score)(name, estimator, fit_part, held_out, kinds, n_initial)
         for name, estimator in options
+        for fit_part, held_out in splits
     )
     runner = Parallel(n_jobs=n_jobs, return_as="generator")
-    rows: list[dict[str, Any]] = []
+    fold_rows: list[dict[str, Any]] = []
     if progress:
         from rich.console import Console
         from rich.progress import (
@@ -411,53 +517,64 @@ def score_candidates(
             console=Console(stderr=True),
             transient=True,
         ) as bar:
-            task = bar.add_task("candidates", total=len(options))
+            task = bar.add_task("fits", total=len(options) * len(splits))
             for row in runner(jobs):
-                rows.append(row)
+                fold_rows.append(row)
                 bar.advance(task)
     else:
-        rows = list(runner(jobs))
+        fold_rows = list(runner(jobs))
 
-    output_names = validation_list[0].output_names
+    output_names = train_list[0].output_names
+    n_folds = len(splits)
+    rows = [
+        _combine_folds(fold_rows[i * n_folds : (i + 1) * n_folds], kinds, output_names)
+        for i in range(len(options))
+    ]
     columns = ["candidate", "name"]
     for kind in kinds:
-        columns += [f"fit_{kind}", f"rmse_{kind}"]
+        columns += [f"fit_{kind}", f"fit_{kind}_worst", f"rmse_{kind}", f"rmse_{kind}_worst"]
         columns += [f"{label}_{kind}[{n}]" for label in ("fit", "rmse") for n in output_names]
-    columns += ["fit_time_s", "error"]
+    columns += ["fit_time_s", "scheme", "n_folds", "error"]
     for i, row in enumerate(rows):
-        row["candidate"] = i
+        row.update(candidate=i, scheme=scheme, n_folds=n_folds)
         row.setdefault("error", "")
-        row.setdefault("fit_time_s", np.nan)
-        for name in columns:
-            if name.startswith(("fit_", "rmse_")) and name != "fit_time_s":
-                row.setdefault(name, -np.inf if name.startswith("fit_") else np.inf)
-    return pd.DataFrame(rows, columns=columns)
+    table = pd.DataFrame(rows, columns=columns)
+    table.attrs["scheme"] = scheme
+    table.attrs["folds"] = names
+    return table
 
 
 def select_lags(
     train: IOData | Sequence[IOData],
-    validation: IOData | Sequence[IOData],
-    candidates: Sequence[Lags],
-    estimator: Any,
+    validation: IOData | Sequence[IOData] | None = None,
+    candidates: Sequence[Lags] | Lags | None = None,
+    estimator: Any = None,
     criterion: Criterion = "simulation",
     n_jobs: int | None = None,
     progress: bool = True,
+    *,
+    folds: int | None = None,
 ) -> LagSelection:
-    """Train a copy of ``estimator`` on every candidate lag set and rank them on validation data.
+    """Train a copy of ``estimator`` on every candidate lag set and rank them on held-out data.
 
-    For each candidate, ``sklearn.base.clone(estimator).set_params(lags=candidate)`` is fitted on
-    ``train``; its one-step-ahead prediction and free-run simulation on ``validation`` are scored by
-    the NRMSE fit ``100 (1 - ||y - ŷ|| / ||y - mean(y)||)`` per output (skipping the candidate's
-    ``max_lag`` initial samples), averaged over validation records and then over outputs.
+    For each candidate, ``sklearn.base.clone(estimator).set_params(lags=candidate)`` is fitted and
+    its one-step-ahead prediction and free-run simulation on held-out records are scored by the
+    NRMSE fit ``100 (1 - ||y - ŷ|| / ||y - mean(y)||)`` per output (skipping the candidate's
+    ``max_lag`` initial samples), averaged over the held-out records and outputs, then over the
+    folds (:func:`score_candidates`). The held-out records are ``validation`` when it is given
+    (fitted on ``train``); with ``validation=None`` and a list of experiments as ``train``, every
+    experiment is held out once and the model fitted on the others (leave-one-experiment-out),
+    or ``folds=k`` groups of experiments are.
 
     Parameters
     ----------
     train : IOData or list of IOData
-        Training records.
-    validation : IOData or list of IOData
-        Validation records, with the channels of ``train``.
+        Training records; with ``validation=None``, at least 2 experiments.
+    validation : IOData, list of IOData or None, default None
+        Validation records, with the channels of ``train``. ``None`` scores on held-out
+        experiments of ``train``, which says how a lag set carries over to another run.
     candidates : sequence of Lags
-        Lag sets to try, e.g. from :func:`lag_grid`.
+        Lag sets to try, e.g. from :func:`lag_grid` (required).
     estimator : estimator with a ``lags`` parameter, or str
         A NARX model (``NeuralNARX``, ``SetMembership``, ``LinearARX``, ...); not changed. A
         registry name (``"nn"``, ``"sm-linear"``, see :func:`neckid.methods`) stands for that
@@ -470,19 +587,25 @@ def select_lags(
         context, -1 means all cores.
     progress : bool, default True
         Show a rich progress bar (on standard error).
+    folds : int or None, default None
+        With ``validation=None``: group the experiments into ``k`` folds (experiment ``i`` in
+        fold ``i mod k``); ``None`` is leave-one-experiment-out.
 
     Returns
     -------
     LagSelection
-        ``result.table`` (DataFrame, best first), ``result.best_lags``, ``result.best(tolerance)``.
+        ``result.table`` (DataFrame, best first, with mean and worst-fold fits),
+        ``result.scheme``, ``result.best_lags``, ``result.best(tolerance)``.
 
     Raises
     ------
     TypeError
-        If ``estimator`` has no ``lags`` parameter or a candidate is not a :class:`~neckid.Lags`.
+        If ``candidates`` or ``estimator`` is missing, ``estimator`` has no ``lags`` parameter, or
+        a candidate is not a :class:`~neckid.Lags`.
     ValueError
         If ``estimator`` is a name no registered method has, ``criterion`` is unknown,
-        ``candidates`` is empty, or the records do not share channels.
+        ``candidates`` is empty, the records do not share channels, ``validation`` is None and
+        ``train`` holds fewer than 2 experiments, or ``folds`` is out of range.
 
     Notes
     -----
@@ -514,7 +637,15 @@ def select_lags(
     Lags(outputs=[1], inputs=[2])
     >>> list(result.table.columns[:4])
     ['candidate', 'lags', 'n_terms', 'max_lag']
+    >>> runs = [data[:130], data[130:260], data[260:]]
+    >>> grouped = select_lags(runs, None, lag_grid([1, 2], [1, 2], [1, 2]), LinearARX(),
+    ...                       progress=False)
+    >>> grouped.scheme, grouped.best(tolerance=0.01)
+    ('leave-one-experiment-out', Lags(outputs=[1], inputs=[2]))
     """
+    if candidates is None or estimator is None:
+        missing = "candidates" if candidates is None else "estimator"
+        raise TypeError(f"select_lags needs {missing}=; got None")
     if criterion not in ("prediction", "simulation"):
         raise ValueError(f"criterion must be 'simulation' or 'prediction'; got {criterion!r}")
     if isinstance(estimator, str):
@@ -538,8 +669,8 @@ def select_lags(
         if not isinstance(lags, Lags):
             raise TypeError(f"candidates[{i}] must be a neckid.Lags; got {type(lags).__name__}")
     train_list = as_experiments(train, "train")
-    validation_list = as_experiments(validation, "validation")
-    as_experiments([train_list[0], validation_list[0]], "[train[0], validation[0]]")
+    _, fold_names, scheme = _splits(train_list, validation, folds)
+    n_folds = len(fold_names)
 
     rows: list[dict[str, Any]] = []
     for i, lags in enumerate(lag_list):
@@ -548,24 +679,26 @@ def select_lags(
             row["n_terms"] = lags.resolve(train_list).n_terms
         except (KeyError, ValueError) as exc:  # not fitted: the regressor itself is impossible
             row.update(n_terms=np.nan, fit_time_s=np.nan, error=f"{type(exc).__name__}: {exc}")
-        rows.append(row)
+        rows.append({**row, "scheme": scheme, "n_folds": n_folds})
     fitted = [row for row in rows if "error" not in row]
     if fitted:
         scores = score_candidates(
             [(row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
              for row in fitted],
             train_list,
-            validation_list,
+            validation,
             n_jobs=n_jobs,
             progress=progress,
+            folds=folds,
         )  # fmt: skip
         for row, score in zip(fitted, scores.to_dict(orient="records"), strict=True):
             row.update({str(k): v for k, v in score.items() if k not in ("candidate", "name")})
 
-    output_names = validation_list[0].output_names
+    output_names = train_list[0].output_names
     columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]
+    columns += ["fit_prediction_worst", "fit_simulation_worst"]
     columns += [f"fit_{k}[{n}]" for k in ("prediction", "simulation") for n in output_names]
-    columns += ["fit_time_s", "error"]
+    columns += ["fit_time_s", "scheme", "n_folds", "error"]
     for row in rows:
         for name in columns:
             if name.startswith("fit_") and name != "fit_time_s":
@@ -576,8 +709,8 @@ def select_lags(
     table = table.sort_values(
         [column, "n_terms"], ascending=[False, True], kind="mergesort", na_position="last"
     ).reset_index(drop=True)
-    table.attrs["criterion"] = criterion
-    return LagSelection(table=table, candidates=tuple(lag_list), criterion=criterion)
+    table.attrs.update(criterion=criterion, scheme=scheme, folds=fold_names)
+    return LagSelection(table=table, candidates=tuple(lag_list), criterion=criterion, scheme=scheme)
 
 
 # ---------------------------------------------------------------------- Lipschitz index

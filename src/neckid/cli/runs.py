@@ -118,7 +118,8 @@ def benchmark(
     only: str = typer.Option(
         None,
         "--only",
-        help="Comma-separated benchmarks: softneck, silverbox, cascaded_tanks, bouc_wen, robot_arm.",
+        help="Comma-separated benchmarks: softneck, softneck-payload, softneck-controller (cross-run),"
+        " silverbox, cascaded_tanks, bouc_wen, robot_arm.",
     ),
     out: Path = typer.Option(
         Path("neckid-benchmark"),

@@ -47,8 +47,9 @@ class BenchmarkData:
     ----------
     name : str
         Short name (``"silverbox"``).
-    train : IOData
-        The training record. Choose hyper-parameters on it (or on a part of it), never on the tests.
+    train : IOData or list of IOData
+        The training record (or records: one per experiment, in the cross-run protocols). Choose
+        hyper-parameters on it (or on a part of it), never on the tests.
     tests : dict of str to IOData
         The test records by name, each evaluated by free-run simulation.
     n_initial : int or None
@@ -68,7 +69,7 @@ class BenchmarkData:
     """
 
     name: str
-    train: IOData
+    train: IOData | list[IOData]
     tests: dict[str, IOData]
     n_initial: int | None
     description: str

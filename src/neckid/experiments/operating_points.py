@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -109,7 +109,9 @@ class OperatingPointResult:
     def fit_schedule(self, degree: int = 1, converged_only: bool = True) -> GainScheduledModel:
         """Fit :class:`GainScheduledModel` lines ``N(i)``, ``P(i)`` through the points.
 
-        With ``converged_only`` the points whose estimate did not converge are left out.
+        With ``converged_only`` the points whose estimate did not converge are left out. The
+        model takes the form the points were identified in (``settings["form"]``, default
+        ``"rate"``).
         """
         table = self.table[self.table["converged"]] if converged_only else self.table
         return GainScheduledModel.from_points(
@@ -121,6 +123,7 @@ class OperatingPointResult:
             degree=degree,
             input_name=str(self.settings.get("input", "velocity_command")),
             output_name=str(self.settings.get("output", "inclination")),
+            form=self.settings.get("form", "rate"),
         )
 
 
@@ -301,6 +304,7 @@ def operating_points_from_logs(
     window: int | None = None,
     tolerance: float = 0.3,
     atol: float = 0.1,
+    form: Literal["rate", "position"] = "rate",
 ) -> OperatingPointResult:
     """Identify ``N`` and ``P`` by CFF-RLS on recorded operating-point logs, one point per log.
 
@@ -309,7 +313,8 @@ def operating_points_from_logs(
     logs : IOData or sequence of IOData
         Each log holds the neck at one operating point under persistent excitation.
     input : str, default "velocity_command"
-        Channel of the velocity command [rad/s] (input or output of the log).
+        Channel of the command (input or output of the log): the velocity command [rad/s] in
+        the rate form, a motor position [rad] in the position form.
     output : str, default "inclination"
         Channel of the inclination [deg].
     targets : array_like, optional
@@ -325,6 +330,10 @@ def operating_points_from_logs(
         Convergence window and samples averaged for the final inclination; default ``5 / (1 − λ)``.
     tolerance, atol : float, default 0.3 and 0.1
         Convergence band ``atol + tolerance · |θ|`` (see :meth:`RecursiveARX.converged`).
+    form : {"rate", "position"}, default "rate"
+        The seed paper's ``r(t) = P r(t−1) + N u(t−d)`` on the inclination rate, or
+        ``i(t) = P i(t−1) + N u(t−d)`` on the inclination (see
+        :class:`~neckid.models.scheduled.GainScheduledModel`); kept in ``settings["form"]``.
 
     Returns
     -------
@@ -341,7 +350,8 @@ def operating_points_from_logs(
     Notes
     -----
     With ``r(t) = (i(t) − i(t−1)) / ts`` [deg/s], :class:`RecursiveARX` ``(na=1, nb=1, delay=d)``
-    estimates ``θ = [a1, b1]`` in ``r(t) = −a1 r(t−1) + b1 u(t−d)``, so ``P = −a1`` and ``N = b1``.
+    estimates ``θ = [a1, b1]`` in ``r(t) = −a1 r(t−1) + b1 u(t−d)``, so ``P = −a1`` and ``N = b1``
+    (in the position form the same with the inclination ``i`` in place of ``r``).
     The gain and pole kept are the means of the estimates over the last ``window`` samples: with
     ``λ = 0.98`` the estimates keep fluctuating with a memory of about ``1 / (1 − λ) = 50`` samples,
     and the mean of the settled part is less noisy than the last value (the final ``θ̂`` is in
@@ -390,6 +400,7 @@ def operating_points_from_logs(
             u,
             incl,
             log.ts,
+            form=form,
             delay=delay,
             forgetting_factor=forgetting_factor,
             initial_covariance=initial_covariance,
@@ -425,5 +436,6 @@ def operating_points_from_logs(
         "skip": int(skip),
         "input": str(input),
         "output": str(output),
+        "form": str(form),
     }
     return OperatingPointResult(table, tuple(experiments), tuple(models), ts, settings)

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from neckid.data import IOData
 from neckid.models.base import NarxModel, check_is_fitted
+from neckid.models.ls_statistics import LeastSquaresStatistics
+from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.regressors import Lags
 from neckid.validation import Interval
 
@@ -65,6 +68,10 @@ class LinearARX(NarxModel):
     ----------
     coef_ : ndarray, shape (n_terms, n_outputs)
     intercept_ : ndarray, shape (n_outputs,)
+    statistics_ : LeastSquaresStatistics or None
+        Rows, means and square-root scatter of the training regressors and targets: what
+        :meth:`partial_fit` updates (``None`` for a model loaded from a file written before
+        they were stored).
     lags_ : ResolvedLags
     n_inputs_, n_outputs_, n_samples_ : int
     ts_ : float
@@ -100,6 +107,63 @@ class LinearARX(NarxModel):
         self.coef_, self.intercept_ = least_squares(
             x, y, bool(self.fit_intercept), float(self.ridge)
         )
+        self.statistics_: LeastSquaresStatistics | None = LeastSquaresStatistics.from_rows(
+            x, y, centred=bool(self.fit_intercept)
+        )
+
+    def partial_fit(self, data: IOData | Sequence[IOData]) -> LinearARX:
+        """Take new experiments into the fit: exactly the refit on the old and new data together.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements on the model's channels (no regressor straddles two experiments,
+            nor an old and a new one).
+
+        Returns
+        -------
+        LinearARX
+            ``self``: ``fit(a).partial_fit(b)`` has the coefficients of ``fit([a, b])`` (to
+            rounding), with the current ``ridge``.
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            For data on other channels or too short for the lags; for a model loaded from a file
+            without least-squares statistics (see Notes), or whose ``fit_intercept`` was changed
+            after fitting.
+
+        Notes
+        -----
+        Recursive least squares in square-root form: the statistics of the new rows are merged
+        into :attr:`statistics_` (:class:`~neckid.models.ls_statistics.LeastSquaresStatistics`)
+        and the coefficients solved again from them. A model file written before the statistics
+        were stored holds the coefficients alone, which do not say how much data stand behind
+        them; such a model refuses to update rather than guess a weight for them (a guess would
+        make the update differ from a refit by an amount nobody chose): refit it.
+        """
+        experiments = update_experiments(self, data)
+        statistics = getattr(self, "statistics_", None)
+        if statistics is None:
+            raise ValueError(
+                "this LinearARX was loaded from a file written before neckid stored its"
+                " least-squares statistics, so an update cannot equal a refit; refit it on its"
+                " training data (fit([old, new])) to update it"
+            )
+        if statistics.centred != bool(self.fit_intercept):
+            raise ValueError(
+                f"fit_intercept is {self.fit_intercept!r} but the model was fitted with"
+                f" {statistics.centred!r}; refit it to change the intercept"
+            )
+        x, y = update_rows(self, experiments)
+        statistics = statistics.merge(LeastSquaresStatistics.from_rows(x, y, statistics.centred))
+        self.coef_, self.intercept_ = statistics.solve(float(self.ridge))
+        self.statistics_ = statistics
+        self.n_samples_ = statistics.n_rows
+        extend_training_ranges(self, experiments)
+        return self
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_ + self.intercept_, dtype=np.float64)
@@ -113,6 +177,9 @@ class LinearARX(NarxModel):
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)
         arrays = {"coef": self.coef_, "intercept": self.intercept_}
+        statistics = getattr(self, "statistics_", None)
+        if statistics is not None:
+            arrays.update(statistics.to_arrays("statistics_"))
         meta = {
             "params": {"fit_intercept": bool(self.fit_intercept), "ridge": float(self.ridge)},
             **self._narx_meta(),
@@ -125,4 +192,11 @@ class LinearARX(NarxModel):
         model._restore_narx_meta(meta)
         model.coef_ = np.asarray(arrays["coef"], dtype=np.float64)
         model.intercept_ = np.asarray(arrays["intercept"], dtype=np.float64)
+        model.statistics_ = LeastSquaresStatistics.from_arrays(
+            arrays,
+            "statistics_",
+            model.n_samples_,
+            bool(model.fit_intercept),
+            (model.lags_.n_terms, len(model.output_names_)),
+        )
         return model

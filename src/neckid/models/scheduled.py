@@ -3,9 +3,12 @@
 At each operating point the seed paper (section IV) identifies, by CFF-RLS, the first-order model
 ``G(z) = N / (z − P)`` from motor velocity to inclination rate, then fits straight lines
 ``N(i)`` and ``P(i)`` through the points against the inclination ``i``. This module holds that
-scheduled (LPV) model: identifying the points on records (:func:`identify_point`), fitting the
-lines, simulating it in free run with the scheduling variable taken from its own simulated
-inclination, a step-by-step simulator, and the frozen transfer function at a given inclination.
+scheduled (LPV) model, in the paper's rate form or in a position form (motor position to
+inclination, no integrator): fitting the lines through the points that
+:func:`~neckid.models.scheduled_points.identify_point` finds on records, simulating it in free
+run with the scheduling variable taken from its own simulated inclination (clipped to the
+identified range, the pole kept inside the unit circle), a step-by-step simulator, and the frozen
+transfer function at a given inclination.
 :func:`neckid.experiments.operating_points.identify_operating_points` runs the protocol on a plant.
 """
 
@@ -14,18 +17,24 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
-from neckid.models.rls import RecursiveARX
+from neckid.models.scheduled_points import (
+    FORMS,
+    OperatingPoint,
+    default_window,
+    identify_point,
+)
+from neckid.models.scheduled_simulator import GainScheduledSimulator, clipped_polyval
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import (
     Interval,
-    check_finite,
+    Options,
     check_number,
     check_time_vector,
     check_ts,
@@ -55,114 +64,21 @@ PAPER_POLE_COEFFICIENTS = (0.01175, -0.4797)
 #: Operating points a single record is cut into when ``segments`` is not given.
 DEFAULT_SEGMENTS = 8
 
+#: Default bound on the pole: ``|P(i)| <= 0.99`` wherever the line is evaluated.
+DEFAULT_POLE_BOUND = 0.99
 
-class OperatingPoint(NamedTuple):
-    """One operating point identified by CFF-RLS (see :func:`identify_point`).
-
-    ``inclination`` [deg] is the mean over the last ``window`` samples; ``gain`` (``N``,
-    (deg/s)/(rad/s)) and ``pole`` (``P``) are the means of the estimates over those samples;
-    ``settled_at`` is -1 when the estimate never settled; ``model`` is the fitted estimator.
-    """
-
-    inclination: float
-    gain: float
-    pole: float
-    converged: bool
-    settled_at: int
-    n_samples: int
-    model: RecursiveARX
+Form = Literal["rate", "position"]
 
 
-def default_window(forgetting_factor: float) -> int:
-    """Five memories of the estimator, ``5 / (1 − λ)`` samples (500 when ``λ = 1``)."""
-    if forgetting_factor >= 1.0:
-        return 500
-    return max(10, round(5.0 / (1.0 - forgetting_factor)))
-
-
-def identify_point(
-    command: ArrayLike,
-    inclination: ArrayLike,
-    ts: float,
-    *,
-    delay: int = 1,
-    forgetting_factor: float = 0.98,
-    initial_covariance: float = 1e4,
-    window: int | None = None,
-    tolerance: float = 0.3,
-    atol: float = 0.1,
-    input_name: str = "velocity_command",
-    output_name: str = "inclination",
-    input_unit: str = "rad/s",
-    output_unit: str = "deg",
-    label: str | None = None,
-) -> OperatingPoint:
-    """CFF-RLS estimate of ``r(t) = P r(t−1) + N u(t−d)`` on one record held at one inclination.
-
-    Parameters
-    ----------
-    command, inclination : array_like, shape (n_samples,)
-        Velocity command ``u`` [rad/s] and inclination ``i`` [deg]; the rate is
-        ``r(t) = (i(t) − i(t−1)) / ts``.
-    ts : float
-        Sampling period [s].
-    delay, forgetting_factor, initial_covariance
-        Input delay ``d`` >= 1 [samples], ``λ`` in (0, 1], ``F(0) = initial_covariance · I``.
-    window : int, optional
-        Convergence window and samples averaged; default :func:`default_window`.
-    tolerance, atol : float
-        Convergence band ``atol + tolerance · |θ̄|`` (:meth:`RecursiveARX.converged`).
-
-    Raises
-    ------
-    ValueError
-        If the record is shorter than ``window + 3`` samples.
-
-    Notes
-    -----
-    :class:`RecursiveARX` on ``Lags.arx(1, 1, d)`` estimates ``θ = [a1, b1]`` in
-    ``r(t) = −a1 r(t−1) + b1 u(t−d)``, so ``P = −a1`` and ``N = b1`` (seed paper, section IV).
-    The gain and pole kept are the means over the last ``window`` samples: with ``λ = 0.98`` the
-    estimate keeps fluctuating with a memory of about 50 samples, and the mean of the settled
-    part is less noisy than the last value.
-    """
-    u = np.asarray(command, dtype=np.float64).reshape(-1)
-    incl = np.asarray(inclination, dtype=np.float64).reshape(-1)
-    lam = float(forgetting_factor)
-    if window is None:
-        window = default_window(lam) if 0 < lam <= 1 else 1
-    if incl.size < window + 3:
+def _schedule_limits(values: ArrayLike) -> FloatArray:
+    """``schedule_range`` as ``[low, high]`` [deg], ``low <= high`` (infinite ends allowed)."""
+    limits = np.asarray(values, dtype=np.float64)
+    if limits.shape != (2,) or not limits[0] <= limits[1]:
         raise ValueError(
-            f"{label or 'the record'} has {incl.size} samples after the skipped ones; an operating"
-            f" point needs at least window + 3 = {window + 3}"
+            f"schedule_range must be [low, high] in degrees with low <= high (infinite ends"
+            f" allowed); got {limits.tolist()}"
         )
-    rate = np.diff(incl) / ts
-    rls_data = IOData(
-        u[1:],
-        rate,
-        ts=ts,
-        input_names=[input_name],
-        output_names=[f"{output_name}_rate"],
-        input_units=[input_unit],
-        output_units=[f"{output_unit or 'deg'}/s"],
-        name=label,
-    )
-    model = RecursiveARX(
-        Lags.arx(1, 1, delay),
-        forgetting_factor=forgetting_factor,
-        initial_covariance=initial_covariance,
-    ).fit(rls_data)
-    ok, settled = model.converged(window=window, tolerance=tolerance, atol=atol)
-    settled_part = model.theta_history_[-window:]
-    return OperatingPoint(
-        inclination=float(np.mean(incl[-window:])),
-        gain=float(np.mean(settled_part[:, 1])),
-        pole=float(-np.mean(settled_part[:, 0])),
-        converged=bool(ok),
-        settled_at=-1 if settled is None else int(settled),
-        n_samples=int(rls_data.n_samples),
-        model=model,
-    )
+    return limits
 
 
 def _first_order_terms(resolved: ResolvedLags) -> tuple[int, int]:
@@ -184,17 +100,25 @@ def _first_order_terms(resolved: ResolvedLags) -> tuple[int, int]:
 
 
 class GainScheduledModel(Estimator):
-    """First-order inclination-scheduled model ``G(z, i) = N(i) / (z − P(i))``, integrated.
+    """First-order inclination-scheduled model ``G(z, i) = N(i) / (z − P(i))``.
 
-    From the velocity command ``u`` [rad/s] to the inclination rate ``r`` [deg/s]:
+    Two forms. ``form="rate"`` is the seed paper's: from the velocity command ``u`` [rad/s] to
+    the inclination rate ``r`` [deg/s],
 
-    ``r(t) = P(i(t−1)) · r(t−1) + N(i(t−1)) · u(t−d)``
+    ``r(t) = P(s) · r(t−1) + N(s) · u(t−d)``,
 
     and the inclination [deg] is its backward-Euler integral ``i(t) = i(t−1) + ts · r(t)``, the exact
     inverse of the rate ``r(t) = (i(t) − i(t−1)) / ts`` that the operating-point protocol identifies.
+    ``form="position"`` has no integrator: from a motor position ``u`` [rad] (the displacement
+    since the log's start, say) to the inclination itself,
+
+    ``i(t) = P(s) · i(t−1) + N(s) · u(t−d)``.
+
     ``N(i)`` and ``P(i)`` are polynomials in the inclination (straight lines by default, as the seed
-    paper) fitted by least squares to operating points. In free run the scheduling variable is the
-    model's own simulated inclination of the previous sample.
+    paper) fitted by least squares to operating points. The scheduling variable ``s`` is the
+    inclination of the previous sample (in free run the model's own) clipped to the range of the
+    operating points, ``schedule_range_``: outside it the lines are held at their end values
+    instead of extrapolated. The pole is clipped to ``[−pole_bound, pole_bound]``.
 
     ``fit(data)`` finds the operating points itself: each experiment, or each segment of one, is
     held near one inclination; CFF-RLS (:func:`identify_point`) gives its ``N`` and ``P``. Points
@@ -207,7 +131,13 @@ class GainScheduledModel(Estimator):
         ``Lags.arx(1, 1, d)``: the input delay ``d`` >= 1 of ``G(z, i) = N(i) z^{-(d-1)} / (z − P(i))``
         (the seed paper's ``d = 1``; a sensor with a few samples of latency is better described
         with ``d`` = latency + 1). With several inputs, ``Lags(outputs=[1], inputs={name: [d]})``
-        picks the velocity command.
+        picks the command (velocity command, or motor position in the position form).
+    form : {"rate", "position"}, default "rate"
+        ``"rate"``: the seed paper's velocity-to-rate model; ``"position"``: position to
+        inclination. The form goes with the command chosen in ``lags``, so the default stays
+        the paper's. On the real soft-neck stair logs the position form on the motor
+        displacement is the one to use: its mean free-run fit, a training log held out at a
+        time, is 64–70 %, the rate form's at most 21 % (it drifts; see Notes).
     degree : int, default 1
         Degree of the polynomials ``N(i)`` and ``P(i)`` (1: straight lines).
     forgetting_factor : float, default 0.98
@@ -225,22 +155,28 @@ class GainScheduledModel(Estimator):
     converged_only : bool, default True
         Fit the lines through the converged points only (all points when fewer than
         ``degree + 1`` converged would be left, the fit refuses).
+    pole_bound : float, default 0.99
+        ``|P(s)|`` is held at most this, in (0, 1): the frozen model stays stable wherever it is.
 
     Attributes
     ----------
     gain_coefficients_ : ndarray, shape (degree + 1,)
         Coefficients of ``N(i)``, highest power first (``numpy.polyval`` order): for a line,
-        ``[slope, intercept]``. Units of ``N``: (deg/s) / (rad/s).
+        ``[slope, intercept]``. Units of ``N``: (deg/s) / (rad/s) in the rate form, deg/rad in
+        the position form.
     pole_coefficients_ : ndarray, shape (degree + 1,)
         Coefficients of ``P(i)``, highest power first. ``P`` is dimensionless (a discrete pole).
     inclinations_, gains_, poles_ : ndarray, shape (n_points,)
         The operating points the lines were fitted to (inclination in degrees).
+    schedule_range_ : ndarray, shape (2,)
+        ``[low, high]`` [deg] the scheduling variable is clipped to: the range of
+        ``inclinations_`` (``[-inf, inf]`` for a model from :meth:`from_coefficients`).
     gain_rmse_, pole_rmse_ : float
         Root-mean-square residual of each fit.
     delay_ : int
         Input delay used, in samples.
     max_lag_ : int
-        1: a simulation starts from the first inclination, at rest (rate 0).
+        1: a simulation starts from the first inclination (in the rate form, at rest: rate 0).
     lags_ : ResolvedLags
     ts_ : float
     n_inputs_, n_outputs_ : int
@@ -253,9 +189,17 @@ class GainScheduledModel(Estimator):
     ``PAPER_POLE_COEFFICIENTS``). Whether the paper's rate is per second or per sample is not
     stated; here it is per second, so ``N`` scales with ``1 / ts`` if the other is meant.
 
-    One-step prediction (:meth:`predict`) uses the measured inclination ``i(t−1)``, the measured
-    rate ``(i(t−1) − i(t−2)) / ts`` (0 at the first sample) and the command ``u(t−d)`` (the
-    first command before the record starts).
+    Why the clipping and the position form: in free run the rate form integrates, so a biased
+    gain makes the inclination drift; with a line ``N(i)`` rising in ``i`` the drift feeds back
+    into a larger gain, and once the inclination leaves the identified range the extrapolated
+    ``P(i)`` line crosses 1 and the run overflows (the real soft-neck logs: CFF-RLS in closed
+    loop with a ±1° dither overestimates ``N`` two- to threefold). Clipping keeps a run finite;
+    the position form, whose static gain ``N / (1 − P)`` is pinned by each operating point's
+    level, keeps it close.
+
+    One-step prediction (:meth:`predict`) uses the measured inclination ``i(t−1)``, in the rate
+    form also the measured rate ``(i(t−1) − i(t−2)) / ts`` (0 at the first sample), and the
+    command ``u(t−d)`` (the first command before the record starts).
 
     References
     ----------
@@ -287,6 +231,8 @@ class GainScheduledModel(Estimator):
         "skip": [Interval("int", 0, None)],
         "window": [None, Interval("int", 2, None)],
         "converged_only": ["boolean"],
+        "form": [Options(FORMS)],
+        "pole_bound": [Interval("real", 0, 1, closed="neither")],
     }
 
     def __init__(
@@ -299,6 +245,8 @@ class GainScheduledModel(Estimator):
         skip: int = 0,
         window: int | None = None,
         converged_only: bool = True,
+        form: Form = "rate",
+        pole_bound: float = DEFAULT_POLE_BOUND,
     ) -> None:
         self.lags = lags
         self.degree = degree
@@ -307,6 +255,8 @@ class GainScheduledModel(Estimator):
         self.skip = skip
         self.window = window
         self.converged_only = converged_only
+        self.form = form
+        self.pole_bound = pole_bound
 
     # ------------------------------------------------------------------ fit
     def _pieces(self, experiments: Sequence[IOData]) -> list[IOData]:
@@ -323,7 +273,10 @@ class GainScheduledModel(Estimator):
             for start, stop in itertools.pairwise(edges):
                 if data.t0 + start >= data.time[-1]:
                     break
-                pieces.append(data.time_slice(data.t0 + start, data.t0 + stop))
+                piece = data.time_slice(data.t0 + start, data.t0 + stop)
+                # a segment cut short by the end of the record counts if half of it is there
+                if piece.n_samples * data.ts >= 0.5 * (stop - start):
+                    pieces.append(piece)
         return pieces
 
     def fit(self, data: IOData | Sequence[IOData]) -> GainScheduledModel:
@@ -332,8 +285,10 @@ class GainScheduledModel(Estimator):
         Parameters
         ----------
         data : IOData or sequence of IOData
-            Velocity command [rad/s] (the input with a lag in ``lags``) and inclination [deg]
-            (the one output).
+            The command (the input with a lag in ``lags``: velocity command [rad/s] in the rate
+            form, motor position [rad] in the position form) and the inclination [deg] (the one
+            output). With ``segments`` as boundaries in seconds, a last segment cut short by the
+            end of a record is left out when less than half of it is there.
 
         Returns
         -------
@@ -350,6 +305,12 @@ class GainScheduledModel(Estimator):
         experiments = as_experiments(data)
         if self.lags is None:
             raise ValueError("GainScheduledModel needs lags=Lags.arx(1, 1, d); got None")
+        if self.lags.conditions:
+            raise ValueError(
+                f"GainScheduledModel schedules its gain and pole on the inclination only; it takes"
+                f" no conditions (got Lags(..., conditions={list(self.lags.conditions)})):"
+                " identify one model per condition, or use another method"
+            )
         resolved = self.lags.resolve(experiments)
         self._check_training(experiments)
         channel, delay = _first_order_terms(resolved)
@@ -367,6 +328,7 @@ class GainScheduledModel(Estimator):
                     piece.u[skip:, channel],
                     piece.y[skip:, 0],
                     piece.ts,
+                    form=self.form,
                     delay=delay,
                     forgetting_factor=self.forgetting_factor,
                     window=window,
@@ -405,6 +367,7 @@ class GainScheduledModel(Estimator):
         self.inclinations_ = i_values
         self.gains_ = n_values
         self.poles_ = p_values
+        self.schedule_range_ = np.array([i_values.min(), i_values.max()])
         self.gain_rmse_ = float(
             np.sqrt(np.mean((np.polyval(self.gain_coefficients_, i_values) - n_values) ** 2))
         )
@@ -439,6 +402,7 @@ class GainScheduledModel(Estimator):
         degree: int = 1,
         input_name: str = "velocity_command",
         output_name: str = "inclination",
+        form: Form = "rate",
     ) -> GainScheduledModel:
         """A model whose lines ``N(i)``, ``P(i)`` are fitted to given operating points.
 
@@ -453,7 +417,10 @@ class GainScheduledModel(Estimator):
         degree : int, default 1
             Polynomial degree.
         input_name, output_name : str
-            Channel names of the velocity command and the inclination.
+            Channel names of the command and the inclination.
+        form : {"rate", "position"}, default "rate"
+            The form the points were identified in (the seed paper's protocol,
+            :func:`~neckid.identify_operating_points`, gives the rate form).
         """
         i_values = check_vector(inclinations, "inclinations")
         n_values = check_vector(gains, "gains")
@@ -463,7 +430,7 @@ class GainScheduledModel(Estimator):
                 f"inclinations, gains and poles must have the same length; got {i_values.size},"
                 f" {n_values.size} and {p_values.size}"
             )
-        model = cls(degree=degree, converged_only=False)
+        model = cls(degree=degree, converged_only=False, form=form)
         model._validate_params()
         model._fit_lines(i_values, n_values, p_values)
         model._bind_channels(ts, delay, input_name, output_name, "deg")
@@ -479,10 +446,13 @@ class GainScheduledModel(Estimator):
         delay: int = 1,
         input_name: str = "velocity_command",
         output_name: str = "inclination",
+        form: Form = "rate",
+        schedule_range: ArrayLike | None = None,
     ) -> GainScheduledModel:
         """A fitted model from given polynomial coefficients (highest power first).
 
-        The defaults are the seed paper's lines at ``ts = 0.02`` s.
+        The defaults are the seed paper's lines at ``ts = 0.02`` s, in its rate form.
+        ``schedule_range`` (``[low, high]`` [deg]) clips the scheduling variable; default none.
 
         Examples
         --------
@@ -497,7 +467,10 @@ class GainScheduledModel(Estimator):
                 "gain_coefficients and pole_coefficients must be non-empty and of the same length;"
                 f" got {gain.size} and {pole.size}"
             )
-        model = cls(degree=gain.size - 1)
+        limits = _schedule_limits([-np.inf, np.inf] if schedule_range is None else schedule_range)
+        model = cls(degree=gain.size - 1, form=form)
+        model._validate_params()
+        model.schedule_range_ = limits
         model.gain_coefficients_ = gain
         model.pole_coefficients_ = pole
         model.inclinations_ = np.zeros(0)
@@ -510,18 +483,16 @@ class GainScheduledModel(Estimator):
 
     # ------------------------------------------------------------------ the model
     def gain(self, inclination: ArrayLike) -> FloatArray:
-        """``N(i)`` at inclination(s) ``i`` [deg]."""
+        """``N(s)`` at inclination(s) ``i`` [deg], ``s`` = ``i`` clipped to ``schedule_range_``."""
         check_is_fitted(self)
-        return np.asarray(
-            np.polyval(self.gain_coefficients_, np.asarray(inclination, dtype=np.float64))
-        )
+        return clipped_polyval(self.gain_coefficients_, inclination, self.schedule_range_)
 
     def pole(self, inclination: ArrayLike) -> FloatArray:
-        """``P(i)`` at inclination(s) ``i`` [deg]."""
+        """``P(s)`` at inclination(s) ``i`` [deg] (as :meth:`gain`), held in ``±pole_bound``."""
         check_is_fitted(self)
-        return np.asarray(
-            np.polyval(self.pole_coefficients_, np.asarray(inclination, dtype=np.float64))
-        )
+        bound = float(self.pole_bound)
+        values = clipped_polyval(self.pole_coefficients_, inclination, self.schedule_range_)
+        return np.asarray(np.clip(values, -bound, bound))
 
     def transfer_function(
         self, inclination: float, to: Literal["rate", "inclination"] = "rate"
@@ -533,9 +504,12 @@ class GainScheduledModel(Estimator):
         inclination : float
             Operating point [deg].
         to : {"rate", "inclination"}, default "rate"
-            ``"rate"``: ``N z^{-(d-1)} / (z − P)`` from velocity command [rad/s] to inclination
-            rate [deg/s]; ``"inclination"``: ``N · ts · z^{2-d} / ((z − P)(z − 1))`` to inclination
-            [deg] (the rate integrated as ``i(t) = i(t−1) + ts · r(t)``); ``d`` is ``delay_``.
+            Rate form, from the velocity command [rad/s]: ``"rate"``: ``N z^{-(d-1)} / (z − P)``
+            to the inclination rate [deg/s]; ``"inclination"``: ``N · ts · z^{2-d} / ((z − P)(z − 1))``
+            to the inclination [deg] (the rate integrated as ``i(t) = i(t−1) + ts · r(t)``).
+            Position form, from the motor position [rad]: ``"inclination"``:
+            ``N z^{-(d-1)} / (z − P)``; ``"rate"``: that times ``(z − 1) / (ts z)``, the rate
+            ``(i(t) − i(t−1)) / ts``. ``d`` is ``delay_``.
 
         Returns
         -------
@@ -551,7 +525,11 @@ class GainScheduledModel(Estimator):
         n = float(self.gain(value))
         p = float(self.pole(value))
         extra = [0.0] * (self.delay_ - 1)  # z^{-(d-1)}: d - 1 more poles at the origin
-        if to == "rate":
+        position = self.form == "position"
+        if to == "rate" and position:
+            scaled = n / self.ts_
+            return control.TransferFunction([scaled, -scaled], [1.0, -p, *extra, 0.0], dt=self.ts_)
+        if to == "rate" or (to == "inclination" and position):
             return control.TransferFunction([n], [1.0, -p, *extra], dt=self.ts_)
         if to == "inclination":
             return control.TransferFunction(
@@ -572,7 +550,7 @@ class GainScheduledModel(Estimator):
     def simulate(
         self, data: IOData, initial: ArrayLike | None = None, *, rate0: float = 0.0
     ) -> ModelResult:
-        """Free run from the velocity command; the schedule follows the simulated inclination.
+        """Free run from the command; the schedule follows the simulated inclination.
 
         Parameters
         ----------
@@ -582,7 +560,7 @@ class GainScheduledModel(Estimator):
         initial : float or array_like of shape (1,) or (1, 1), optional
             The initial inclination [deg] (then ``data`` may hold inputs only).
         rate0 : float, default 0.0
-            Initial inclination rate [deg/s] (0: the neck at rest).
+            Initial inclination rate [deg/s] (0: the neck at rest); rate form only.
 
         Returns
         -------
@@ -612,11 +590,13 @@ class GainScheduledModel(Estimator):
         )
 
     def predict(self, data: IOData) -> ModelResult:
-        """One-step-ahead prediction from the measured inclination, its rate and the command.
+        """One-step-ahead prediction from the measured inclination (and its rate) and the command.
 
-        ``î(t) = i(t−1) + ts [P(i(t−1)) r(t−1) + N(i(t−1)) u(t−d)]`` with the measured rate
-        ``r(t−1) = (i(t−1) − i(t−2)) / ts`` (0 at ``t = 1``); commands before the record are
-        taken equal to its first one. Sample 0 is the measured inclination.
+        Rate form: ``î(t) = i(t−1) + ts [P(s) r(t−1) + N(s) u(t−d)]`` with the measured rate
+        ``r(t−1) = (i(t−1) − i(t−2)) / ts`` (0 at ``t = 1``); position form:
+        ``î(t) = P(s) i(t−1) + N(s) u(t−d)``; ``s`` is ``i(t−1)`` clipped to ``schedule_range_``.
+        Commands before the record are taken equal to its first one. Sample 0 is the measured
+        inclination.
         """
         check_is_fitted(self)
         self._check_inputs(data)
@@ -631,9 +611,12 @@ class GainScheduledModel(Estimator):
             rate = np.zeros(n - 1)
             rate[1:] = np.diff(previous) / self.ts_
             command = u[np.maximum(np.arange(1, n) - self.delay_, 0)]
-            y[1:, 0] = previous + self.ts_ * (
-                self.pole(previous) * rate + self.gain(previous) * command
-            )
+            if self.form == "position":
+                y[1:, 0] = self.pole(previous) * previous + self.gain(previous) * command
+            else:
+                y[1:, 0] = previous + self.ts_ * (
+                    self.pole(previous) * rate + self.gain(previous) * command
+                )
         return self._result("prediction", data, y)
 
     def _check_state(self) -> None:
@@ -641,6 +624,7 @@ class GainScheduledModel(Estimator):
         size = np.size(self.gain_coefficients_)
         self._check_shape("gain_coefficients", self.gain_coefficients_, (size,))
         self._check_shape("pole_coefficients", self.pole_coefficients_, (size,))
+        self.schedule_range_ = _schedule_limits(self.schedule_range_)
         if size < 1 or self.max_lag_ != 1 or not int(self.delay_) >= 1:
             raise ValueError(
                 f"a scheduled model needs coefficients, max_lag 1 and delay >= 1; got {size}"
@@ -657,6 +641,7 @@ class GainScheduledModel(Estimator):
             "inclinations": self.inclinations_,
             "gains": self.gains_,
             "poles": self.poles_,
+            "schedule_range": self.schedule_range_,
         }
         segments = self.segments
         if segments is not None and not isinstance(segments, int | np.integer):
@@ -669,6 +654,8 @@ class GainScheduledModel(Estimator):
                 "skip": int(self.skip),
                 "window": None if self.window is None else int(self.window),
                 "converged_only": bool(self.converged_only),
+                "form": str(self.form),
+                "pole_bound": float(self.pole_bound),
             },
             "lags": self.lags_.to_dict(),
             "ts": self.ts_,
@@ -684,6 +671,7 @@ class GainScheduledModel(Estimator):
         cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]
     ) -> GainScheduledModel:
         params = dict(meta["params"])
+        params.setdefault("form", "rate")  # files written before the position form
         if "lags" not in meta:  # format-1 files of the first release: ts/input/output/delay
             model = cls.from_coefficients(
                 arrays["gain_coefficients"],
@@ -692,6 +680,7 @@ class GainScheduledModel(Estimator):
                 delay=int(meta.get("delay", 1)),
                 input_name=str(params.get("input", "velocity_command")),
                 output_name=str(params.get("output", "inclination")),
+                form=params["form"],
             )
             model.degree = int(params["degree"])
         else:
@@ -707,69 +696,83 @@ class GainScheduledModel(Estimator):
         model.inclinations_ = np.asarray(arrays["inclinations"], dtype=np.float64)
         model.gains_ = np.asarray(arrays["gains"], dtype=np.float64)
         model.poles_ = np.asarray(arrays["poles"], dtype=np.float64)
+        if "schedule_range" in arrays:
+            model.schedule_range_ = np.asarray(arrays["schedule_range"], dtype=np.float64)
+        else:  # files written before the clipping: the range of their points, if any
+            points = model.inclinations_
+            model.schedule_range_ = (
+                np.array([points.min(), points.max()])
+                if points.size
+                else np.array([-np.inf, np.inf])
+            )
         model.gain_rmse_ = float(meta["gain_rmse"])
         model.pole_rmse_ = float(meta["pole_rmse"])
         return model
 
+    def partial_fit(self, data: IOData | Sequence[IOData]) -> GainScheduledModel:
+        """Identify one more operating point per new experiment and refit the lines through all.
 
-class GainScheduledSimulator:
-    """Step-by-step free run of a :class:`GainScheduledModel`, for a closed loop beside a controller.
+        Each experiment is one operating point, identified as in :meth:`fit` (CFF-RLS by
+        :func:`identify_point` with the model's ``form``, ``forgetting_factor``, ``skip`` and
+        ``window``: by default five memories of the estimator, at most half the record after
+        ``skip``); it joins ``inclinations_``, ``gains_`` and ``poles_`` if it converged (or
+        ``converged_only`` is False), and ``N(i)``, ``P(i)`` are fitted again through the old and
+        new points, exactly as :meth:`fit` fits them (``schedule_range_`` widens with them).
 
-    ``step(u)`` takes the inputs at the current time ``t`` (the velocity command [rad/s] among
-    them; a scalar when the model has one input) and returns the inclination ``i(t)`` [deg],
-    which depends on the commands up to ``t − d`` (``d = delay_``):
-    ``r(t) = P(i(t−1)) r(t−1) + N(i(t−1)) u(t−d)``, ``i(t) = i(t−1) + ts r(t)``.
-    """
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New records, each held near one inclination, on the model's channels.
 
-    def __init__(self, model: GainScheduledModel) -> None:
-        self._gain = np.asarray(model.gain_coefficients_, dtype=np.float64)
-        self._pole = np.asarray(model.pole_coefficients_, dtype=np.float64)
-        self.ts = float(model.ts_)
-        self.delay = int(model.delay_)
-        self.n_inputs = model.n_inputs_
-        self.n_outputs = 1
-        self._channel = model._channel
-        self.reset()
+        Returns
+        -------
+        GainScheduledModel
+            ``self``; ``last_points_`` holds the new points, kept or not.
 
-    def reset(
-        self, y0: ArrayLike | None = None, u0: ArrayLike | None = None, rate0: float = 0.0
-    ) -> None:
-        """Start again at inclination ``y0`` [deg] (default 0), rate ``rate0`` [deg/s], past inputs ``u0``.
-
-        ``y0`` and ``u0`` may be one row or a history of rows (oldest first): the last row is
-        used, and the past commands ``u(t−d) … u(t−1)`` are all taken equal to it.
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            Data on other channels, a record shorter than ``skip + window + 3`` samples, or too
+            few distinct inclinations for the degree (a model from :meth:`from_coefficients`
+            has no points to add one to).
         """
-        y_array = np.zeros(1) if y0 is None else np.asarray(y0, dtype=np.float64).reshape(-1)
-        if y_array.size == 0:
-            raise ValueError("y0 must hold the initial inclination; got an empty array")
-        y_row = y_array[-1:]
-        u_array = np.zeros(self.n_inputs) if u0 is None else np.asarray(u0, dtype=np.float64)
-        u_row = u_array.reshape(-1, self.n_inputs)[-1] if u_array.size else np.zeros(self.n_inputs)
-        values = np.array([float(y_row[0]), float(rate0), float(u_row[self._channel])])
-        check_finite(values[None, :], "initial state", ["y0", "rate0", "u0"])
-        self.inclination = float(values[0])
-        self.rate = float(values[1])
-        self._past_u = [float(values[2])] * self.delay  # u(t-d), ..., u(t-1)
+        from neckid.models.online import extend_training_ranges, update_experiments
 
-    @property
-    def current_gain(self) -> float:
-        """``N`` at the current inclination (used by the next step)."""
-        return float(np.polyval(self._gain, self.inclination))
-
-    @property
-    def current_pole(self) -> float:
-        """``P`` at the current inclination (used by the next step)."""
-        return float(np.polyval(self._pole, self.inclination))
-
-    def step(self, u: float | ArrayLike) -> FloatArray:
-        """Advance one sample with inputs ``u``; return the inclination, shape ``(1,)``."""
-        u_now = np.asarray(u, dtype=np.float64).reshape(-1)
-        if u_now.size != self.n_inputs:
-            raise ValueError(f"u must have {self.n_inputs} value(s) (one per input); got {u!r}")
-        check_finite(u_now[None, :], "u")
-        gain = self.current_gain
-        pole = self.current_pole
-        self.rate = pole * self.rate + gain * self._past_u[0]
-        self.inclination = self.inclination + self.ts * self.rate
-        self._past_u = [*self._past_u[1:], float(u_now[self._channel])]
-        return np.array([self.inclination])
+        experiments = update_experiments(self, data)
+        skip = int(self.skip)
+        channel = self._channel
+        points = []
+        for k, record in enumerate(experiments):
+            window = self.window
+            if window is None:
+                usable = record.n_samples - skip
+                window = min(default_window(self.forgetting_factor), max(10, usable // 2))
+            points.append(
+                identify_point(
+                    record.u[skip:, channel],
+                    record.y[skip:, 0],
+                    record.ts,
+                    form=self.form,
+                    delay=self.delay_,
+                    forgetting_factor=self.forgetting_factor,
+                    window=window,
+                    input_name=self.input_names_[channel],
+                    output_name=self.output_names_[0],
+                    input_unit=record.input_units[channel],
+                    output_unit=record.output_units[0],
+                    label=f"new operating point {k} ({record.name or 'record'})",
+                )
+            )
+        keep = [p for p in points if p.converged or not self.converged_only]
+        if keep:
+            self._fit_lines(
+                np.concatenate([self.inclinations_, [p.inclination for p in keep]]),
+                np.concatenate([self.gains_, [p.gain for p in keep]]),
+                np.concatenate([self.poles_, [p.pole for p in keep]]),
+            )
+        self.points_ = (*getattr(self, "points_", ()), *points)
+        self.last_points_ = tuple(points)
+        extend_training_ranges(self, experiments)
+        return self

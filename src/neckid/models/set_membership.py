@@ -21,6 +21,7 @@ from neckid.data import IOData, as_experiments
 from neckid.models._sm_kernels import SMTree, free_run, gamma_star
 from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
+from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.sm_prior import (
     GammaCurve,
     ProgressOption,
@@ -28,6 +29,7 @@ from neckid.models.sm_prior import (
     _gamma_star,
     choose_epsilon,
 )
+from neckid.models.sm_update import PriorRule, revise_prior
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval, Options, check_finite
 
@@ -587,6 +589,65 @@ class SetMembership(NarxModel):
             excess[m:] = excess_rows
             results.append(Invalidation(excess > 0, excess, m, d.output_names))
         return results[0] if isinstance(data, IOData) else results
+
+    def partial_fit(
+        self, data: IOData | Sequence[IOData], *, prior: PriorRule = "adapt"
+    ) -> SetMembership:
+        """Add new experiments to the data set; keep ε, re-check γ.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements on the model's channels.
+        prior : {"adapt", "keep", "raise"}, default "adapt"
+            What to do when the old and new data together falsify the prior (ε, γ):
+            ``"adapt"`` raises γ to ``gamma_margin · γ*(ε)`` of all the data (the rule of
+            ``fit``), ``"keep"`` keeps γ and warns, ``"raise"`` refuses the update.
+
+        Returns
+        -------
+        SetMembership
+            ``self``, with the new regressors in its data set (``n_samples_`` grows) and the
+            kd-tree rebuilt over all of them; the linear part, if any, refitted by least
+            squares on all of them (the refit's); ``last_invalidation_`` holds
+            :meth:`invalidation` of the new data *before* the update (the share of samples
+            outside ``[f_l − ε, f_u + ε]`` of the prior as it stood).
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            Data on other channels or too short; ``prior="raise"`` and the prior fails.
+
+        Notes
+        -----
+        Not a refit: ε and the regressor ``weights_`` are kept (γ is measured in the weighted
+        distance, so changing the weights would change its meaning), and γ only grows. See
+        :mod:`neckid.models.sm_update` for the rule and its cost.
+        """
+        experiments = update_experiments(self, data)
+        invalidation = self.invalidation(experiments)
+        x_new, y_new = update_rows(self, experiments)
+        x = np.ascontiguousarray(np.vstack([self._x_train, x_new]))
+        y = np.ascontiguousarray(np.vstack([self._y_train, y_new]))
+        coef, intercept = self.coef_, self.intercept_
+        if self.linear_part:
+            coef, intercept = least_squares(x, y, fit_intercept=True)
+        residual = np.ascontiguousarray(y - (x @ coef + intercept))
+        points = np.ascontiguousarray(x * self.weights_)
+        tree = SMTree(points, residual)
+        self.gamma_, self.gamma_star_, self.prior_valid_ = revise_prior(
+            points, residual, self.n_samples_, self.epsilon_, self.gamma_,
+            _prior_valid(tree, self.epsilon_, self.gamma_), self.gamma_star_,
+            bool(self.linear_part), prior, float(self.gamma_margin), self.output_names_,
+        )  # fmt: skip
+        self.coef_, self.intercept_ = np.ascontiguousarray(coef), intercept
+        self._x_train, self._y_train, self._tree = x, y, tree
+        self.n_samples_ = int(x.shape[0])
+        self.last_invalidation_ = invalidation
+        extend_training_ranges(self, experiments)
+        return self
 
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:

@@ -40,8 +40,10 @@ from neckid.models.base import (
     NarxSimulator,
     check_is_fitted,
 )
+from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.set_membership import DEFAULT_GAMMA_MARGIN, SetMembership, _term_weights
 from neckid.models.sm_prior import ProgressOption, _gamma_star
+from neckid.models.sm_update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval, Options
 
@@ -413,6 +415,58 @@ class MultiStepSetMembership(NarxModel):
                 " smaller epsilon"
             )
         return gamma, star[1].copy()
+
+    def partial_fit(
+        self, data: IOData | Sequence[IOData], *, prior: PriorRule = "adapt"
+    ) -> MultiStepSetMembership:
+        """Add new experiments to the data set of every horizon's predictor.
+
+        Each k-step predictor takes the new k-step regressors
+        (:meth:`SetMembership.partial_fit <neckid.SetMembership.partial_fit>`: its linear part
+        refitted on all its points, ε_k kept, γ_k re-checked with ``prior`` and raised, under
+        ``"adapt"``, to this model's ``gamma_margin`` · γ*(ε_k)). An experiment too short for
+        the regressor of a horizon is left out of that horizon's data.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements on the model's channels.
+        prior : {"adapt", "keep", "raise"}, default "adapt"
+            As for :meth:`SetMembership.partial_fit <neckid.SetMembership.partial_fit>`.
+
+        Returns
+        -------
+        MultiStepSetMembership
+            ``self``; each predictor's ``last_invalidation_`` reports on its horizon.
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            Data on other channels, or too short for any horizon's regressor.
+        """
+        experiments = update_experiments(self, data)
+        updated = 0
+        for i, model in enumerate(self.estimators_):
+            usable = [d for d in experiments if d.n_samples > model.lags_.max_lag]
+            if not usable:
+                continue
+            model.set_params(gamma_margin=float(self.gamma_margin))
+            model.partial_fit(usable, prior=prior)
+            self.gamma_star_[i] = np.where(
+                np.isfinite(model.gamma_star_), model.gamma_star_, self.gamma_star_[i]
+            )
+            updated += 1
+        if updated == 0:
+            raise ValueError(
+                f"every experiment is too short for the shortest k-step regressor (lags up to"
+                f" {self.estimators_[0].lags_.max_lag}); give longer data"
+            )
+        self.n_samples_ += int(sum(d.n_samples - self.lags_.max_lag for d in experiments))
+        self._set_horizon_arrays()
+        extend_training_ranges(self, experiments)
+        return self
 
     def _set_horizon_arrays(self) -> None:
         self.epsilon_ = np.vstack([m.epsilon_ for m in self.estimators_])

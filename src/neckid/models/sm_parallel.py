@@ -49,12 +49,14 @@ from neckid.models.base import (
     check_is_fitted,
     history_rows,
 )
+from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.set_membership import (
     DEFAULT_GAMMA_MARGIN,
     GammaCurve,
     Invalidation,
     SetMembership,
 )
+from neckid.models.sm_update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import check_lag_list
 
@@ -333,6 +335,54 @@ class ParallelSetMembership(Estimator):
         result = self.sm_.invalidation(augmented)
         assert isinstance(result, list)
         return result[0] if isinstance(data, IOData) else result
+
+    def partial_fit(
+        self,
+        data: IOData | Sequence[IOData],
+        *,
+        prior: PriorRule = "adapt",
+        update_linear: bool = True,
+    ) -> ParallelSetMembership:
+        """Update the linear model exactly, then add the new data to the SM map.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements on the model's channels.
+        prior : {"adapt", "keep", "raise"}, default "adapt"
+            The SM map's rule when the new data falsify its prior
+            (:meth:`SetMembership.partial_fit <neckid.SetMembership.partial_fit>`).
+        update_linear : bool, default True
+            Update the linear ARX by exact recursive least squares
+            (:meth:`LinearARX.partial_fit <neckid.LinearARX.partial_fit>`) before its free run on
+            the new data feeds the SM map; ``False`` keeps it.
+
+        Returns
+        -------
+        ParallelSetMembership
+            ``self``; ``sm_.last_invalidation_`` holds the invalidation of the new data by the
+            SM prior as it stood (with the linear model as it stood, the regressor of the data
+            set).
+
+        Notes
+        -----
+        Not a refit: the SM data set keeps the old points as they were, computed from the free
+        run of the *old* linear model (the training inputs are not stored, so they cannot be
+        recomputed); only the new points come from the updated one. With ``update_linear`` the
+        linear part equals its refit on all the data, and the SM map is then slightly
+        inconsistent with it on the old points; with ``update_linear=False`` every point of the
+        map refers to the same linear model.
+        """
+        experiments = update_experiments(self, data)
+        invalidation = self.invalidation(experiments)
+        if update_linear:
+            self.linear_.partial_fit(experiments)
+        augmented = [self._linear_run(d, f"data[{i}]") for i, d in enumerate(experiments)]
+        self.sm_.partial_fit(augmented, prior=prior)
+        self.sm_.last_invalidation_ = invalidation
+        self._set_fitted_attributes()
+        extend_training_ranges(self, experiments)
+        return self
 
     def simulator(self) -> ParallelSetMembershipSimulator:
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""

@@ -14,15 +14,17 @@ from neckid.models.scheduled import GainScheduledModel
 if TYPE_CHECKING:
     from neckid.experiments.operating_points import OperatingPointResult
 
-__all__ = ["GAIN_UNIT", "operating_points_frame", "plot_gain_schedule"]
+__all__ = ["GAIN_UNIT", "POSITION_GAIN_UNIT", "operating_points_frame", "plot_gain_schedule"]
 
-#: Unit of the gain ``N``: inclination rate per velocity command.
+#: Unit of the gain ``N`` in the rate form: inclination rate per velocity command.
 GAIN_UNIT = "(deg/s)/(rad/s)"
+#: Unit of the gain ``N`` in the position form: inclination per motor position.
+POSITION_GAIN_UNIT = "deg/rad"
 #: Label of the hollow markers of points that did not converge and were left out of the fit.
 NOT_CONVERGED_LABEL = "not converged (left out of the fit)"
 
 _PANELS = (
-    ("N", "gain", "gain N", f"gain N [{GAIN_UNIT}]", "tab:blue", "o"),
+    ("N", "gain", "gain N", "gain N [{unit}]", "tab:blue", "o"),
     ("P", "pole", "pole P", "pole P [-] (dimensionless)", "tab:red", "s"),
 )
 
@@ -37,9 +39,12 @@ def plot_gain_schedule(
 ) -> Any:
     """Operating points (markers) and fitted lines of the gain ``N(i)`` and the pole ``P(i)``.
 
-    Two panels against the inclination ``i`` [deg]: the gain ``N`` [(deg/s)/(rad/s)] and the
-    pole ``P`` (dimensionless) of ``G(z, i) = N(i) / (z − P(i))``, each with its fitted line and
-    the line's equation in the legend.
+    Two panels against the inclination ``i`` [deg]: the gain ``N`` [(deg/s)/(rad/s) in the rate
+    form, deg/rad in the position form] and the pole ``P`` (dimensionless) of
+    ``G(z, i) = N(i) / (z − P(i))``, each with its fitted line and the line's equation in the
+    legend. The curves are what the model uses: held at their end values outside the model's
+    ``schedule_range_`` (dotted lines mark its ends when they fall inside the plot), the pole
+    within ``±pole_bound``.
 
     Parameters
     ----------
@@ -103,12 +108,18 @@ def plot_gain_schedule(
     used = _used_rows(model, table)
     fitted_values = {"gain": model.gains_, "pole": model.poles_}
     coefficients = {"gain": model.gain_coefficients_, "pole": model.pole_coefficients_}
+    curves = {"gain": model.gain(grid), "pole": model.pole(grid)}
+    unit = POSITION_GAIN_UNIT if model.form == "position" else GAIN_UNIT
     for panel, (symbol, column, panel_title, ylabel, color, marker) in zip(
         panels, _PANELS, strict=True
     ):
+        ylabel = ylabel.format(unit=unit)
+        for end in model.schedule_range_:
+            if grid[0] < end < grid[-1]:
+                panel.axvline(end, color="0.6", lw=0.8, ls=":")
         panel.plot(
             grid,
-            np.polyval(coefficients[column], grid),
+            curves[column],
             color=color,
             lw=1.4,
             label=f"{symbol}(i) = {_polynomial_text(coefficients[column])}",
@@ -135,7 +146,7 @@ def plot_gain_schedule(
     heading = title if title is not None else "Gain schedule G(z, i) = N(i) / (z − P(i))"
     if shared:
         panels[0].axhline(0.0, color="0.6", lw=0.6)
-        panels[0].set_ylabel(f"gain N [{GAIN_UNIT}], pole P [-]")
+        panels[0].set_ylabel(f"gain N [{unit}], pole P [-]")
         if heading:
             panels[0].set_title(heading)
     elif heading:

@@ -8,12 +8,16 @@
   initial samples the protocol gives, RMSE in the unit the literature uses);
 - the UC3M soft-neck logs, with the protocol of ``docs/benchmarks.md`` (identify on
   ``stair/ada000response.csv``, validate by free run on every other log that has the raw
-  inclination; see :func:`softneck_protocol`).
+  inclination; see :func:`softneck_protocol`);
+- two cross-run protocols on the soft-neck staircases (:data:`SOFTNECK_CROSS_RUN`): identify on
+  several runs at once with the payload as a condition input, free-run the others
+  (``softneck-payload``: train 0 g and 600 g, test 200 g and 400 g; ``softneck-controller``:
+  train the two fractional controllers, test the integer PI).
 
-Hyper-parameters (lags, noise bounds, ...) are chosen per method on the training record only:
-every candidate is fitted on its first 75 % and ranked by free-run RMSE on the last 25 %, then the
-best one is refitted on the whole training record. Test records are never looked at before the
-final simulation.
+Hyper-parameters (lags, noise bounds, ...) are chosen per method on the training data only: on one
+training record every candidate is fitted on its first 75 % and ranked by free-run RMSE on the
+last 25 %; on several training runs, by leave-one-run-out free-run RMSE. The best one is then
+refitted on all the training data. Test records are never looked at before the final simulation.
 
 The package reads as the benchmark is built:
 
@@ -31,12 +35,13 @@ Examples
 >>> BENCHMARK_METHODS
 ('arx', 'sm', 'sm-linear', 'sm-parallel', 'nn', 'scheduled')
 >>> BENCHMARKS
-('softneck', 'cascaded_tanks', 'silverbox', 'bouc_wen', 'robot_arm')
+('softneck', 'softneck-payload', 'softneck-controller', 'cascaded_tanks', 'silverbox', 'bouc_wen', 'robot_arm')
 """
 
 from neckid.experiments.benchmark.datasets import (
     BENCHMARKS,
     PROTOCOLS,
+    SOFTNECK_CROSS_RUN,
     SOFTNECK_STAIR_EDGES,
     SOFTNECK_TRAINING_LOG,
     Protocol,
@@ -53,6 +58,7 @@ from neckid.experiments.benchmark.published import (
 from neckid.experiments.benchmark.runner import BenchmarkReport, run_benchmark
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
+    CROSS_RUN_BENCHMARKS,
     LAG_GRIDS,
     SELECTION_FRACTION,
     candidates,
@@ -61,9 +67,11 @@ from neckid.experiments.benchmark.settings import (
 __all__ = [
     "BENCHMARKS",
     "BENCHMARK_METHODS",
+    "CROSS_RUN_BENCHMARKS",
     "LAG_GRIDS",
     "PROTOCOLS",
     "SELECTION_FRACTION",
+    "SOFTNECK_CROSS_RUN",
     "SOFTNECK_STAIR_EDGES",
     "SOFTNECK_TRAINING_LOG",
     "BenchmarkReport",

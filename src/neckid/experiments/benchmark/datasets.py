@@ -11,6 +11,7 @@ records. The four public benchmarks use the official protocol of each
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,7 +27,7 @@ from neckid.datasets.benchmarks import (
     load_robot_arm,
     load_silverbox,
 )
-from neckid.datasets.softneck import load_softneck_directory
+from neckid.datasets.softneck import load_softneck_directory, load_softneck_log
 
 __all__ = [
     "BENCHMARKS",
@@ -34,11 +35,13 @@ __all__ = [
     "QUICK_TESTS",
     "QUICK_TEST_SAMPLES",
     "QUICK_TRAIN_SAMPLES",
+    "SOFTNECK_CROSS_RUN",
     "SOFTNECK_STAIR_EDGES",
     "SOFTNECK_TRAINING_LOG",
     "Protocol",
     "load_benchmark",
     "load_softneck_benchmark",
+    "load_softneck_cross_run",
     "locate",
     "quick_subset",
     "softneck_protocol",
@@ -159,6 +162,61 @@ def load_softneck_benchmark(folder: str | Path) -> BenchmarkData:
     )
 
 
+#: The cross-run protocols on the staircase logs: (training logs, test logs), relative to the
+#: ``softneck`` folder. By payload: the three controllers at 0 g and 600 g train, 200 g and 400 g
+#: test (interpolation in payload). By controller: the adaptive and fixed fractional controllers
+#: (all payloads) train, the integer PI (all payloads) tests.
+SOFTNECK_CROSS_RUN: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = MappingProxyType(
+    {
+        "softneck-payload": (
+            tuple(f"stair/{c}{g}response.csv" for c in ("ada", "fra", "int") for g in ("000", "600")),
+            tuple(f"stair/{c}{g}response.csv" for c in ("ada", "fra", "int") for g in ("200", "400")),
+        ),
+        "softneck-controller": (
+            tuple(f"stair/{c}{g}response.csv" for c in ("ada", "fra") for g in ("000", "200", "400", "600")),
+            tuple(f"stair/int{g}response.csv" for g in ("000", "200", "400", "600")),
+        ),
+    }
+)  # fmt: skip
+
+
+def load_softneck_cross_run(folder: str | Path, name: str) -> BenchmarkData:
+    """A cross-run protocol of :data:`SOFTNECK_CROSS_RUN`: several training runs, other test runs.
+
+    Every log goes through :func:`softneck_protocol` and keeps the conditions of its file name
+    (payload [kg], controller), so a model may use the payload as an input.
+
+    Raises
+    ------
+    FileNotFoundError
+        If a log of the protocol is missing under ``folder``.
+    """
+    root = Path(folder)
+    train_keys, test_keys = SOFTNECK_CROSS_RUN[name]
+    missing = [k for k in (*train_keys, *test_keys) if not (root / k).is_file()]
+    if missing:
+        raise FileNotFoundError(f"the {name} protocol needs {missing[0]}; it is not under {root}")
+    logs = {k: softneck_protocol(load_softneck_log(root / k)) for k in (*train_keys, *test_keys)}
+    split = "payload (train 0 g and 600 g, test 200 g and 400 g)"
+    if name == "softneck-controller":
+        split = "controller (train adaptive and fixed fractional, test integer PI)"
+    return BenchmarkData(
+        name=name,
+        train=[logs[k] for k in train_keys],
+        tests={k: logs[k] for k in test_keys},
+        n_initial=None,
+        description=(
+            f"UC3M soft-neck staircases across runs, split by {split}: identify on"
+            f" {len(train_keys)} logs at once (motor displacement [rad], measured motor velocity"
+            " [rad/s] and the payload [kg] as a condition -> raw inclination [deg]); free run on"
+            " each test log; NRMSE fit per log and their mean."
+        ),
+        citation="github.com/munozyanez/phd_Archived @a9198c8 (see datasets.softneck)",
+        source=str(root),
+        rmse_unit="deg",
+    )
+
+
 # ---------------------------------------------------------------------------- the registry
 @dataclass(frozen=True)
 class Protocol:
@@ -173,11 +231,17 @@ class Protocol:
     mean_over_tests : bool
         The report adds, per method, a row ``test == "mean"`` over the test records and, in the
         details, the per-test difference of fit to the linear ARX (the soft-neck logs).
+    folder : str, optional
+        The folder it reads, when not ``name`` (the cross-run protocols read ``softneck``).
+    needs : tuple of str
+        Files (relative to the folder) without which the data set counts as not found.
     """
 
     name: str
     load: Callable[[Path], BenchmarkData]
     mean_over_tests: bool = False
+    folder: str | None = None
+    needs: tuple[str, ...] = ()
 
 
 #: The data sets, by key, in the order they run.
@@ -186,6 +250,16 @@ PROTOCOLS: Mapping[str, Protocol] = MappingProxyType(
         p.name: p
         for p in (
             Protocol("softneck", load_softneck_benchmark, mean_over_tests=True),
+            *(
+                Protocol(
+                    key,
+                    functools.partial(load_softneck_cross_run, name=key),
+                    mean_over_tests=True,
+                    folder="softneck",
+                    needs=SOFTNECK_CROSS_RUN[key][0] + SOFTNECK_CROSS_RUN[key][1],
+                )
+                for key in SOFTNECK_CROSS_RUN
+            ),
             Protocol("cascaded_tanks", load_cascaded_tanks),
             Protocol("silverbox", load_silverbox),
             Protocol("bouc_wen", load_bouc_wen),
@@ -217,9 +291,14 @@ def quick_subset(bench: BenchmarkData) -> BenchmarkData:
         return record[: min(n, record.n_samples)]
 
     tests = list(bench.tests.items())[:QUICK_TESTS]
+    train = (
+        head(bench.train, QUICK_TRAIN_SAMPLES)
+        if isinstance(bench.train, IOData)
+        else [head(r, QUICK_TRAIN_SAMPLES // 2) for r in bench.train[:2]]
+    )
     return dataclasses.replace(
         bench,
-        train=head(bench.train, QUICK_TRAIN_SAMPLES),
+        train=train,
         tests={k: head(v, QUICK_TEST_SAMPLES) for k, v in tests},
         description=bench.description + " (quick: shortened records)",
     )
@@ -244,8 +323,9 @@ def load_benchmark(name: str, data_dir: str | Path, *, quick: bool = False) -> B
     """
     if name not in PROTOCOLS:
         raise ValueError(f"benchmark must be one of {list(PROTOCOLS)}; got {name!r}")
-    folder = locate(data_dir, name)
-    if folder is None:
+    protocol = PROTOCOLS[name]
+    folder = locate(data_dir, protocol.folder or name)
+    if folder is None or not all((folder / f).is_file() for f in protocol.needs):
         return None
-    bench = PROTOCOLS[name].load(folder)
+    bench = protocol.load(folder)
     return quick_subset(bench) if quick else bench

@@ -27,12 +27,13 @@ import pandas as pd
 from numpy.typing import NDArray
 from sklearn.base import clone
 
-from neckid.data import IOData
+from neckid.data import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
 from neckid.experiments.benchmark.published import published_frame
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
+    SELECTION_FOLDS,
     SELECTION_FRACTION,
     Candidate,
     candidates,
@@ -205,21 +206,41 @@ def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
 
 # ---------------------------------------------------------------------------- selection
 def _select(
-    options: Sequence[Candidate], train: IOData, n_initial: int | None
+    options: Sequence[Candidate], train: IOData | Sequence[IOData], n_initial: int | None
 ) -> tuple[Candidate, list[dict[str, Any]]]:
-    """The candidate with the smallest free-run RMSE on the held-out end of the training record."""
+    """The candidate with the smallest free-run RMSE on held-out training data.
+
+    One training record: fitted on its first :data:`SELECTION_FRACTION`, scored on the rest. A
+    list of two or more experiments: scored on held-out experiments (:data:`SELECTION_FOLDS`,
+    leave-one-experiment-out by default), by the mean RMSE over the folds; each score then also
+    says the scheme and the worst fold's RMSE.
+    """
     if not options:
         raise ValueError("the method has no candidate on this data set")
     if len(options) == 1:
         return options[0], []
-    fit_part, check_part = train.split(SELECTION_FRACTION)
-    table = score_candidates(
-        options, fit_part, check_part, criteria=("simulation",), n_initial=n_initial
-    )
+    experiments = as_experiments(train, "train")
+    if len(experiments) > 1:
+        table = score_candidates(
+            options,
+            experiments,
+            None,
+            criteria=("simulation",),
+            n_initial=n_initial,
+            folds=SELECTION_FOLDS,
+        )
+    else:
+        fit_part, check_part = experiments[0].split(SELECTION_FRACTION)
+        table = score_candidates(
+            options, fit_part, check_part, criteria=("simulation",), n_initial=n_initial
+        )
     values = table["rmse_simulation"].to_numpy(dtype=np.float64)
+    worst = table["rmse_simulation_worst"].to_numpy(dtype=np.float64)
     scores: list[dict[str, Any]] = []
-    for row, value in zip(table.itertuples(index=False), values, strict=True):
+    for row, value, fold in zip(table.itertuples(index=False), values, worst, strict=True):
         score: dict[str, Any] = {"settings": str(row.name), "holdout_rmse": float(value)}
+        if row.scheme != "validation":
+            score.update(scheme=str(row.scheme), worst_fold_rmse=float(fold))
         if row.error:
             score["error"] = str(row.error)
         scores.append(score)
@@ -447,10 +468,11 @@ def _run(
             details["missing"].append(name)
             continue
         ran.append(name)
+        n_train = sum(r.n_samples for r in as_experiments(bench.train, "train"))
         bench_details: dict[str, Any] = {
             "description": bench.description,
             "citation": bench.citation,
-            "n_train": bench.train.n_samples,
+            "n_train": n_train,
             "tests": {k: v.n_samples for k, v in bench.tests.items()},
             "methods": {},
         }
@@ -458,9 +480,7 @@ def _run(
         for method in names:
             if not runs_on(method, name):
                 continue
-            logger.info(
-                "benchmark %s: %s (%d training samples)", name, method, bench.train.n_samples
-            )
+            logger.info("benchmark %s: %s (%d training samples)", name, method, n_train)
             try:
                 method_rows, method_details = _run_method(method, bench, quick, seed)
             except Exception as exc:  # a failing method must not stop the others

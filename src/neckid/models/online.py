@@ -1,0 +1,181 @@
+r"""Online use of fitted models: the checks every ``partial_fit`` shares, and offset adaptation.
+
+Every registered model has ``partial_fit(data, **options)``: it takes new measurements (one
+:class:`~neckid.IOData` or a list) into a *fitted* model and returns it, updated. What an update
+means is the model's own (see each class): an exact least-squares update for
+:class:`~neckid.LinearARX`, the CFF-RLS recursion continued for :class:`~neckid.RecursiveARX`,
+more data points for the Set Membership models, a few more epochs for
+:class:`~neckid.NeuralNARX`, one more operating point for :class:`~neckid.GainScheduledModel`.
+The name is scikit-learn's for incremental learning; ``RecursiveARX.update(y, u)`` keeps its
+per-sample meaning.
+
+Offset adaptation works on any model, without changing it: :func:`estimate_offset` measures the
+mean error of the model's free run over a stretch of a new run (the first seconds of a test),
+and :func:`simulate_with_offset` runs the model as the output-offset model
+
+.. math:: y(t) = \tilde y(t) + c, \qquad \tilde y(t) = f(\tilde y(t-1), …, u(…)),
+
+i.e. the model's own dynamics, seen through a constant measurement offset ``c`` (a sensor zero or
+a tendon slack that differs between runs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from neckid.data import IOData, as_experiments
+from neckid.models.base import ModelResult, check_is_fitted
+
+__all__ = [
+    "estimate_offset",
+    "extend_training_ranges",
+    "simulate_with_offset",
+    "update_experiments",
+    "update_rows",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def update_experiments(model: Any, data: IOData | Sequence[IOData]) -> list[IOData]:
+    """The checks at the door of every ``partial_fit``; returns the experiments, conditions added.
+
+    Raises
+    ------
+    NotFittedError
+        If ``model`` is not fitted (an update needs something to update).
+    ValueError
+        If an experiment has other channels or another sampling period than the model, holds no
+        outputs, or is not longer than the model's ``max_lag_``.
+    """
+    check_is_fitted(model)
+    experiments = as_experiments(model._with_conditions(data))
+    for i, experiment in enumerate(experiments):
+        if experiment.n_outputs == 0:
+            raise ValueError(
+                f"partial_fit needs measured outputs; data[{i}] holds inputs only"
+                f" ({list(experiment.input_names)})"
+            )
+        model._check_inputs(experiment)
+        if experiment.n_samples <= model.max_lag_:
+            raise ValueError(
+                f"data[{i}] has {experiment.n_samples} samples, too few for lags up to"
+                f" {model.max_lag_}: an update needs at least {model.max_lag_ + 1}"
+            )
+    return experiments
+
+
+def update_rows(model: Any, experiments: Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
+    """Regressor rows and targets of ``experiments`` on the model's ``lags_`` (none straddles two)."""
+    parts = [model.lags_.build_one(d) for d in experiments]
+    return np.vstack([p[0] for p in parts]), np.vstack([p[1] for p in parts])
+
+
+def extend_training_ranges(model: Any, experiments: Sequence[IOData]) -> None:
+    """Widen ``training_ranges_`` (see ``Estimator.extrapolation``) to the new data."""
+    ranges: dict[str, tuple[float, float]] = dict(getattr(model, "training_ranges_", {}))
+    for d in experiments:
+        for names, values in ((d.input_names, d.u), (d.output_names, d.y)):
+            for j, name in enumerate(names):
+                low, high = float(values[:, j].min()), float(values[:, j].max())
+                old = ranges.get(name, (low, high))
+                ranges[name] = (min(old[0], low), max(old[1], high))
+    model.training_ranges_ = ranges
+
+
+def estimate_offset(model: Any, data: IOData, initial: ArrayLike | None = None) -> FloatArray:
+    r"""The constant output offset of a model on ``data``: mean of measured − free-run output.
+
+    Parameters
+    ----------
+    model : fitted estimator
+        Any model with ``simulate``.
+    data : IOData
+        Measured inputs and outputs (e.g. the first seconds of a new run); the free run starts
+        from its first ``max_lag_`` outputs, or from ``initial``.
+    initial : array_like, optional
+        Initial outputs of the free run, as for ``simulate``.
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        ``c = mean_t (y(t) − ŷ(t))`` over the samples after the initial ones, output units.
+
+    Notes
+    -----
+    ``c`` is the least-squares estimate of a constant added to the model's free run. It is the
+    offset of :func:`simulate_with_offset` (where the model's state starts at ``y − c``); the
+    estimate uses the plain free run from the measured initial outputs, whose transient from a
+    wrong initial state lasts a few time constants of the model.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> u = np.random.default_rng(0).normal(size=300)
+    >>> y = np.zeros(300)
+    >>> for t in range(1, 300):
+    ...     y[t] = 0.5 * y[t - 1] + u[t - 1]
+    >>> model = LinearARX(Lags.arx(1, 1), fit_intercept=False).fit(IOData(u, y, ts=0.1))
+    >>> shifted = IOData(u, y + 2.0, ts=0.1)
+    >>> c = estimate_offset(model, shifted[:100], initial=y[:1])
+    >>> np.round(c, 6)
+    array([2.])
+    """
+    check_is_fitted(model)
+    result = model.simulate(data, initial=initial)
+    start = result.n_initial
+    if data.n_samples <= start:
+        raise ValueError(
+            f"data has {data.n_samples} samples; estimating an offset needs more than the"
+            f" {start} initial ones"
+        )
+    error = data.y[start:] - result.y[start:]
+    return np.asarray(error.mean(axis=0), dtype=np.float64)
+
+
+def simulate_with_offset(model: Any, data: IOData, offset: ArrayLike) -> ModelResult:
+    r"""Free run of the output-offset model ``y = ỹ + c`` (see the module docstring).
+
+    The model's state starts at the measured initial outputs minus ``c``; the result is the
+    model's free run plus ``c`` (bounds too, when the model has them), and its first
+    ``n_initial`` rows are the measured outputs again.
+
+    Parameters
+    ----------
+    model : fitted estimator
+        Any model with ``simulate(data, initial=...)``.
+    data : IOData
+        Inputs and the measured initial outputs (its first ``max_lag_`` rows).
+    offset : array_like, shape (n_outputs,)
+        ``c``, output units (:func:`estimate_offset`).
+
+    Returns
+    -------
+    ModelResult
+        ``kind="simulation"``; ``extras["offset"]`` holds ``c``.
+    """
+    check_is_fitted(model)
+    c = np.asarray(offset, dtype=np.float64).reshape(-1)
+    if c.shape != (model.n_outputs_,) or not np.all(np.isfinite(c)):
+        raise ValueError(
+            f"offset must be {model.n_outputs_} finite value(s), one per output; got {offset!r}"
+        )
+    m = max(int(model.max_lag_), 1)
+    if data.n_outputs == 0 or data.n_samples <= m:
+        raise ValueError(
+            f"data must hold the measured outputs and more than {m} samples; got"
+            f" {data.n_samples} samples and {data.n_outputs} outputs"
+        )
+    result = model.simulate(data, initial=data.y[:m] - c)
+    y = result.y + c
+    y[: result.n_initial] = data.y[: result.n_initial]
+    lower = None if result.lower is None else result.lower + c
+    upper = None if result.upper is None else result.upper + c
+    extras = {**result.extras, "offset": c.copy()}
+    return dataclasses.replace(result, y=y, lower=lower, upper=upper, extras=extras)
