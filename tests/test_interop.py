@@ -177,6 +177,31 @@ def test_scheduled_model_is_frozen_at_an_inclination() -> None:
         to_control(model)
 
 
+def test_position_form_scheduled_model_in_python_control() -> None:
+    """The position form (inclination from motor displacement): ss = tf, and the I/O system's free
+    run equals the model's."""
+    i = np.array([10.0, 20.0, 30.0])
+    model = GainScheduledModel.from_points(
+        i, 0.05 * i + 1.0, 0.002 * i + 0.8, ts=TS, delay=2, form="position"
+    )
+    tf = to_control(model, inclination=20.0)
+    ss = to_control(model, inclination=20.0, form="ss")
+    for omega in (0.0, 0.5, 5.0):
+        z = np.exp(1j * omega * TS)
+        assert ss(z) == pytest.approx(tf(z), rel=1e-9)
+    assert float(np.real(ss(1.0))) == pytest.approx(2.0 / (1.0 - 0.84), rel=1e-9)
+    u = np.concatenate([np.zeros(5), np.linspace(0.0, 3.0, 195)])
+    data = IOData(u, np.full(200, 20.0), ts=TS, input_names=model.input_names_,
+                  output_names=model.output_names_)  # fmt: skip
+    system = to_iosystem(model)
+    x0 = initial_state(model, data.y[: model.max_lag_], data.u[: model.max_lag_])
+    response = control.input_output_response(system, _time(200 - model.max_lag_),
+                                             u[model.max_lag_ :], X0=x0)  # fmt: skip
+    np.testing.assert_allclose(
+        response.outputs.ravel(), model.simulate(data).y[model.max_lag_ :, 0], atol=TOLERANCE
+    )
+
+
 def test_intercept_and_argument_rules(neck: IOData) -> None:
     view = neck.select(inputs=["motor_position"], outputs=["inclination"])[:300]
     model = LinearARX(Lags.arx(1, 1)).fit(view)

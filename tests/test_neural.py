@@ -115,7 +115,7 @@ def test_simulation_tuning_keeps_best_free_run_candidate() -> None:
         LAGS,
         hidden_layer_sizes=(8,),
         simulation_tuning=2,
-        n_networks=2,
+        n_networks=1,
         random_state=1,
         max_iter=200,
     ).fit(data)
@@ -126,6 +126,25 @@ def test_simulation_tuning_keeps_best_free_run_candidate() -> None:
     assert model._free_run_score([tail]) == pytest.approx(model.simulation_fits_.max())
     # Trained on the head only.
     assert model.n_samples_ == data.n_samples - n_tail - LAGS.max_lag
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_simulation_tuning_averages_the_best_networks() -> None:
+    data = true_system(800, 3)
+    settings = {"hidden_layer_sizes": (8,), "random_state": 1, "max_iter": 200}
+    model = NeuralNARX(LAGS, simulation_tuning=3, n_networks=2, **settings).fit(data)
+    # Five candidates (the seeds of random_state, as with one network), the two best kept.
+    assert model.simulation_fits_.shape == (5,) and len(model.networks_) == 2
+    pool = NeuralNARX(LAGS, simulation_tuning=4, n_networks=1, **settings).fit(data)
+    np.testing.assert_array_equal(model.simulation_fits_, pool.simulation_fits_)
+    best = np.sort(np.argsort(-model.simulation_fits_)[:2])
+    seeds = np.random.RandomState(1).randint(0, np.iinfo(np.int32).max, size=5)[best]
+    for network, seed in zip(model.networks_, seeds, strict=True):
+        assert network.random_state == seed
+    n_tail = int(np.ceil(0.15 * data.n_samples))
+    tail = data[data.n_samples - n_tail :]
+    for m, index in enumerate(best):  # each kept network alone scores what it scored
+        assert model._free_run_score([tail], [m]) == pytest.approx(model.simulation_fits_[index])
 
 
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")

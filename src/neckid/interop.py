@@ -245,10 +245,16 @@ def _scheduled_frozen(
     ts, d = model.ts_, model.delay_
     n_x = 2 + d
     c_mat = np.zeros((1, n_x))
-    c_mat[0, :3] = [1.0, ts * pole, ts * gain]  # i(t) = i(t−1) + ts (P r(t−1) + N u(t−d))
     a_mat = np.zeros((n_x, n_x))
-    a_mat[0] = c_mat[0]
-    a_mat[1, 1], a_mat[1, 2] = pole, gain  # r(t) = P r(t−1) + N u(t−d)
+    if getattr(model, "form", "rate") == "position":
+        # i(t) = P i(t−1) + N x(t−d); r(t) = (i(t) − i(t−1)) / ts, kept as a state for the names.
+        c_mat[0, [0, 2]] = [pole, gain]
+        a_mat[0] = c_mat[0]
+        a_mat[1, 0], a_mat[1, 2] = (pole - 1.0) / ts, gain / ts
+    else:
+        c_mat[0, :3] = [1.0, ts * pole, ts * gain]  # i(t) = i(t−1) + ts (P r(t−1) + N u(t−d))
+        a_mat[0] = c_mat[0]
+        a_mat[1, 1], a_mat[1, 2] = pole, gain  # r(t) = P r(t−1) + N u(t−d)
     a_mat[2:, 2:] = np.eye(d, k=1)
     b_mat = np.zeros((n_x, 1))
     b_mat[-1, 0] = 1.0
@@ -593,12 +599,16 @@ class _ScheduledMap(_StateMap):
         self.outputs = list(model.output_names_)
         self.states = _scheduled_state_names(model)
         self.ts = float(model.ts_)
+        self._position = getattr(model, "form", "rate") == "position"
 
     def _advance(self, x: FloatArray) -> tuple[float, float]:
         incl, rate = float(x[0]), float(x[1])
         # The same operations, in the same order, as GainScheduledSimulator.step.
         gain = float(self._model.gain(incl))
         pole = float(self._model.pole(incl))
+        if self._position:
+            following = pole * incl + gain * float(x[2])
+            return following, (following - incl) / self.ts
         rate = pole * rate + gain * float(x[2])
         return incl + self.ts * rate, rate
 

@@ -197,11 +197,11 @@ class NeuralNARX(NarxModel):
         the same share of every experiment's *end* is also held out, contiguous, to rank the
         candidate networks by free-run fit.
     simulation_tuning : int, default 0
-        Extra random restarts ranked by free-run simulation fit. 0 trains one ensemble and selects
-        it by one-step error only. ``k > 0`` trains ``k + 1`` ensembles (seeds drawn from
-        ``random_state``) on all but the last ``validation_fraction`` of every experiment and keeps
-        the ensemble whose free run on those held-out ends fits best (mean NRMSE fit); that costs
-        ``(k + 1) n_networks`` trainings.
+        Extra networks, ranked by free-run simulation fit. 0 trains ``n_networks`` networks and
+        selects them by one-step error only. ``k > 0`` trains ``n_networks + k`` networks (seeds
+        drawn from ``random_state``) on all but the last ``validation_fraction`` of every
+        experiment, scores each alone by its free run on those held-out ends (mean NRMSE fit),
+        and keeps the ``n_networks`` best; with ``n_networks=1``, the best of ``k + 1``.
     n_networks : int, default 5
         Networks in the ensemble, each trained on the same data from its own seed; the model's
         output is their mean. 1 is a single network (the same one as before this option
@@ -226,8 +226,9 @@ class NeuralNARX(NarxModel):
         Output standardisation: ``y = y_mean_ + y_scale_ * network output``.
     n_iter_ : ndarray of int, shape (n_networks,)
         Epochs run by every network of the chosen ensemble.
-    simulation_fits_ : ndarray, shape (simulation_tuning + 1,)
-        Free-run fit (%) of every candidate on the held-out ends (only when ``simulation_tuning > 0``).
+    simulation_fits_ : ndarray, shape (n_networks + simulation_tuning,)
+        Free-run fit (%) of every candidate network alone on the held-out ends, in training order
+        (only when ``simulation_tuning > 0``).
     networks_ : list of MLPRegressor
         The trained scikit-learn networks (not restored by ``load``; the arrays above are enough).
     lags_ : ResolvedLags
