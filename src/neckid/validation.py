@@ -118,6 +118,8 @@ class Options:
 
     def accepts(self, value: Any) -> bool:
         """Whether ``value`` is one of the options."""
+        if isinstance(value, np.ndarray):  # `in` would compare element-wise
+            return False
         try:
             return value in self.values
         except TypeError:  # unhashable value against a set

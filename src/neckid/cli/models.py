@@ -103,7 +103,7 @@ def identify(
     regressor = Lags(parsed.outputs, parsed.inputs, conditions=_split(use_conditions) or ())
     estimator = make_estimator(method, regressor, random_state=seed)
     estimator.fit(experiments if len(experiments) > 1 else experiments[0])
-    rows = []
+    rows: list[dict[str, Any]] = []
     for log, data in zip(logs, experiments, strict=True):
         result = estimator.simulate(data)  # a diverging model stops here, before it is saved
         fits, rmses = result.fit_percent(data), result.rmse(data)

@@ -80,8 +80,9 @@ class BenchmarkData:
     extras: Mapping[str, object] = field(default_factory=dict)
 
     def __repr__(self) -> str:
+        records = [self.train] if isinstance(self.train, IOData) else self.train
         return (
-            f"BenchmarkData(name={self.name!r}, train={self.train.n_samples} samples,"
+            f"BenchmarkData(name={self.name!r}, train={sum(r.n_samples for r in records)} samples,"
             f" tests={ {k: v.n_samples for k, v in self.tests.items()} }, n_initial={self.n_initial})"
         )
 

@@ -53,6 +53,9 @@ __all__ = [
 #: A hyper-parameter setting of a method: its description and an unfitted estimator.
 Candidate = tuple[str, Any]
 
+#: The training data of a data set: one record, or several runs (the cross-run protocols).
+Training = IOData | Sequence[IOData]
+
 #: Share of the training record the candidates are fitted on; they are ranked by free-run RMSE on
 #: the rest.
 SELECTION_FRACTION = 0.75
@@ -195,18 +198,18 @@ def _epsilon(factor: float | None, scale: float) -> tuple[float | None, str]:
     return factor * scale, f"{factor:g} x {scale:.3g}"
 
 
-def _arx_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+def _arx_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     make = methods()["arx"].make
     return [(f"lags={lags!r}", make(lags, quick=quick)) for lags in lag_grid(benchmark, quick)]
 
 
 def _set_membership_grid(
     name: str, input_weights: tuple[float, ...]
-) -> Callable[[str, IOData, bool, int], list[Candidate]]:
+) -> Callable[[str, Training, bool, int], list[Candidate]]:
     """The grid of ``"sm"`` or ``"sm-linear"``: lags × ε × ``input_weights`` (1 when quick)."""
     method = methods()[name]
 
-    def grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+    def grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
         full = SM_EPSILON_FACTORS_LARGE if benchmark in LARGE_RECORDS else SM_EPSILON_FACTORS
         factors: tuple[float | None, ...] = (None,) if quick else full
         weights = (1.0,) if quick else input_weights
@@ -228,7 +231,7 @@ def _set_membership_grid(
     return grid
 
 
-def _parallel_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+def _parallel_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     make = methods()["sm-parallel"].make
     regressors = SM_PARALLEL_REGRESSORS[1:2] if quick else SM_PARALLEL_REGRESSORS
     factors: tuple[float | None, ...] = (
@@ -263,7 +266,7 @@ def _parallel_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> lis
     return out
 
 
-def _neural_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+def _neural_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     make = methods()["nn"].make
     params = {} if quick else dict(NEURAL_PARAMS)
     out: list[Candidate] = []
@@ -273,7 +276,7 @@ def _neural_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[
     return out
 
 
-def _scheduled_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> list[Candidate]:
+def _scheduled_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     params = {**SCHEDULED_PARAMS, "window": 50 if quick else SCHEDULED_PARAMS["window"]}
     label = (
         f"form={params['form']}, forgetting_factor={params['forgetting_factor']:g},"
@@ -283,7 +286,7 @@ def _scheduled_grid(benchmark: str, train: IOData, quick: bool, seed: int) -> li
 
 
 #: Registry name -> ``grid(benchmark, train, quick, seed)`` listing its candidates.
-CANDIDATE_GRIDS: Mapping[str, Callable[[str, IOData, bool, int], list[Candidate]]] = (
+CANDIDATE_GRIDS: Mapping[str, Callable[[str, Training, bool, int], list[Candidate]]] = (
     MappingProxyType(
         {
             "arx": _arx_grid,
@@ -301,7 +304,12 @@ BENCHMARK_METHODS: tuple[str, ...] = tuple(m for m in methods() if m in CANDIDAT
 
 
 def candidates(
-    method: str, benchmark: str, train: IOData, *, quick: bool = False, seed: int = 0
+    method: str,
+    benchmark: str,
+    train: IOData | Sequence[IOData],
+    *,
+    quick: bool = False,
+    seed: int = 0,
 ) -> list[Candidate]:
     """The hyper-parameter candidates of registry method ``method`` on data set ``benchmark``.
 
@@ -311,8 +319,9 @@ def candidates(
         A name of :data:`BENCHMARK_METHODS`.
     benchmark : str
         A key of :data:`LAG_GRIDS`.
-    train : IOData
-        The training record (the Set Membership noise bounds scale with an ARX's error on it).
+    train : IOData or sequence of IOData
+        The training record or runs (the Set Membership noise bounds scale with an ARX's error
+        on them).
     quick : bool, default False
         One candidate and the registry's smoke-run settings.
     seed : int, default 0
