@@ -112,19 +112,7 @@ def _shift_outputs(data: IOData, shift: FloatArray) -> IOData:
     """``data`` with ``shift`` added to every output sample (everything else kept)."""
     if not np.any(shift):
         return data
-    return IOData(
-        data.u,
-        data.y + shift,
-        ts=data.ts,
-        input_names=data.input_names,
-        output_names=data.output_names,
-        input_units=data.input_units,
-        output_units=data.output_units,
-        t0=data.t0,
-        name=data.name,
-        conditions=data.conditions,
-        condition_units=data.condition_units,
-    )
+    return data._replace(y=data.y + shift)
 
 
 def _warmup_samples(data: IOData, warmup_s: float) -> int:

@@ -316,11 +316,40 @@ class GainScheduledModel(Estimator):
         channel, delay = _first_order_terms(resolved)
         first = experiments[0]
         command, output = first.input_names[channel], first.output_names[0]
+        points = self._identify_points(
+            self._pieces(experiments), channel, delay, command, output, "operating point"
+        )
+        keep = [p for p in points if p.converged or not self.converged_only]
+        self.points_ = tuple(points)
+        self._fit_lines(
+            np.array([p.inclination for p in keep]),
+            np.array([p.gain for p in keep]),
+            np.array([p.pole for p in keep]),
+        )
+        self.lags_ = resolved
+        self._set_channels(first)
+        self.delay_ = delay
+        self.max_lag_ = 1
+        return self
+
+    def _identify_points(
+        self,
+        pieces: Sequence[IOData],
+        channel: int,
+        delay: int,
+        command: str,
+        output: str,
+        label: str,
+    ) -> list[OperatingPoint]:
+        """One CFF-RLS operating point per piece (:func:`identify_point`), ``skip`` left out.
+
+        ``window`` defaults to five memories of the estimator, at most half the piece.
+        """
         skip = int(self.skip)
         points = []
-        for k, piece in enumerate(self._pieces(experiments)):
+        for k, piece in enumerate(pieces):
             window = self.window
-            if window is None:  # five memories of the estimator, at most half the segment
+            if window is None:
                 usable = piece.n_samples - skip
                 window = min(default_window(self.forgetting_factor), max(10, usable // 2))
             points.append(
@@ -336,21 +365,10 @@ class GainScheduledModel(Estimator):
                     output_name=output,
                     input_unit=piece.input_units[channel],
                     output_unit=piece.output_units[0],
-                    label=f"operating point {k} ({piece.name or 'segment'})",
+                    label=f"{label} {k} ({piece.name or 'segment'})",
                 )
             )
-        keep = [p for p in points if p.converged or not self.converged_only]
-        self.points_ = tuple(points)
-        self._fit_lines(
-            np.array([p.inclination for p in keep]),
-            np.array([p.gain for p in keep]),
-            np.array([p.pole for p in keep]),
-        )
-        self.lags_ = resolved
-        self._set_channels(first)
-        self.delay_ = delay
-        self.max_lag_ = 1
-        return self
+        return points
 
     def _fit_lines(self, i_values: FloatArray, n_values: FloatArray, p_values: FloatArray) -> None:
         degree = int(self.degree)
@@ -741,30 +759,15 @@ class GainScheduledModel(Estimator):
         from neckid.models.online import extend_training_ranges, update_experiments
 
         experiments = update_experiments(self, data)
-        skip = int(self.skip)
         channel = self._channel
-        points = []
-        for k, record in enumerate(experiments):
-            window = self.window
-            if window is None:
-                usable = record.n_samples - skip
-                window = min(default_window(self.forgetting_factor), max(10, usable // 2))
-            points.append(
-                identify_point(
-                    record.u[skip:, channel],
-                    record.y[skip:, 0],
-                    record.ts,
-                    form=self.form,
-                    delay=self.delay_,
-                    forgetting_factor=self.forgetting_factor,
-                    window=window,
-                    input_name=self.input_names_[channel],
-                    output_name=self.output_names_[0],
-                    input_unit=record.input_units[channel],
-                    output_unit=record.output_units[0],
-                    label=f"new operating point {k} ({record.name or 'record'})",
-                )
-            )
+        points = self._identify_points(
+            experiments,
+            channel,
+            self.delay_,
+            self.input_names_[channel],
+            self.output_names_[0],
+            "new operating point",
+        )
         keep = [p for p in points if p.converged or not self.converged_only]
         if keep:
             self._fit_lines(
