@@ -468,6 +468,33 @@ class IOData:
             name or f"d({channel})/dt", dx, unit=f"{unit}/s" if unit else "1/s", kind=kind
         )
 
+    def with_tilt(
+        self,
+        representation: str = "vector",
+        *,
+        inclination: str = "inclination",
+        orientation: str = "orientation",
+    ) -> IOData:
+        """Inclination and orientation outputs replaced by a wrap-free pair (3-D neck).
+
+        ``"vector"`` gives ``tilt_x``, ``tilt_y`` [deg], ``"pitch_roll"`` gives ``pitch``,
+        ``roll`` [deg]; see :func:`neckid.tilt.tilt_log`, and :meth:`with_polar` for the way back.
+        """
+        from neckid.tilt import tilt_log
+
+        return tilt_log(
+            self,
+            inclination=inclination,
+            orientation=orientation,
+            representation=representation,  # type: ignore[arg-type]
+        )
+
+    def with_polar(self, representation: str = "vector") -> IOData:
+        """The inverse of :meth:`with_tilt`: outputs ``inclination`` and ``orientation`` [deg]."""
+        from neckid.tilt import polar_log
+
+        return polar_log(self, representation=representation)  # type: ignore[arg-type]
+
     # ------------------------------------------------------------------ slicing
     def __getitem__(self, index: slice) -> IOData:
         """Slice by sample index (a ``slice`` with step 1 or a positive step)."""

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import typer
 from rich.table import Table
 
 from neckid.cli._app import (
+    _fail,
     _method_name,
     _split,
     app,
@@ -18,11 +21,78 @@ from neckid.cli._app import (
 )
 
 
+@contextmanager
+def _steps(n_steps: int) -> Iterator[Callable[[str], None]]:
+    """A rich progress bar over a protocol's steps; plain log lines when not in a terminal."""
+    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    with Progress(
+        SpinnerColumn(),
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as progress:
+        task = progress.add_task("starting", total=n_steps)
+
+        def on_step(text: str) -> None:
+            progress.update(task, description=text, advance=1)
+            if not console.is_terminal:  # no live bar: plain log lines
+                done = int(progress.tasks[0].completed)
+                console.print(f"step {done}/{n_steps}: {text}", markup=False)
+
+        yield on_step
+
+
+def _demo3d(out: Path, *, quick: bool, seed: int, force: bool) -> None:
+    """``neckid demo --3d``: run the 3-D protocol and print its tables."""
+    import numpy as np
+
+    from neckid.experiments.neck3d import Demo3DSettings, run_demo3d
+
+    with _steps(6) as on_step:
+        result = run_demo3d(
+            out, Demo3DSettings.make(quick=quick, seed=seed), on_step=on_step, force=force
+        )
+    bands = ", ".join(f"{d:g} deg: {b:.2f}" for d, b in result.bandwidths.items())
+    console.print(f"bandwidth per tilt direction [rad/s]: {bands}")
+    console.print(f"regressor: {result.lags!r}")
+    records = list(dict.fromkeys(column[0] for column in result.fit.columns))
+    for title, frame, pair, digits in (
+        ("Free-run fit [%]: tilt_x / tilt_y", result.fit, ("tilt_x", "tilt_y"), 1),
+        (
+            "Mean absolute error [deg]: inclination / orientation",
+            result.mae,
+            ("inclination", "orientation"),
+            2,
+        ),
+    ):
+        table = Table(title=title)
+        table.add_column("model")
+        for record in records:
+            table.add_column(record, justify="right")
+        for name in frame.index:
+            cells = []
+            for record in records:
+                a, b = (float(frame.loc[name, (record, key)]) for key in pair)
+                cells.append(
+                    " / ".join(f"{v:.{digits}f}" if np.isfinite(v) else "-" for v in (a, b))
+                )
+            table.add_row(str(name), *cells)
+        console.print(table)
+    console.print(f"report: {result.files['report']}  ({result.wall_time:.1f} s)")
+
+
 @app.command()
 @handled
 def demo(
     out: Path = typer.Option(
-        Path("neckid-demo"), "--out", help="Folder for report.html, metrics.json, figures, models."
+        None,
+        "--out",
+        help="Folder for report.html, metrics.json, figures, models (default neckid-demo, or"
+        " neckid-demo-3d with --3d).",
+        show_default=False,
     ),
     quick: bool = typer.Option(
         False,
@@ -43,6 +113,11 @@ def demo(
     force: bool = typer.Option(
         False, "--force", help="Replace the files of an existing --out folder."
     ),
+    three_d: bool = typer.Option(
+        False,
+        "--3d",
+        help="The three-tendon neck instead: three motor positions in, the tilt vector out.",
+    ),
 ) -> None:
     """Run the paper's whole protocol on the built-in simulated neck and write a report.
 
@@ -50,31 +125,25 @@ def demo(
     neural NARX 2x25, linear ARX and the CFF-RLS inclination-scheduled model, validation, and the
     three closed-loop tests (2 rad/s sine, 5 deg staircase, 20 deg step). Fits are NRMSE fits [%]
     of free-run simulations; errors are in degrees of inclination.
+
+    With --3d: the three-tendon neck. Bandwidth per tilt direction, a tendon-space multisine with
+    a pre-tension, every MIMO method from the three motor positions [rad] to the tilt vector
+    (tilt_x, tilt_y) [deg], and three 3-D closed-loop tests (a circle at 15 deg, orientation
+    steps, a 20 deg step on a diagonal), scored per tilt component and in inclination and
+    orientation.
     """
     import numpy as np
-    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from neckid.experiments.paper import EXPERIMENTS, DemoSettings, run_demo
 
+    if three_d:
+        if paper_regressor:
+            _fail("--paper-regressor has one motor; --3d selects its own regressor")
+        _demo3d(out or Path("neckid-demo-3d"), quick=quick, seed=seed, force=force)
+        return
     settings = DemoSettings.make(quick=quick, seed=seed, paper_regressor=paper_regressor)
-    n_steps = 8
-    with Progress(
-        SpinnerColumn(),
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-    ) as progress:
-        task = progress.add_task("starting", total=n_steps)
-
-        def on_step(text: str) -> None:
-            progress.update(task, description=text, advance=1)
-            if not console.is_terminal:  # no live bar: plain log lines
-                done = int(progress.tasks[0].completed)
-                console.print(f"step {done}/{n_steps}: {text}", markup=False)
-
-        result = run_demo(out, settings, on_step=on_step, force=force)
+    with _steps(8) as on_step:
+        result = run_demo(out or Path("neckid-demo"), settings, on_step=on_step, force=force)
     console.print(
         f"bandwidth of the simulated neck: {result.bandwidth:.2f} rad/s (paper: 4.2 rad/s)"
     )
