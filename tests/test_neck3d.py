@@ -109,3 +109,75 @@ def test_cli_demo_3d_quick_prints_both_tables(tmp_path) -> None:
     assert "tilt_x / tilt_y" in result.output and "inclination / orientation" in result.output
     assert "step 6/6" in result.output  # not a terminal: plain progress lines
     assert (tmp_path / "d" / "report.html").exists()
+
+
+def _imu_csv(path, seed: int, payload: float = 0.2) -> None:
+    """A three-motor log of the simulated neck written the way an IMU bench writes one."""
+    import pandas as pd
+
+    from neckid.experiments.neck3d import excitation_positions
+    from neckid.plant import SoftNeck
+
+    q = excitation_positions(1500, 0.02, band=(0.05, 3.0), pretension=1.5, amplitude=2.5, seed=seed)
+    velocity = np.vstack([np.full((150, 3), 1.5 / 3.0), np.diff(q, axis=0, prepend=q[:1]) / 0.02])
+    log = SoftNeck(configuration="three_tendon", seed=seed).run(velocity)[150:]
+    frame = pd.DataFrame(
+        {
+            "time": log.time,
+            **{f"motor_{k}": log.channel(f"motor_position_{k}") for k in (1, 2, 3)},
+            "inclination": log.channel("inclination"),
+            "orientation": log.channel("orientation"),
+            "mass": payload,
+        }
+    )
+    frame.to_csv(path, index=False)
+
+
+def test_three_motor_logs_load_as_the_tilt_vector(tmp_path) -> None:
+    from neckid.datasets import load_three_motor_log
+
+    _imu_csv(tmp_path / "run.csv", seed=1)
+    log = load_three_motor_log(tmp_path / "run.csv", payload="mass")
+    assert log.input_names == ("motor_1", "motor_2", "motor_3")
+    assert log.output_names == ("tilt_x", "tilt_y") and log.output_units == ("deg", "deg")
+    assert log.conditions["payload"] == 0.2 and log.condition_units["payload"] == "kg"
+    raw = np.loadtxt(tmp_path / "run.csv", delimiter=",", skiprows=1)
+    assert np.max(np.abs(np.diff(raw[:, 5]))) > 300.0  # the orientation wraps in the file
+    assert np.max(np.abs(np.diff(log.y, axis=0))) < 1.0  # the tilt vector does not jump
+    back = log.with_polar()
+    np.testing.assert_allclose(back.channel("inclination"), raw[:, 4], atol=1e-9)
+    pitch_roll = load_three_motor_log(tmp_path / "run.csv", representation="pitch_roll")
+    assert pitch_roll.output_names == ("pitch", "roll") and not pitch_roll.conditions
+    (tmp_path / "bad.csv").write_text(
+        "time,motor_1,motor_2,motor_3,inclination,orientation,mass\n"
+        "0,0,0,0,1,0,0.2\n0.02,0,0,0,1,0,0.4\n"
+    )
+    with pytest.raises(ValueError, match=r"payload column 'mass' must be constant.*row 2"):
+        load_three_motor_log(tmp_path / "bad.csv", payload="mass")
+    with pytest.raises(KeyError, match="motor_4"):
+        load_three_motor_log(tmp_path / "run.csv", motors=["motor_1", "motor_4"])
+
+
+def test_cli_identifies_and_validates_the_tilt_vector(tmp_path) -> None:
+    _imu_csv(tmp_path / "train.csv", seed=1)
+    _imu_csv(tmp_path / "test.csv", seed=2)
+    runner = CliRunner()
+    motors = "motor_1,motor_2,motor_3"
+    model = tmp_path / "tilt.npz"
+    common = ["--inputs", motors, "--outputs", "inclination,orientation"]
+    result = runner.invoke(
+        app,
+        ["identify", str(tmp_path / "train.csv"), *common, "--tilt", "--method", "arx",
+         "--lags", "1-2/1-3", "--save", str(model)],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "tilt_x" in result.output and "tilt_y" in result.output
+    result = runner.invoke(app, ["validate", str(model), str(tmp_path / "test.csv"), "--tilt"])
+    assert result.exit_code == 0, result.output
+    rows = [line.split("│") for line in result.output.splitlines() if "│ tilt_" in line]
+    fits = [float(row[2]) for row in rows]
+    assert len(fits) == 2 and min(fits) > 90.0, result.output
+    result = runner.invoke(app, ["identify", str(tmp_path / "train.csv"), "--inputs", motors,
+                                 "--outputs", "inclination", "--tilt"])  # fmt: skip
+    assert result.exit_code == 2
+    assert "--tilt needs the outputs inclination and orientation" in result.output

@@ -75,6 +75,7 @@ def read_log(
     sep: str = ",",
     channels: Sequence[str] = (),
     conditions: Sequence[str] = (),
+    tilt: bool = False,
 ) -> IOData:
     """Read a log for identification, with its experimental conditions.
 
@@ -101,14 +102,32 @@ def read_log(
         ``name=value`` conditions of the experiment (``"payload=0.4kg"``). They override those of
         the log's sidecar ``<stem>.conditions.json`` (:func:`neckid.conditions.read_sidecar`),
         which override those the loader reads from a soft-neck file name.
+    tilt : bool, default False
+        A 3-D neck's log: read its ``inclination`` and ``orientation`` outputs [deg] and return
+        the tilt vector ``tilt_x``, ``tilt_y`` [deg] in their place (:mod:`neckid.tilt`).
+        ``tilt_x``/``tilt_y`` among ``outputs`` (a model's channels) stand for those two.
     """
     from neckid.conditions import apply_conditions
 
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
+    if tilt:
+        polar = [*dict.fromkeys(_POLAR.get(name, name) for name in outputs or ())]
+        missing = [name for name in ("inclination", "orientation") if name not in polar]
+        if missing:
+            raise ValueError(
+                f"--tilt needs the outputs inclination and orientation; --outputs lacks {missing}"
+            )
+        outputs = polar
     data = _read_channels(path, inputs, outputs, time, ts, layout, sep, channels)
+    if tilt:
+        data = data.with_tilt()
     return apply_conditions(data, path, conditions)
+
+
+#: With ``tilt=True``, the tilt-vector channel a model names and the log channel it comes from.
+_POLAR = {"tilt_x": "inclination", "tilt_y": "orientation"}
 
 
 def _read_channels(

@@ -236,3 +236,9 @@ CHANNEL_OPTION = typer.Option(None, "--channel", help=CHANNEL_HELP)
 MAP_OPTION = typer.Option(None, "--map", help=MAP_HELP)
 FORCE_OPTION = typer.Option(False, "--force", help=FORCE_HELP)
 CONDITION_OPTION = typer.Option(None, "--condition", help=CONDITION_HELP)
+TILT_OPTION = typer.Option(
+    False,
+    "--tilt",
+    help="3-D neck: read the inclination and orientation outputs [deg] and use the wrap-free"
+    " tilt vector tilt_x, tilt_y [deg] in their place.",
+)

@@ -18,6 +18,7 @@ from neckid.cli._app import (
     MAP_OPTION,
     OUTPUTS_HELP,
     SEP_OPTION,
+    TILT_OPTION,
     TIME_OPTION,
     TS_OPTION,
     _method_name,
@@ -72,6 +73,7 @@ def identify(
         help="Comma-separated conditions the model takes as constant inputs (e.g. payload);"
         " each log must have them (file name, sidecar or --condition).",
     ),
+    tilt: bool = TILT_OPTION,
     force: bool = FORCE_OPTION,
 ) -> None:
     """Identify a model from one log or several (one experiment each) and save it.
@@ -95,6 +97,7 @@ def identify(
             sep=_sep(sep),
             channels=channels or (),
             conditions=conditions or (),
+            tilt=tilt,
         )
         for log in logs
     ]
@@ -133,6 +136,7 @@ def _load_for_model(
     maps: list[str] | None = None,
     channels: list[str] | None = None,
     conditions: list[str] | None = None,
+    tilt: bool = False,
 ) -> tuple[Any, Any]:
     from neckid.models.io import load_model
     from neckid.workflow import map_channels, parse_mapping, read_log
@@ -151,6 +155,7 @@ def _load_for_model(
         sep=_sep(sep),
         channels=channels or (),
         conditions=conditions or (),
+        tilt=tilt,
     )
     return model, map_channels(data, mapping) if mapping else data
 
@@ -226,6 +231,7 @@ def validate(
     channels: list[str] = CHANNEL_OPTION,
     maps: list[str] = MAP_OPTION,
     conditions: list[str] = CONDITION_OPTION,
+    tilt: bool = TILT_OPTION,
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
     force: bool = FORCE_OPTION,
 ) -> None:
@@ -240,7 +246,7 @@ def validate(
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
     model, data = _load_for_model(
-        model_path, log, time, ts, layout, sep, maps, channels, conditions
+        model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
     )
     try:
         result = model.simulate(data)
@@ -297,6 +303,7 @@ def simulate(
     channels: list[str] = CHANNEL_OPTION,
     maps: list[str] = MAP_OPTION,
     conditions: list[str] = CONDITION_OPTION,
+    tilt: bool = TILT_OPTION,
     force: bool = FORCE_OPTION,
     keep_diverged: bool = typer.Option(
         False,
@@ -315,7 +322,7 @@ def simulate(
 
     check_output_file(out, force=force, inputs=[log, model_path])
     model, data = _load_for_model(
-        model_path, log, time, ts, layout, sep, maps, channels, conditions
+        model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
     )
     diverged: DivergenceError | None = None
     try:

@@ -2,7 +2,8 @@
 
 The files are not shipped with neckid; every loader takes a path. See
 :mod:`neckid.datasets.softneck` for the soft-neck CSV layouts,
-:mod:`neckid.datasets.benchmarks` for the benchmarks and their official splits, and
+:mod:`neckid.datasets.benchmarks` for the benchmarks and their official splits,
+:mod:`neckid.datasets.imu3d` for three-motor logs of the 3-D neck (read as the tilt vector), and
 :mod:`neckid.datasets.rosbag` for ROS 2 bags (needs the optional dependency ``rosbags``, imported
 only when a bag is read).
 """
@@ -15,6 +16,7 @@ from neckid.datasets.benchmarks import (
     load_robot_arm,
     load_silverbox,
 )
+from neckid.datasets.imu3d import load_three_motor_log
 from neckid.datasets.rosbag import RosbagChannel, load_rosbag
 from neckid.datasets.softneck import (
     CHANNELS,
@@ -40,4 +42,5 @@ __all__ = [
     "load_silverbox",
     "load_softneck_directory",
     "load_softneck_log",
+    "load_three_motor_log",
 ]

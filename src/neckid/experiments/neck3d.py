@@ -261,9 +261,9 @@ def orientation_error(
     >>> import numpy as np
     >>> from neckid.experiments.neck3d import orientation_error
     >>> measured = np.array([[10.0, 0.0], [0.0, 10.0], [0.1, 0.0]])
-    >>> simulated = np.array([[10.0, -1.0], [0.0, 10.0], [0.0, 0.1]])   # 359.3° vs 0°
+    >>> simulated = np.array([[10.0, -1.0], [0.0, 10.0], [0.0, 0.1]])   # 354.3° vs 0°: 5.7° apart
     >>> round(orientation_error(measured, simulated, min_inclination=3.0), 4)
-    2.8624
+    2.8553
     """
     y = measured.y[:, :2] if isinstance(measured, IOData) else np.asarray(measured)[:, :2]
     incl, phi = from_tilt(y[skip:, 0], y[skip:, 1])
