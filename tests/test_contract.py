@@ -284,3 +284,51 @@ def test_conditions_are_inputs_through_the_lags(name: str, tmp_path) -> None:
                   output_names=other.output_names)  # fmt: skip
     with pytest.raises(KeyError, match="condition 'payload'"):
         model.simulate(bare)
+
+
+def _mimo_data(seed: int = 0, n: int = 900) -> IOData:
+    """Three motors, two coupled outputs (a tilt vector): the 3-D neck's shape in miniature."""
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(-1.0, 1.0, (n // 20, 3)), 20, axis=0)
+    y = np.zeros((n, 2))
+    for t in range(1, n):
+        y[t, 0] = 0.8 * y[t - 1, 0] + 0.3 * np.tanh(2.0 * u[t - 1, 0]) - 0.1 * u[t - 1, 1]
+        y[t, 1] = 0.7 * y[t - 1, 1] + 0.2 * u[t - 1, 2] + 0.1 * np.tanh(y[t - 1, 0])
+    return IOData(
+        u, y + 0.005 * rng.normal(size=y.shape), ts=0.02,
+        input_names=["motor_position_1", "motor_position_2", "motor_position_3"],
+        output_names=["tilt_x", "tilt_y"], input_units=["rad"] * 3, output_units=["deg"] * 2,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("name", METHODS)
+def test_several_inputs_and_outputs(name: str, tmp_path) -> None:
+    """MIMO: fit, predict, free run, simulator and files with three inputs and two outputs."""
+    import warnings
+
+    train, test = _mimo_data(0), _mimo_data(1)
+    model = neckid.methods()[name].make(Lags(outputs=1, inputs=[1]), quick=True)
+    if name == "scheduled":  # a first-order model of one command and one inclination
+        with pytest.raises(ValueError, match="first order in one output"):
+            model.fit(train)
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit(train)
+        result = model.simulate(test)
+        prediction = model.predict(test)
+    assert model.input_names_ == train.input_names and model.output_names_ == train.output_names
+    assert result.y.shape == prediction.y.shape == (test.n_samples, 2)
+    assert result.output_units == ("deg", "deg")
+    assert np.all(np.isfinite(result.y))
+    if name != "nn":  # the quick networks stop long before converging (see test_neural.py)
+        assert np.all(result.fit_percent(test) > 50.0), result.fit_percent(test)
+    m = model.max_lag_
+    simulator = model.simulator()
+    simulator.reset(y0=test.y[:m], u0=test.u[:m])
+    stepped = np.array([simulator.step(test.u[t]) for t in range(m, test.n_samples)])
+    np.testing.assert_allclose(stepped, result.y[m:], rtol=0, atol=1e-9)
+    loaded = neckid.load_model(model.save(tmp_path / name))
+    np.testing.assert_allclose(loaded.simulate(test).y, result.y, rtol=0, atol=1e-12)
+    if result.lower is not None:  # Set Membership: a band per output
+        assert result.lower.shape == result.upper.shape == result.y.shape

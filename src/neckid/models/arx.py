@@ -1,21 +1,29 @@
-"""LinearARX: the batch least-squares ARX baseline over any :class:`~neckid.Lags` regressor."""
+"""LinearARX: the batch least-squares ARX baseline over any :class:`~neckid.Lags` regressor.
+
+Its free run (:func:`linear_free_run`) is a linear filter, not a per-sample Python loop: SciPy's
+``lfilter`` for one output, a small compiled loop (:func:`_linear_free_run_kernel`) when
+several outputs feed back into each other. The generic NARX loop (``neckid.models.base._free_run``) is
+the reference both are tested against.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
+import numba
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+from scipy import signal
 
 from neckid.data import IOData
-from neckid.models.base import NarxModel, check_is_fitted
+from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
-from neckid.regressors import Lags
+from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval
 
-__all__ = ["LinearARX", "least_squares"]
+__all__ = ["LinearARX", "least_squares", "linear_free_run"]
 
 FloatArray = NDArray[np.float64]
 
@@ -48,6 +56,149 @@ def least_squares(
     coef = solution / scale[:, None]
     intercept = y_mean - x_mean @ coef
     return np.ascontiguousarray(coef), np.asarray(intercept, dtype=np.float64)
+
+
+def linear_free_run(
+    resolved: ResolvedLags,
+    coef: ArrayLike,
+    intercept: ArrayLike,
+    u: ArrayLike,
+    y_initial: ArrayLike,
+) -> FloatArray:
+    """Free run of the linear ARX map ``y(t) = intercept + coefᵀ w(t)`` as a filter.
+
+    Gives what the generic NARX loop gives (``neckid.models.base._free_run`` with
+    ``x @ coef + intercept``), to rounding, without a Python loop over the samples.
+
+    Parameters
+    ----------
+    resolved : ResolvedLags
+        The regressor ``w(t)``: which lag of which output or input each row of ``coef`` weighs.
+        Lags may be sparse; inputs (and conditions) may have lag 0.
+    coef : array_like, shape (n_terms, n_outputs)
+        Coefficients on ``w(t)``, in the order of ``resolved.names``.
+    intercept : array_like, shape (n_outputs,)
+        Constant term (zeros for a model without one).
+    u : array_like, shape (n_samples, n_inputs)
+        The inputs, all of them measured: input terms at ``t >= max_lag`` only reach back to
+        row 0.
+    y_initial : array_like, shape (n_samples, n_outputs)
+        Its first ``max_lag`` rows are the initial outputs (oldest first); the other rows are
+        ignored.
+
+    Returns
+    -------
+    ndarray, shape (n_samples, n_outputs)
+        The first ``max_lag`` rows copied from ``y_initial``, then the free run.
+
+    Raises
+    ------
+    ValueError
+        If there are no more than ``max_lag`` samples.
+
+    Notes
+    -----
+    With ``A_l`` the coefficients of the outputs at lag ``l`` (an ``n_outputs × n_outputs``
+    matrix, zero for lags not in the regressor), ``B_l`` those of the inputs and ``c`` the
+    intercept,
+
+    ``y(t) = c + Σ_{l=1..L} A_l y(t − l) + Σ_{l=0..max_lag} B_l u(t − l)``,
+    ``t = max_lag, …, n_samples − 1``.
+
+    With one output the input part ``x(t) = c + Σ_l B_l u(t − l)`` does not feed back: it is a
+    FIR filter per input, and ``y`` is the IIR filter ``1 / (1 − Σ_l a_l z^{-l})`` applied to
+    ``x``, both run by :func:`scipy.signal.lfilter` (direct form II transposed). The IIR filter
+    starts from the state that :func:`scipy.signal.lfiltic` builds from the last ``L`` initial
+    outputs, so that its first output is ``x(m) + Σ_l a_l y(m − l)`` exactly as in the loop
+    ([1]_, sections 6.5 and 6.6). With several outputs the ``A_l`` couple them and the whole
+    recursion runs in the compiled :func:`_linear_free_run_kernel`. Only the order of the
+    floating-point additions differs from the generic loop.
+
+    References
+    ----------
+    .. [1] A. V. Oppenheim, R. W. Schafer, *Discrete-Time Signal Processing*, 3rd ed., Pearson,
+       2010.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags
+    >>> data = IOData(np.ones(5), np.zeros(5), ts=0.1)
+    >>> resolved = Lags.arx(1, 1).resolve(data)  # y(t) = 0.5 y(t-1) + u(t-1) + 0.1
+    >>> linear_free_run(resolved, [[0.5], [1.0]], [0.1], data.u, [[2.0]] * 5).ravel()
+    array([2.    , 2.1   , 2.15  , 2.175 , 2.1875])
+    """
+    u_arr = np.asarray(u, dtype=np.float64)
+    y = np.array(y_initial, dtype=np.float64, order="C", ndmin=2)
+    coef_arr = np.asarray(coef, dtype=np.float64).reshape(resolved.n_terms, -1)
+    n, n_out = y.shape
+    m = resolved.max_lag
+    if n <= m:
+        raise ValueError(
+            f"data has {n} samples, too few for lags up to {m}: it needs at least {m + 1}"
+        )
+    outputs = np.flatnonzero(resolved.source == 0)
+    if n_out > 1:
+        inputs = np.flatnonzero(resolved.source == 1)
+        _linear_free_run_kernel(
+            y,
+            np.ascontiguousarray(u_arr),
+            np.ascontiguousarray(resolved.channel[outputs], dtype=np.int64),
+            np.ascontiguousarray(resolved.lag[outputs], dtype=np.int64),
+            np.ascontiguousarray(coef_arr[outputs]),
+            np.ascontiguousarray(resolved.channel[inputs], dtype=np.int64),
+            np.ascontiguousarray(resolved.lag[inputs], dtype=np.int64),
+            np.ascontiguousarray(coef_arr[inputs]),
+            np.ascontiguousarray(intercept, dtype=np.float64).reshape(n_out),
+            m,
+        )
+        return y
+    forcing = np.full(n - m, float(np.asarray(intercept, dtype=np.float64).reshape(())))
+    for channel in np.unique(resolved.channel[resolved.source == 1]):
+        terms = np.flatnonzero((resolved.source == 1) & (resolved.channel == channel))
+        numerator = np.zeros(int(resolved.lag[terms].max()) + 1)
+        np.add.at(numerator, resolved.lag[terms], coef_arr[terms, 0])
+        forcing += signal.lfilter(numerator, [1.0], u_arr[:, channel])[m:]
+    if outputs.size == 0:
+        y[m:, 0] = forcing
+        return y
+    order = int(resolved.lag[outputs].max())
+    denominator = np.zeros(order + 1)
+    denominator[0] = 1.0
+    np.subtract.at(denominator, resolved.lag[outputs], coef_arr[outputs, 0])
+    past = y[m - order : m, 0][::-1]  # y(m − 1), y(m − 2), ..., y(m − order)
+    state = signal.lfiltic([1.0], denominator, past)
+    y[m:, 0] = signal.lfilter([1.0], denominator, forcing, zi=state)[0]
+    return y
+
+
+@numba.njit(cache=True, nogil=True)
+def _linear_free_run_kernel(
+    y: FloatArray,
+    u: FloatArray,
+    output_channel: NDArray[np.int64],
+    output_lag: NDArray[np.int64],
+    output_coef: FloatArray,
+    input_channel: NDArray[np.int64],
+    input_lag: NDArray[np.int64],
+    input_coef: FloatArray,
+    intercept: FloatArray,
+    start: int,
+) -> None:  # pragma: no cover - compiled; tested against the generic NARX loop
+    """``y(t) = intercept + Σ_j input_coef_j u(t − lag_j) + Σ_j output_coef_j y(t − lag_j)``.
+
+    In place for ``t >= start`` (rows are time); term ``j`` reads column ``channel_j``, and its
+    coefficient row holds one value per output.
+    """
+    n, n_out = y.shape
+    for t in range(start, n):
+        for o in range(n_out):
+            total = intercept[o]
+            for j in range(input_lag.shape[0]):
+                total += input_coef[j, o] * u[t - input_lag[j], input_channel[j]]
+            for j in range(output_lag.shape[0]):
+                total += output_coef[j, o] * y[t - output_lag[j], output_channel[j]]
+            y[t, o] = total
 
 
 class LinearARX(NarxModel):
@@ -167,6 +318,35 @@ class LinearARX(NarxModel):
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_ + self.intercept_, dtype=np.float64)
+
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
+        """Free-run simulation: the regressor holds the model's own past outputs.
+
+        Parameters
+        ----------
+        data : IOData
+            The inputs; its first ``max_lag_`` measured outputs are the initial conditions unless
+            ``initial`` is given (then ``data`` may hold inputs only).
+        initial : array_like, shape (n_outputs,) or (max_lag_, n_outputs), optional
+            The first outputs (oldest first; one row is repeated).
+
+        Returns
+        -------
+        ModelResult
+            Of kind ``"simulation"``; its first ``max_lag_`` samples are the initial outputs.
+
+        Notes
+        -----
+        The same values as the generic NARX free run (and as stepping :meth:`simulator`), to
+        rounding, computed as a linear filter (:func:`linear_free_run`): some hundred times
+        faster than a loop over the samples in Python.
+        """
+        check_is_fitted(self)
+        data = self._with_conditions(data)
+        y0 = self._initial_outputs(data, initial)
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
+            y = linear_free_run(self.lags_, self.coef_, self.intercept_, data.u, y0)
+        return self._result("simulation", data, y)
 
     def _check_state(self) -> None:
         super()._check_state()

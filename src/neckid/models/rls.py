@@ -1,24 +1,32 @@
 """RecursiveARX: ARX parameters estimated by recursive least squares with a constant forgetting factor.
 
 The estimator is the CFF-RLS of Landau et al. (2011) used by the seed paper (section IV) to identify
-a first-order model of the soft neck at each operating point. The per-sample loop is compiled with
-numba (:func:`_rls_kernel`); :func:`rls_reference` is the plain NumPy transcription of the same
-equations, kept beside it so that the tests can check that both agree.
+a first-order model of the soft neck at each operating point, here for one output or several
+sharing one regressor. The per-sample loop is compiled with numba
+(:func:`neckid.models.rls_kernels._rls_kernel`); :func:`rls_reference` is the plain NumPy
+transcription of the same equations, kept beside it (in :mod:`neckid.models.rls_kernels`) so that
+the tests can check that both agree.
 """
 
 from __future__ import annotations
 
-import math
 import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
-from neckid.models.base import NarxModel, check_is_fitted
+from neckid.models.arx import linear_free_run
+from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.rls_kernels import (
+    NOT_FINITE,
+    ParameterHistory,
+    _rls_kernel,
+    _rls_online_kernel,
+    rls_reference,
+)
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval, check_finite, check_number
 
@@ -46,151 +54,6 @@ class Convergence(NamedTuple):
     settled_at: int | None
 
 
-# ---------------------------------------------------------------------- kernels
-@numba.njit(cache=True, nogil=True)
-def _rls_kernel(
-    phi: FloatArray,
-    y: FloatArray,
-    theta: FloatArray,
-    covariance: FloatArray,
-    forgetting_factor: float,
-    initial_covariance: FloatArray,
-    max_trace: float,
-    theta_history: FloatArray,
-    errors: FloatArray,
-    resets: NDArray[np.int64],
-) -> int:  # pragma: no cover - compiled; the NumPy reference is tested against it
-    """CFF-RLS over the rows of ``phi``; ``theta`` and ``covariance`` are updated in place.
-
-    Returns the number of covariance resets; their row indices are written to ``resets``.
-    """
-    n, p = phi.shape
-    f_phi = np.empty(p)
-    n_resets = 0
-    for t in range(n):
-        # ε(t+1) = y(t+1) − θ̂(t)ᵀ φ(t)  and  F(t) φ(t)
-        prediction = 0.0
-        for i in range(p):
-            prediction += theta[i] * phi[t, i]
-            acc = 0.0
-            for j in range(p):
-                acc += covariance[i, j] * phi[t, j]
-            f_phi[i] = acc
-        error = y[t] - prediction
-        denominator = forgetting_factor
-        for i in range(p):
-            denominator += phi[t, i] * f_phi[i]
-        # F(t+1) = (F − Fφφᵀ F / (λ + φᵀFφ)) / λ, computed on the upper triangle and mirrored
-        # (symmetric by construction); F(t+1) φ(t) = F(t) φ(t) / (λ + φᵀFφ).
-        trace = 0.0
-        for i in range(p):
-            for j in range(i, p):
-                value = (covariance[i, j] - f_phi[i] * f_phi[j] / denominator) / forgetting_factor
-                covariance[i, j] = value
-                covariance[j, i] = value
-            trace += covariance[i, i]
-        scale = error / denominator
-        finite = True
-        for i in range(p):
-            step = f_phi[i] * scale
-            if not math.isfinite(theta[i] + step):
-                finite = False
-        if finite:
-            for i in range(p):
-                theta[i] += f_phi[i] * scale
-        if not finite or not math.isfinite(trace) or trace > max_trace:
-            for i in range(p):
-                for j in range(p):
-                    covariance[i, j] = initial_covariance[i, j]
-            resets[n_resets] = t
-            n_resets += 1
-        for i in range(p):
-            theta_history[t, i] = theta[i]
-        errors[t] = error
-    return n_resets
-
-
-def rls_reference(
-    phi: ArrayLike,
-    y: ArrayLike,
-    forgetting_factor: float,
-    initial_covariance: ArrayLike,
-    initial_parameters: ArrayLike | None = None,
-    max_trace: float = math.inf,
-) -> tuple[FloatArray, FloatArray, FloatArray, list[int]]:
-    """Plain NumPy CFF-RLS, written as the equations read (reference for the compiled kernel).
-
-    Parameters
-    ----------
-    phi : array_like, shape (n_samples, n_params)
-        Regressors ``φ(t)``, one per row.
-    y : array_like, shape (n_samples,)
-        Targets ``y(t+1)``, one per row.
-    forgetting_factor : float
-        ``λ`` in (0, 1].
-    initial_covariance : array_like, shape (n_params, n_params)
-        ``F(0)``, symmetric positive definite.
-    initial_parameters : array_like, shape (n_params,), optional
-        ``θ̂(0)``; zeros by default.
-    max_trace : float, default inf
-        ``F`` is reset to ``F(0)`` when its trace exceeds this or is not finite.
-
-    Returns
-    -------
-    theta_history : ndarray, shape (n_samples, n_params)
-        ``θ̂`` after each row.
-    covariance : ndarray, shape (n_params, n_params)
-        The final ``F``.
-    errors : ndarray, shape (n_samples,)
-        A priori errors ``ε``.
-    resets : list of int
-        Rows at which ``F`` was reset.
-
-    Notes
-    -----
-    Each step computes ``ε = y − θ̂ᵀφ``, ``F ← (F − FφφᵀF / (λ + φᵀFφ)) / λ``, symmetrises ``F``,
-    then ``θ̂ ← θ̂ + F φ ε`` with the *updated* ``F`` (Landau et al., 2011, eqs. of CFF-RLS).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> phi = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
-    >>> history, _, _, _ = rls_reference(phi, [2.0, 3.0, 5.0], 1.0, 1e8 * np.eye(2))
-    >>> np.round(history[-1], 6)
-    array([2., 3.])
-    """
-    phi_arr = np.asarray(phi, dtype=np.float64)
-    y_arr = np.asarray(y, dtype=np.float64).reshape(-1)
-    f0 = np.array(initial_covariance, dtype=np.float64)
-    f = f0.copy()
-    p = phi_arr.shape[1]
-    theta = (
-        np.zeros(p)
-        if initial_parameters is None
-        else np.array(initial_parameters, dtype=np.float64).reshape(-1)
-    )
-    history = np.empty((phi_arr.shape[0], p))
-    errors = np.empty(phi_arr.shape[0])
-    resets: list[int] = []
-    lam = float(forgetting_factor)
-    for t in range(phi_arr.shape[0]):
-        v = phi_arr[t]
-        error = y_arr[t] - theta @ v
-        f = (f - np.outer(f @ v, v @ f) / (lam + v @ f @ v)) / lam
-        f = 0.5 * (f + f.T)
-        new_theta = theta + f @ v * error
-        finite = bool(np.all(np.isfinite(new_theta)))
-        if finite:
-            theta = new_theta
-        trace = float(np.trace(f))
-        if not finite or not math.isfinite(trace) or trace > max_trace:
-            f = f0.copy()
-            resets.append(t)
-        history[t] = theta
-        errors[t] = error
-    return history, f, errors, resets
-
-
 # ---------------------------------------------------------------------- estimator
 class RecursiveARX(NarxModel):
     """ARX model whose parameters are estimated online by CFF-RLS (constant forgetting factor).
@@ -204,7 +67,11 @@ class RecursiveARX(NarxModel):
     so that ``y(t) = θᵀφ(t−1)``. Any other :class:`~neckid.Lags` works the same way: one ``a``
     per output term (named by its lag, ``a3`` for ``y(t−3)``) and one ``b`` per input term, in
     the order of ``lags_.names``; with several inputs the ``b`` names carry the input name.
-    One output only.
+
+    With several outputs the regressor ``φ`` (past values of every output and input) is shared,
+    ``θ`` has one column per output and ``y_o(t) = θ[:, o]ᵀφ(t−1)``: the ``a`` of a past output
+    ``y_k(t−l)`` in column ``o`` says how ``y_k`` feeds into ``y_o`` (its name carries the
+    output, ``a1[roll]``). One adaptation gain ``F`` serves all outputs (see Notes).
 
     Parameters
     ----------
@@ -216,28 +83,29 @@ class RecursiveARX(NarxModel):
     initial_covariance : float or array_like of shape (n_params, n_params), default 1e4
         ``F(0)``: a scalar ``s`` means ``s·I``; a matrix must be symmetric positive definite. Large
         values mean little trust in ``initial_parameters``.
-    initial_parameters : array_like of shape (n_params,), optional
-        ``θ̂(0)``, in the order of ``θ`` above (``n_params`` = number of regressor terms); zeros
-        by default.
+    initial_parameters : array_like of shape (n_params,) or (n_params, n_outputs), optional
+        ``θ̂(0)``, in the order of ``θ`` above (``n_params`` = number of regressor terms); one
+        column per output when there are several. Zeros by default.
     max_covariance_trace : float, optional
         Blow-up limit: when ``trace(F)`` exceeds it (or ``F`` or ``θ̂`` stop being finite) ``F`` is
         reset to ``F(0)`` and a warning is issued. Default ``1e6 · trace(F(0))``.
 
     Attributes
     ----------
-    theta_ : ndarray, shape (n_params,)
+    theta_ : ndarray, shape (n_params,), or (n_params, n_outputs) with several outputs
         The latest estimate ``θ̂`` (after the last sample).
-    theta_history_ : ndarray, shape (n_samples, n_params)
+    theta_history_ : ndarray, shape (n_samples, n_params), or (n_samples, n_params, n_outputs)
         ``θ̂`` after every sample seen (row ``t`` for sample ``t``). The first ``max_lag`` samples of
         each experiment only fill the regressor; their rows repeat the estimate held then.
-    prediction_errors_ : ndarray, shape (n_samples,)
+    prediction_errors_ : ndarray, shape (n_samples,), or (n_samples, n_outputs)
         A priori errors ``ε(t) = y(t) − θ̂(t−1)ᵀφ(t−1)``; NaN on the initial-condition rows.
     covariance_ : ndarray, shape (n_params, n_params)
         The adaptation gain ``F`` after the last sample.
     n_covariance_resets_ : int
         How many times the blow-up guard reset ``F``.
     parameter_names_ : tuple of str
-        ``("a1", …, "b1", …)``; with several inputs ``b`` names carry the input name.
+        One per row of ``θ``: ``("a1", …, "b1", …)``; with several inputs ``b`` names carry the
+        input name, with several outputs ``a`` names the output.
     lags_ : ResolvedLags
         The regressor, as for the other NARX models.
     n_inputs_, n_outputs_, n_samples_ : int
@@ -247,7 +115,7 @@ class RecursiveARX(NarxModel):
     ------
     ValueError
         From ``fit`` / ``update``: a hyper-parameter out of range (the message names it and its
-        value), non-finite data, several outputs, or a record shorter than the regressor needs.
+        value), non-finite data, or a record shorter than the regressor needs.
 
     See Also
     --------
@@ -259,7 +127,12 @@ class RecursiveARX(NarxModel):
 
     - ``ε(t+1) = y(t+1) − θ̂(t)ᵀ φ(t)``
     - ``F(t+1) = (1/λ) [F(t) − F(t) φ(t) φ(t)ᵀ F(t) / (λ + φ(t)ᵀ F(t) φ(t))]``
-    - ``θ̂(t+1) = θ̂(t) + F(t+1) φ(t) ε(t+1)``
+    - ``θ̂(t+1) = θ̂(t) + F(t+1) φ(t) ε(t+1)ᵀ``
+
+    With several outputs ``ε`` is the vector of the outputs' errors and ``θ̂`` the matrix
+    ``(n_params, n_outputs)``: the standard multi-output RLS with a common regressor (Ljung,
+    1999, section 11.2). The gain ``K = F(t+1) φ(t)`` does not depend on the outputs, so one ``F``
+    serves them all and each column of ``θ̂`` follows exactly the recursion of its output alone.
 
     The compiled loop uses the identity ``F(t+1) φ(t) = F(t) φ(t) / (λ + φ(t)ᵀF(t)φ(t))``, computes
     the upper triangle of ``F(t+1)`` and mirrors it, so ``F`` stays exactly symmetric. With ``λ = 1``
@@ -269,12 +142,18 @@ class RecursiveARX(NarxModel):
     ``predict`` and ``simulate`` (and ``simulator``) use the *final* estimate ``theta_`` as a fixed
     linear ARX model, with the conventions of :class:`~neckid.models.base.NarxModel`: the first
     ``max_lag_`` samples (``max(na, delay + nb − 1)`` for ``Lags.arx``) are initial conditions.
+    The free run is a linear filter (:func:`neckid.models.arx.linear_free_run`).
+
+    The histories live in arrays that double when full, so a call to :meth:`update` costs the
+    same however many samples came before (no per-sample re-allocation).
 
     References
     ----------
     .. [1] I. D. Landau, R. Lozano, M. M'Saad, A. Karimi, *Adaptive Control: Algorithms, Analysis and
        Applications*, 2nd ed., Springer, 2011 (chapter 3, parameter adaptation algorithms).
     .. [2] UC3M Robotics Lab, "Model Identification of a Soft Robotic Neck", section IV.
+    .. [3] L. Ljung, *System Identification: Theory for the User*, 2nd ed., Prentice Hall, 1999
+       (section 11.2, recursive least squares).
 
     Examples
     --------
@@ -299,6 +178,20 @@ class RecursiveARX(NarxModel):
     ...     _ = online.update(yt, ut)
     >>> np.allclose(online.theta_, model.theta_)
     True
+
+    Two outputs, one regressor:
+
+    >>> y2 = np.zeros(2000)
+    >>> for t in range(1, 2000):
+    ...     y2[t] = 0.5 * y2[t - 1] + 0.2 * y[t - 1] - u[t - 1]
+    >>> both = IOData(u, np.column_stack([y, y2]), ts=0.02, output_names=["pitch", "roll"])
+    >>> mimo = RecursiveARX(Lags.arx(1, 1), forgetting_factor=1.0).fit(both)
+    >>> mimo.parameter_names_
+    ('a1[pitch]', 'a1[roll]', 'b1')
+    >>> np.round(mimo.theta_, 6)  # one column per output
+    array([[-0.8, -0.2],
+           [ 0. , -0.5],
+           [ 0.5, -1. ]])
     """
 
     _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
@@ -325,8 +218,11 @@ class RecursiveARX(NarxModel):
         self.max_covariance_trace = max_covariance_trace
 
     # ------------------------------------------------------------------ checks
-    def _check_params(self, p: int) -> tuple[float, FloatArray, FloatArray, float]:
-        """Validate the hyper-parameters for ``p`` parameters; return ``(λ, F0, θ0, max_trace)``."""
+    def _check_params(self, p: int, q: int = 1) -> tuple[float, FloatArray, FloatArray, float]:
+        """Validate the hyper-parameters for ``p`` parameters and ``q`` outputs.
+
+        Returns ``(λ, F0, θ0, max_trace)``, with ``θ0`` of shape ``(p, q)``.
+        """
         self._validate_params()
         lam = float(self.forgetting_factor)
         f0 = np.asarray(self.initial_covariance, dtype=np.float64)
@@ -353,14 +249,20 @@ class RecursiveARX(NarxModel):
                 )
             f0 = np.ascontiguousarray(0.5 * (f0 + f0.T))
         if self.initial_parameters is None:
-            theta0 = np.zeros(p)
+            theta0 = np.zeros((p, q))
         else:
-            theta0 = np.array(self.initial_parameters, dtype=np.float64).reshape(-1)
-            if theta0.shape != (p,):
+            theta0 = np.array(self.initial_parameters, dtype=np.float64)
+            if q == 1 and theta0.size != p:
                 raise ValueError(
                     f"initial_parameters must have {p} values (one per regressor term); got"
                     f" {theta0.size}"
                 )
+            if q > 1 and theta0.shape != (p, q):
+                raise ValueError(
+                    f"initial_parameters must have shape ({p}, {q}): one row per regressor term,"
+                    f" one column per output; got shape {theta0.shape}"
+                )
+            theta0 = np.ascontiguousarray(theta0.reshape(p, q))
         if self.max_covariance_trace is None:
             max_trace = DEFAULT_TRACE_FACTOR * float(np.trace(f0))
         else:
@@ -373,19 +275,23 @@ class RecursiveARX(NarxModel):
         return lam, f0, theta0, max_trace
 
     def _regressor(self, data: IOData) -> tuple[FloatArray, FloatArray]:
-        """``φ`` (with the sign of the output terms flipped) and ``y`` for one experiment."""
+        """``φ`` (output terms with their sign flipped) and ``y`` for one experiment.
+
+        ``y`` is ``(n_rows,)`` for one output, ``(n_rows, n_outputs)`` for several.
+        """
         x, y = self.lags_.build_one(data)
         x[:, self._output_terms] *= -1.0
-        return np.ascontiguousarray(x), np.ascontiguousarray(y[:, 0])
+        return np.ascontiguousarray(x), np.ascontiguousarray(y[:, 0] if y.shape[1] == 1 else y)
 
     def _start(self, resolved: ResolvedLags, data: IOData) -> None:
         """Set the learned state to the initial one (the start of ``fit`` or of online use)."""
-        lam, f0, theta0, max_trace = self._check_params(resolved.n_terms)
+        p, q = resolved.n_terms, len(resolved.output_names)
+        lam, f0, theta0, max_trace = self._check_params(p, q)
         self.lags_ = resolved
         self._set_channels(data)
         self.max_lag_ = resolved.max_lag
         self.n_samples_ = 0
-        self.theta_ = theta0.copy()
+        self.theta_ = self._public(theta0.copy())
         self.covariance_ = f0.copy()
         self.n_covariance_resets_ = 0
         self._output_terms = resolved.source == 0
@@ -395,7 +301,8 @@ class RecursiveARX(NarxModel):
             resolved.source, resolved.channel, resolved.lag, strict=True
         ):
             if source == 0:
-                names.append(f"a{int(lag)}")
+                suffix = f"[{resolved.output_names[int(channel)]}]" if q > 1 else ""
+                names.append(f"a{int(lag)}{suffix}")
                 continue
             count[int(channel)] = count.get(int(channel), 0) + 1
             suffix = (
@@ -406,9 +313,18 @@ class RecursiveARX(NarxModel):
         self._lambda = lam
         self._f0 = f0
         self._max_trace = max_trace
-        self._history_rows: list[FloatArray] = []
-        self._error_rows: list[FloatArray] = []
+        self._history = ParameterHistory(p, q)
         self._online: dict[str, Any] | None = None
+
+    def _public(self, theta: FloatArray) -> FloatArray:
+        """``θ̂`` as stored in ``theta_``: ``(p,)`` for one output, ``(p, q)`` for several."""
+        return theta.reshape(-1) if theta.shape[1] == 1 else theta
+
+    def _theta_matrix(self) -> FloatArray:
+        """``theta_`` as a ``(p, q)`` matrix sharing its memory (the kernels update it in place)."""
+        if not (self.theta_.flags.c_contiguous and self.theta_.dtype == np.float64):
+            self.theta_ = np.ascontiguousarray(self.theta_, dtype=np.float64)
+        return self.theta_.reshape(self.lags_.n_terms, self.n_outputs_)
 
     # ------------------------------------------------------------------ batch
     def fit(self, data: IOData | Sequence[IOData]) -> RecursiveARX:
@@ -417,8 +333,9 @@ class RecursiveARX(NarxModel):
         Parameters
         ----------
         data : IOData or sequence of IOData
-            One output channel; every input channel gets ``nb`` terms. With several experiments the
-            estimate and ``F`` carry over from one to the next, but no regressor straddles two.
+            One output channel or several (sharing the regressor); every channel gets the terms
+            of ``lags``. With several experiments the estimate and ``F`` carry over from one to
+            the next, but no regressor straddles two.
 
         Returns
         -------
@@ -428,20 +345,14 @@ class RecursiveARX(NarxModel):
         Raises
         ------
         ValueError
-            If a hyper-parameter is out of range, the data hold several outputs, or an experiment is
+            If a hyper-parameter is out of range, the data hold no output, or an experiment is
             shorter than ``max_lag + 1`` samples.
         """
         self._validate_params()
         experiments = as_experiments(self._with_conditions(data, fitting=True))
-        first = experiments[0]
-        if first.n_outputs != 1:
-            raise ValueError(
-                f"RecursiveARX identifies one output; data has {first.n_outputs} outputs"
-                f" {list(first.output_names)}; use data.select(outputs=[...])"
-            )
         resolved = self._lags().resolve(experiments)
         self._check_training(experiments)
-        self._start(resolved, first)
+        self._start(resolved, experiments[0])
         for experiment in experiments:
             self._run_batch(experiment)
         return self
@@ -462,27 +373,27 @@ class RecursiveARX(NarxModel):
     def _run_batch(self, experiment: IOData) -> None:
         phi, y = self._regressor(experiment)
         m = self.lags_.max_lag
-        p = phi.shape[1]
-        history = np.empty((phi.shape[0], p))
-        errors = np.empty(phi.shape[0])
-        resets = np.empty(phi.shape[0], dtype=np.int64)
-        theta = self.theta_.copy()
+        rows, p = phi.shape
+        q = self.n_outputs_
+        theta = np.array(self._theta_matrix())  # a copy: a theta_ held by the caller stays put
+        history, errors = self._history.append(m + rows)
+        history[:m] = theta
+        errors[:m] = np.nan
+        resets = np.empty(rows, dtype=np.int64)
         n_resets = _rls_kernel(
             phi,
-            y,
+            y.reshape(rows, q),
             theta,
             self.covariance_,
             self._lambda,
             self._f0,
             self._max_trace,
-            history,
-            errors,
+            history[m:],
+            errors[m:],
             resets,
+            np.empty(p + q),
         )
-        held = np.broadcast_to(self.theta_, (m, p))
-        self._history_rows.extend([held, history])
-        self._error_rows.extend([np.full(m, np.nan), errors])
-        self.theta_ = theta
+        self.theta_ = self._public(theta)
         self.n_samples_ += experiment.n_samples
         # Warn at the caller of fit / partial_fit.
         self._warn_resets(n_resets, resets[:n_resets] + m, experiment.name, stacklevel=4)
@@ -505,99 +416,121 @@ class RecursiveARX(NarxModel):
         )
 
     # ------------------------------------------------------------------ online
-    def update(self, y: float | ArrayLike, u: float | ArrayLike) -> float:
+    def _online_buffers(self) -> dict[str, Any]:
+        """Work arrays of :meth:`update`, allocated once (not per sample).
+
+        ``window`` holds the last ``max_lag + 1`` samples ``[y, u]`` twice over (slots ``k`` and
+        ``k + max_lag + 1``), so that they are always one contiguous slice, oldest first;
+        ``index`` gives each regressor term's place in that slice (see
+        :func:`~neckid.models.rls_kernels._rls_online_kernel`).
+        """
+        lags = self.lags_
+        length = lags.max_lag + 1
+        q = self.n_outputs_
+        width = q + self.n_inputs_
+        column = np.where(lags.source == 0, lags.channel, q + lags.channel)
+        p = lags.n_terms
+        return {
+            "window": np.zeros(2 * length * width),
+            "count": 0,
+            "index": np.ascontiguousarray((length - 1 - lags.lag) * width + column, dtype=np.int64),
+            "sign": np.where(lags.source == 0, -1.0, 1.0),
+            "phi": np.empty((1, p)),
+            "resets": np.empty(1, dtype=np.int64),
+            "scratch": np.empty(p + q),
+        }
+
+    def update(self, y: float | ArrayLike, u: float | ArrayLike) -> float | FloatArray:
         """Take one new sample ``(y(t), u(t))`` and update ``θ̂`` and ``F`` (true online use).
 
-        The first call starts from the initial state (as ``fit`` does); later calls continue from
-        the current estimate, also after ``fit``/``partial_fit`` (then with an empty history: the
-        next ``max_lag`` samples only fill the regressor).
+        The first call starts from the initial state (as ``fit`` does; the number of outputs is
+        that of ``y``); later calls continue from the current estimate, also after
+        ``fit``/``partial_fit`` (then with an empty history: the next ``max_lag`` samples only fill
+        the regressor).
 
         Parameters
         ----------
-        y : float or array_like of shape (1,)
-            Output measured at time ``t``.
+        y : float or array_like of shape (n_outputs,)
+            Output(s) measured at time ``t``.
         u : float or array_like of shape (n_inputs,)
-            Input applied at time ``t`` (used now only when ``delay = 0``).
+            Input applied at time ``t`` (used now only by terms of lag 0).
 
         Returns
         -------
-        float
-            The a priori error ``ε(t) = y(t) − θ̂(t−1)ᵀφ(t−1)``; NaN while the regressor fills.
+        float or ndarray of shape (n_outputs,)
+            The a priori error ``ε(t) = y(t) − θ̂(t−1)ᵀφ(t−1)``: a float for one output, one per
+            output for several; NaN while the regressor fills.
 
         Raises
         ------
         ValueError
-            If a value is not finite, or the number of inputs changes between calls.
+            If a value is not finite, or the number of inputs or outputs changes between calls.
         """
-        y_now = np.asarray(y, dtype=np.float64).reshape(-1)
-        u_now = np.asarray(u, dtype=np.float64).reshape(-1)
-        if y_now.shape != (1,):
-            raise ValueError(f"y must be one value (RecursiveARX has one output); got {y!r}")
-        check_finite(y_now[None, :], "y")
-        check_finite(u_now[None, :], "u")
+        y_now = np.ascontiguousarray(y, dtype=np.float64).reshape(-1)
+        u_now = np.ascontiguousarray(u, dtype=np.float64).reshape(-1)
         if not hasattr(self, "theta_"):
-            names = ("u",) if u_now.size == 1 else tuple(f"u{i + 1}" for i in range(u_now.size))
-            template = IOData(np.zeros((1, u_now.size)), np.zeros(1), ts=1.0, input_names=names)
+            check_finite(y_now[None, :], "y")
+            check_finite(u_now[None, :], "u")
+            template = IOData(np.zeros((1, u_now.size)), np.zeros((1, y_now.size)), ts=1.0)
             self._start(self._lags().resolve(template), template)
+        q = self.n_outputs_
+        if y_now.size != q:
+            raise ValueError(
+                f"y must have {q} value(s), one per output {list(self.output_names_)}; got"
+                f" {y_now.size}"
+            )
         if u_now.size != self.n_inputs_:
             raise ValueError(
                 f"u must have {self.n_inputs_} values (one per input); got {u_now.size}"
             )
         if self._online is None:
-            self._online = {"y": [], "u": []}
-        hist_y: list[float] = self._online["y"]
-        hist_u: list[FloatArray] = self._online["u"]
-        hist_u.append(u_now.copy())
-        m = self.lags_.max_lag
-        error = math.nan
-        if len(hist_u) > m:
-            y_rows = np.array([*hist_y, 0.0])[:, None]
-            phi = self.lags_.regressor_from_history(y_rows, np.vstack(hist_u), len(hist_u) - 1)
-            phi[self._output_terms] *= -1.0
-            history = np.empty((1, phi.size))
-            errors = np.empty(1)
-            resets = np.empty(1, dtype=np.int64)
-            n_resets = _rls_kernel(
-                np.ascontiguousarray(phi[None, :]),
-                y_now,
-                self.theta_,
-                self.covariance_,
-                self._lambda,
-                self._f0,
-                self._max_trace,
-                history,
-                errors,
-                resets,
-            )
-            error = float(errors[0])
-            self._warn_resets(n_resets, np.array([self.n_samples_]), None, stacklevel=3)
-        hist_y.append(float(y_now[0]))
-        # Keep only the history the regressor reaches.
-        if len(hist_u) > m + 1:
-            del hist_u[0]
-        if len(hist_y) > m + 1:
-            del hist_y[0]
-        self._history_rows.append(self.theta_[None, :].copy())
-        self._error_rows.append(np.array([error]))
+            self._online = self._online_buffers()
+        online = self._online
+        history, errors = self._history.reserve(1)
+        row = self._history.size
+        status = _rls_online_kernel(
+            y_now,
+            u_now,
+            online["window"],
+            online["count"],
+            online["index"],
+            online["sign"],
+            online["phi"],
+            self._theta_matrix(),
+            self.covariance_,
+            self._lambda,
+            self._f0,
+            self._max_trace,
+            history,
+            errors,
+            row,
+            online["resets"],
+            online["scratch"],
+        )
+        if status == NOT_FINITE:  # the kernel changed nothing; the message names the value
+            check_finite(y_now[None, :], "y")
+            check_finite(u_now[None, :], "u")
+        online["count"] += 1
+        self._history.size += 1
         self.n_samples_ += 1
-        return error
+        if status > 0:
+            self._warn_resets(status, np.array([self.n_samples_ - 1]), None, stacklevel=3)
+        return float(errors[row, 0]) if q == 1 else errors[row].copy()
 
     # ------------------------------------------------------------------ results
     @property
     def theta_history_(self) -> FloatArray:
-        """``θ̂`` after every sample seen, shape ``(n_samples, n_params)``."""
+        """``θ̂`` after every sample seen, shape ``(n_samples, n_params[, n_outputs])``."""
         check_is_fitted(self)
-        if len(self._history_rows) != 1:
-            self._history_rows = [np.vstack(self._history_rows)]
-        return self._history_rows[0]
+        history = self._history.theta
+        return history[:, :, 0] if self.n_outputs_ == 1 else history
 
     @property
     def prediction_errors_(self) -> FloatArray:
         """A priori errors ``ε(t)`` for every sample seen (NaN on initial-condition rows)."""
         check_is_fitted(self)
-        if len(self._error_rows) != 1:
-            self._error_rows = [np.concatenate(self._error_rows)]
-        return self._error_rows[0]
+        errors = self._history.errors
+        return errors[:, 0] if self.n_outputs_ == 1 else errors
 
     def converged(
         self, window: int = 100, tolerance: float = 0.02, atol: float = 1e-12
@@ -609,7 +542,8 @@ class RecursiveARX(NarxModel):
         window : int, default 100
             How many samples (at least) the estimates must have stayed inside the band.
         tolerance : float, default 0.02
-            Relative half-width of the band around the settled estimate, per parameter.
+            Relative half-width of the band around the settled estimate, per parameter (and per
+            output, with several).
         atol : float, default 1e-12
             Absolute floor of the band (for parameters near zero).
 
@@ -635,7 +569,7 @@ class RecursiveARX(NarxModel):
             raise ValueError(
                 f"tolerance and atol must be >= 0; got tolerance={tolerance!r}, atol={atol!r}"
             )
-        history = self.theta_history_
+        history = self.theta_history_.reshape(self._history.size, -1)
         settled_value = history[-window:].mean(axis=0)
         band = atol + tolerance * np.abs(settled_value)
         outside = np.any(np.abs(history - settled_value) > band, axis=1)
@@ -649,21 +583,48 @@ class RecursiveARX(NarxModel):
     # ------------------------------------------------------------------ NARX map
     @property
     def coef_(self) -> FloatArray:
-        """Coefficients on the :class:`~neckid.Lags` regressor ``[y(t−1)…, u(t−d)…]``: ``[−a, b]``."""
+        """Coefficients on the :class:`~neckid.Lags` regressor ``[y(t−1)…, u(t−d)…]``: ``[−a, b]``.
+
+        Shape ``(n_params, n_outputs)``, as :attr:`neckid.LinearARX.coef_`.
+        """
         check_is_fitted(self)
-        coef = self.theta_.copy()
+        coef = self._theta_matrix().copy()
         coef[self._output_terms] *= -1.0
-        return coef[:, None]
+        return coef
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_, dtype=np.float64)
 
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
+        """Free-run simulation with the final estimate: the regressor holds the model's own outputs.
+
+        Parameters
+        ----------
+        data : IOData
+            The inputs; its first ``max_lag_`` measured outputs are the initial conditions unless
+            ``initial`` is given (then ``data`` may hold inputs only).
+        initial : array_like, shape (n_outputs,) or (max_lag_, n_outputs), optional
+            The first outputs (oldest first; one row is repeated).
+
+        Returns
+        -------
+        ModelResult
+            Of kind ``"simulation"``; the generic NARX free run's values, computed as a linear
+            filter (:func:`neckid.models.arx.linear_free_run`).
+        """
+        check_is_fitted(self)
+        data = self._with_conditions(data)
+        y0 = self._initial_outputs(data, initial)
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
+            y = linear_free_run(self.lags_, self.coef_, np.zeros(self.n_outputs_), data.u, y0)
+        return self._result("simulation", data, y)
+
     def _check_state(self) -> None:
         super()._check_state()
-        p = self.lags_.n_terms
-        self._check_shape("theta", self.theta_, (p,))
+        p, q = self.lags_.n_terms, self.n_outputs_
+        self._check_shape("theta", self.theta_, (p,) if q == 1 else (p, q))
         self._check_shape("covariance", self.covariance_, (p, p))
-        self._check_shape("theta_history", self.theta_history_, (self.theta_history_.shape[0], p))
+        self._check_shape("theta_history", self._history.theta, (self._history.size, p, q))
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
@@ -729,9 +690,26 @@ class RecursiveARX(NarxModel):
         )
         model._start(resolved, template)
         model.n_samples_ = int(meta["n_samples"])
-        model.theta_ = np.asarray(arrays["theta"], dtype=np.float64).copy()
-        model.covariance_ = np.asarray(arrays["covariance"], dtype=np.float64).copy()
-        model._history_rows = [np.asarray(arrays["theta_history"], dtype=np.float64)]
-        model._error_rows = [np.asarray(arrays["prediction_errors"], dtype=np.float64)]
+        # One output: theta (p,), theta_history (n, p), prediction_errors (n,), as in every file
+        # written before several outputs were supported. Several: a trailing axis of outputs.
+        p, q = resolved.n_terms, len(resolved.output_names)
+        shape = (p,) if q == 1 else (p, q)
+        theta = np.array(arrays["theta"], dtype=np.float64, order="C")
+        history = np.array(arrays["theta_history"], dtype=np.float64, order="C")
+        errors = np.array(arrays["prediction_errors"], dtype=np.float64, order="C")
+        n = history.shape[0] if history.ndim else -1
+        for name, array, expected in (
+            ("theta", theta, shape),
+            ("theta_history", history, (n, *shape)),
+            ("prediction_errors", errors, (n, *shape[1:])),
+        ):
+            if array.shape != expected:
+                raise ValueError(
+                    f"{name} must have shape {expected} for {p} parameters and {q} output(s);"
+                    f" got {array.shape}"
+                )
+        model.theta_ = theta
+        model.covariance_ = np.array(arrays["covariance"], dtype=np.float64, order="C")
+        model._history = ParameterHistory(p, q, history.reshape(n, p, q), errors.reshape(n, q))
         model.n_covariance_resets_ = int(meta["n_covariance_resets"])
         return model
