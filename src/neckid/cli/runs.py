@@ -8,6 +8,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from neckid.cli._app import (
@@ -56,7 +57,7 @@ def _demo3d(out: Path, *, quick: bool, seed: int, force: bool) -> None:
             out, Demo3DSettings.make(quick=quick, seed=seed), on_step=on_step, force=force
         )
     bands = ", ".join(f"{d:g} deg: {b:.2f}" for d, b in result.bandwidths.items())
-    console.print(f"bandwidth per tilt direction [rad/s]: {bands}")
+    console.print(f"bandwidth per tilt direction [rad/s]: {bands}", markup=False)
     console.print(f"regressor: {result.lags!r}")
     records = list(dict.fromkeys(column[0] for column in result.fit.columns))
     for title, frame, pair, digits in (
@@ -68,7 +69,7 @@ def _demo3d(out: Path, *, quick: bool, seed: int, force: bool) -> None:
             2,
         ),
     ):
-        table = Table(title=title)
+        table = Table(title=escape(title))
         table.add_column("model")
         for record in records:
             table.add_column(record, justify="right")
@@ -148,7 +149,7 @@ def demo(
         f"bandwidth of the simulated neck: {result.bandwidth:.2f} rad/s (paper: 4.2 rad/s)"
     )
     console.print(f"regressor: {result.lags!r}")
-    table = Table(title="Free-run fit [%] (ours above, the paper's own neck below)")
+    table = Table(title=escape("Free-run fit [%] (ours above, the paper's own neck below)"))
     table.add_column("model")
     for experiment in EXPERIMENTS:
         table.add_column(experiment, justify="right")
@@ -156,7 +157,7 @@ def demo(
         cells = [f"{v:.2f}" if np.isfinite(v) else "-" for v in row.to_numpy(dtype=float)]
         table.add_row(str(name), *cells, end_section=i == len(result.mae) - 1)
     console.print(table)
-    mae = Table(title="Mean absolute error [deg]")
+    mae = Table(title=escape("Mean absolute error [deg]"))
     mae.add_column("model")
     for experiment in EXPERIMENTS:
         mae.add_column(experiment, justify="right")

@@ -100,21 +100,33 @@ def write_outputs_3d(
         " [deg] against frequency [rad/s], one panel per orientation of the chirp; the vertical"
         " line is the bandwidth (90 % rule).",
     )
-    narx = {k: v for k, v in results[TESTS_3D[0]].items()}
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.4), sharex=True, layout="constrained")
-    for k, ax in enumerate(axes):
-        plot_simulation(views[TESTS_3D[0]], narx, output=k, ax=ax)
-    axes[0].set_title("Validation record: measured tilt vector and free-run simulations")
-    axes[0].set_xlabel("")
-    save(
-        fig,
-        *_FIGURES[TESTS_3D[0]],
-        "Validation record (open loop, other multisine phases): tilt_x (top) and tilt_y"
-        " (bottom) [deg] against time [s], measured and each model's free run, with the Set"
-        " Membership bands shaded (each component's band is guaranteed under that model's"
-        " prior ε, γ).",
+
+    def save_components(record: str, title: str, caption: str) -> None:
+        fig, axes = plt.subplots(2, 1, figsize=(10, 6.4), sharex=True, layout="constrained")
+        for k, ax in enumerate(axes):
+            plot_simulation(views[record], results[record], output=k, ax=ax)
+        axes[0].set_title(title)
+        axes[0].set_xlabel("")
+        save(fig, *_FIGURES[record], caption)
+
+    bands_text = (
+        " with the Set Membership bands shaded (each component's band is guaranteed under that"
+        " model's prior ε, γ)."
     )
-    for record in TESTS_3D[1:]:
+    save_components(
+        TESTS_3D[0],
+        "Fig. 2 — validation record: measured tilt vector and free-run simulations",
+        "Validation record (open loop, other multisine phases): tilt_x (top) and tilt_y"
+        " (bottom) [deg] against time [s], measured and each model's free run," + bands_text,
+    )
+    save_components(
+        TESTS_3D[3],
+        f"Fig. 5 — {TESTS_3D[3]}: measured tilt vector and free-run simulations",
+        "Test 3 (closed loop on the neck, a 20° step towards 45° at 1 s): tilt_x (top) and"
+        " tilt_y (bottom) [deg] against time [s], measured and each model's free run on the"
+        " recorded motor positions," + bands_text,
+    )
+    for record in TESTS_3D[1:3]:
         name, number = _FIGURES[record]
         fig = plot_tilt_plane(
             views[record], results[record], reference=references.get(record),

@@ -61,7 +61,7 @@ def plot_tilt_plane(
     for k, alpha in enumerate(np.radians([0.0, 120.0, 240.0])):
         end = limit * np.array([np.cos(alpha), np.sin(alpha)])
         ax.plot([0, end[0]], [0, end[1]], color="0.8", lw=0.7, ls="--", zorder=0)
-        ax.annotate(f"tendon {k + 1}", end * 0.93, color="0.55", fontsize=7, ha="center")
+        ax.annotate(f"tendon {k + 1}", end * 0.85, color="0.55", fontsize=7, ha="center")
     if reference is not None:
         phi = np.radians(reference[:, 1])
         ax.plot(reference[:, 0] * np.cos(phi), reference[:, 0] * np.sin(phi), color="0.4",
