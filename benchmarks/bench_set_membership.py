@@ -21,38 +21,18 @@ import time
 
 import numba
 import numpy as np
+from _systems import NECK_LIKE_LAGS, neck_like
 
-from neckid import IOData, Lags
+from neckid import IOData
 from neckid.models._sm_kernels import (
     SMTree,
     gamma_star,
 )
 from neckid.models._sm_reference import bounds_reference, gamma_star_reference
-from neckid.models.set_membership import SetMembership, _default_epsilons
+from neckid.models.set_membership import SetMembership
+from neckid.models.sm_prior import _default_epsilons
 
-LAGS = Lags(outputs=3, inputs=[8, 9, 10])
-
-
-def neck_like(n_samples: int, seed: int) -> IOData:
-    """Three smoothed random-step inputs (motor velocities) into a saturating second-order output."""
-    rng = np.random.default_rng(seed)
-    hold = 25
-    steps = rng.uniform(-1, 1, size=(n_samples // hold + 1, 3)).repeat(hold, axis=0)[:n_samples]
-    u = np.empty_like(steps)
-    u[0] = steps[0]
-    for t in range(1, n_samples):
-        u[t] = 0.9 * u[t - 1] + 0.1 * steps[t]
-    y = np.zeros(n_samples)
-    drive = u @ np.array([1.0, -0.5, -0.5])
-    for t in range(10, n_samples):
-        y[t] = (
-            1.6 * y[t - 1]
-            - 0.7 * y[t - 2]
-            + 0.08 * np.tanh(2.0 * drive[t - 8])
-            + 0.02 * drive[t - 9] * abs(y[t - 1])
-            + rng.uniform(-1e-3, 1e-3)
-        )
-    return IOData(u, y, ts=0.02)
+LAGS = NECK_LIKE_LAGS
 
 
 def timed(function, repeat: int = 1):

@@ -20,9 +20,9 @@ Kernels
   are *bit for bit* those of a linear scan with the same formula.
 - :func:`free_run`: the compiled free-run loop (regressor from the simulated history, linear
   part, both bounds, central value fed back).
-- :func:`gamma_star`: γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε
-  in one blocked pass over the pairs, parallel over rows (``numba.prange``), each distance
-  computed once; a Python callback reports progress between blocks.
+- :func:`gamma_star`: γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε,
+  by branch and bound over the kd-tree (or, for few points, over all pairs); the kernels are in
+  :mod:`neckid.models._gamma_tree`. A Python callback reports progress between blocks of rows.
 
 The plain NumPy references (vectorised over training points) are beside this module, in
 :mod:`neckid.models._sm_reference`; tests check that the kernels agree with them.
@@ -30,16 +30,21 @@ The plain NumPy references (vectorised over training points) are beside this mod
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from neckid.models._gamma_tree import gamma_star_blocked
+
 __all__ = [
     "LEAF_SIZE",
+    "TREE_MIN_POINTS",
+    "GammaMethod",
     "SMTree",
     "build_tree",
     "free_run",
@@ -48,6 +53,8 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+logger = logging.getLogger(__name__)
 
 #: Largest number of training points in a leaf of the kd-tree.
 LEAF_SIZE = 16
@@ -468,123 +475,14 @@ def free_run(
 
 
 # ---------------------------------------------------------------------------------- gamma*(eps)
-@njit(cache=True, parallel=True)
-def _gamma_star_rows_kernel(
-    points_t: FloatArray,
-    targets: FloatArray,
-    twice_eps: FloatArray,
-    rows: IntArray,
-    out: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-) -> None:
-    """For each row ``i`` in ``rows``, update ``out[r]`` (E, m) with the pairs ``(i, j > i)``.
-
-    ``out[r]`` comes in holding the running maximum from earlier blocks. ``reach2[b, c]`` bounds
-    from above the squared distance below which a pair whose output difference falls in bin
-    ``b - 1`` (``Δ * bins_per_unit[c]``) can still raise that maximum at some ε; other pairs are
-    skipped without a square root or a division. For a pair, the ratio
-    ℓ_e = (Δ − 2ε_e)/d is affine in ε and the running maximum G_e is convex in ε (a maximum of
-    such lines, sampled on the grid), so ℓ_e − G_e is concave along the grid: once it is <= 0 and
-    not increasing it stays <= 0, and the loop over the grid stops. ``twice_eps`` is sorted.
-    """
-    n_dims, n_points = points_t.shape
-    n_out = targets.shape[1]
-    n_eps = twice_eps.shape[0]
-    n_bins = reach2.shape[0]
-    for r in prange(rows.shape[0]):
-        i = rows[r]
-        count = n_points - i - 1
-        if count <= 0:
-            continue
-        g = out[r]
-        d2 = np.zeros(count)
-        for k in range(n_dims):
-            xi = points_t[k, i]
-            row = points_t[k, i + 1 :]
-            for q in range(count):
-                diff = row[q] - xi
-                d2[q] += diff * diff
-        for q in range(count):
-            j = i + 1 + q
-            dd = d2[q]
-            if dd == 0.0:
-                for c in range(n_out):
-                    delta = abs(targets[i, c] - targets[j, c])
-                    for e in range(n_eps):
-                        if delta - twice_eps[e, c] <= 0.0:
-                            break
-                        g[e, c] = np.inf
-                continue
-            for c in range(n_out):
-                delta = abs(targets[i, c] - targets[j, c])
-                b = int(delta * bins_per_unit[c]) + 1
-                if b >= n_bins:
-                    b = n_bins - 1
-                if dd >= reach2[b, c]:
-                    continue
-                d = math.sqrt(dd)
-                previous = -np.inf
-                for e in range(n_eps):
-                    num = delta - twice_eps[e, c]
-                    if num <= 0.0:
-                        break
-                    ratio = num / d
-                    gap = ratio - g[e, c]
-                    if gap > 0.0:
-                        g[e, c] = ratio
-                    elif (
-                        gap <= previous
-                        and previous > -np.inf
-                        and twice_eps[e, c] > twice_eps[e - 1, c]
-                    ):
-                        # (a repeated ε of the grid has its own entry: never stop on it)
-                        break
-                    previous = gap
-
-
-#: Bins of the output difference Δ in the table of reachable distances of the γ*(ε) pass.
-_REACH_BINS = 4096
-
-
-def _neighbour_seed(points: FloatArray, targets: FloatArray, twice_eps: FloatArray) -> FloatArray:
-    """γ*(ε) over the pairs of samples up to 8 rows apart: a cheap first lower bound.
-
-    Consecutive regressors of a time series are close, so these pairs give most of γ*(ε) and
-    let the blocked pass skip most other pairs from its first block on.
-    """
-    best = np.zeros(twice_eps.shape)
-    for step in range(1, min(9, points.shape[0])):
-        dist = np.sqrt(np.sum((points[step:] - points[:-step]) ** 2, axis=1))
-        delta = np.abs(targets[step:] - targets[:-step])
-        moving = dist > 0
-        if not moving.any():
-            continue
-        for e in range(twice_eps.shape[0]):
-            num = delta[moving] - twice_eps[e]
-            ratio = np.where(num > 0, num, 0.0) / dist[moving, None]
-            best[e] = np.maximum(best[e], ratio.max(axis=0))
-    return best
-
-
-def _reach_table(best: FloatArray, twice_eps: FloatArray, bins_per_unit: FloatArray) -> FloatArray:
-    """``reach2[b, c]``: squared distance below which a pair with Δ up to bin ``b`` may count.
-
-    A pair (Δ, d) raises γ*(ε_e) only if ``d < (Δ − 2ε_e) / γ*(ε_e)`` for some e; the right side
-    grows with Δ, so its value at the bin's upper edge bounds the whole bin. Slightly inflated
-    so that rounding never skips a pair that counts.
-    """
-    n_out = best.shape[1]
-    edges = np.arange(_REACH_BINS)[:, None] / np.where(bins_per_unit > 0, bins_per_unit, 1.0)
-    reach = np.zeros((_REACH_BINS, n_out))
-    for e in range(best.shape[0]):
-        num = edges - twice_eps[e]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(num > 0, num / best[e], 0.0)
-        reach = np.maximum(reach, ratio)
-    reach2 = reach * reach * (1.0 + 1e-9)
-    reach2[:, bins_per_unit == 0] = np.inf
-    return np.ascontiguousarray(reach2)
+#: The ways :func:`gamma_star` can walk the pairs.
+GammaMethod = Literal["auto", "tree", "pairs"]
+#: Below this many points ``method="auto"`` walks all pairs: the tree does not pay off there
+#: (measured: on neck-like regressors the tree wins from a few hundred points, on i.i.d.
+#: uniform 12-D points from about 4,000; below that both take milliseconds).
+TREE_MIN_POINTS = 2_000
+#: Leaf size of the kd-tree that :func:`gamma_star` builds.
+GAMMA_LEAF_SIZE = 8
 
 
 def gamma_star(
@@ -593,8 +491,9 @@ def gamma_star(
     epsilons: FloatArray,
     n_blocks: int = 64,
     callback: Callable[[int, int], None] | None = None,
+    method: GammaMethod = "auto",
 ) -> FloatArray:
-    """γ*(ε) for each ε of a grid and each output, over all pairs, in one blocked compiled pass.
+    """γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for each ε of a grid and each output.
 
     Parameters
     ----------
@@ -605,47 +504,72 @@ def gamma_star(
     epsilons : ndarray, shape (n_eps, n_outputs)
         The grid of ε per output (any order, >= 0).
     n_blocks : int, default 64
-        How many blocks of rows (each block holds the same number of pairs); ``callback`` is
-        called after each.
+        How many blocks of rows (of kd-tree leaves with the tree; at most one per row or leaf),
+        each holding about the same number of pairs ``(i, j > i)``; ``callback`` is called
+        after each.
     callback : callable, optional
         ``callback(pairs_done, pairs_total)`` called from Python between blocks.
+    method : {"auto", "tree", "pairs"}, default "auto"
+        ``"pairs"`` walks every pair (the quadratic reference); ``"tree"`` finds, for each
+        point, the partners that can still raise γ*(ε) by branch and bound over a kd-tree;
+        ``"auto"`` walks the pairs below ``TREE_MIN_POINTS`` points and otherwise runs the
+        tree, handing the remaining rows to the pair kernel if the tree prunes too little (a
+        cost estimate from the work it counted, see
+        :func:`neckid.models._gamma_tree.gamma_star_blocked`). All give the same result.
 
     Returns
     -------
     ndarray, shape (n_eps, n_outputs)
-        γ*(ε); ``inf`` where two identical regressors have targets more than 2ε apart.
+        γ*(ε); ``inf`` where two identical regressors have targets more than 2ε apart, 0 where
+        no two targets are more than 2ε apart.
+
+    Raises
+    ------
+    ValueError
+        If ``method`` is not one of the three.
+
+    Notes
+    -----
+    γ*(ε) is the smallest Lipschitz constant for which the prior assumptions of Set Membership
+    identification (Milanese & Novara 2004) are not falsified by the data at noise bound ε.
+    Both kernels evaluate each pair they cannot skip with the same floating-point operations
+    and skip only pairs that provably cannot raise the maximum, so ``"tree"`` and ``"pairs"``
+    agree to the last bit (see :mod:`neckid.models._gamma_tree`).
+
+    The tree's cost depends on the data. On time-series regressors and a small ε each point
+    meets a few hundred candidates and the cost grows like N log N; at large ε, where many
+    distant pairs have nearly the largest slope, the candidates within reach grow with N and
+    so does the cost per point (quadratic, with a small constant). Where it prunes almost
+    nothing (every pair with the same slope) a pair costs it several times what it costs the
+    pair kernel, which is why ``"auto"`` watches the work it counts.
+
+    References
+    ----------
+    M. Milanese and C. Novara, "Set Membership identification of nonlinear systems",
+    Automatica 40(6), 957-975, 2004.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> points = np.array([[0.0], [1.0], [3.0]])
+    >>> targets = np.array([[0.0], [1.0], [5.0]])
+    >>> gamma_star(points, targets, np.array([[0.0], [0.5], [3.0]]), method="tree")[:, 0]
+    array([2. , 1.5, 0. ])
     """
-    points = np.asarray(points, dtype=np.float64)
+    if method not in ("auto", "tree", "pairs"):
+        raise ValueError(f"method must be 'auto', 'tree' or 'pairs'; got {method!r}")
+    points = np.ascontiguousarray(points, dtype=np.float64)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     epsilons = np.asarray(epsilons, dtype=np.float64)
-    n_points = points.shape[0]
     order = np.argsort(epsilons, axis=0, kind="stable")
     twice_eps = np.ascontiguousarray(2.0 * np.take_along_axis(epsilons, order, axis=0))
-    points_t = np.ascontiguousarray(points.T)
-    # Rows 0, N-1, 1, N-2, ...: consecutive pairs of rows hold N-1 pairs together, so equal slices
-    # of this order hold equal work (for the blocks and for the threads inside a block).
-    half = np.arange((n_points + 1) // 2)
-    interleaved = np.empty(n_points, dtype=np.int64)
-    interleaved[0::2] = half
-    interleaved[1::2] = (n_points - 1 - half)[: n_points // 2]
-    total = n_points * (n_points - 1) // 2
-    best = _neighbour_seed(points, targets, twice_eps)
-    span = np.ptp(targets, axis=0) if n_points else np.zeros(targets.shape[1])
-    bins_per_unit = np.where(span > 0, (_REACH_BINS - 2) / np.where(span > 0, span, 1.0), 0.0)
-    blocks = np.array_split(interleaved, max(1, min(int(n_blocks), n_points)))
-    done = 0
-    for rows in blocks:
-        if rows.size == 0:
-            continue
-        out = np.broadcast_to(best, (rows.size, *best.shape)).copy()
-        reach2 = _reach_table(best, twice_eps, bins_per_unit)
-        _gamma_star_rows_kernel(
-            points_t, targets, twice_eps, np.ascontiguousarray(rows), out, reach2, bins_per_unit
-        )
-        best = np.maximum(best, out.max(axis=0))
-        done += int(np.sum(n_points - 1 - rows))
-        if callback is not None:
-            callback(done, total)
+    n_points = points.shape[0]
+    use_tree = method == "tree" or (method == "auto" and n_points >= TREE_MIN_POINTS)
+    tree = SMTree(points, targets, GAMMA_LEAF_SIZE) if use_tree and n_points > 1 else None
+    best, stats = gamma_star_blocked(
+        points, targets, twice_eps, n_blocks, callback, tree, adaptive=method == "auto"
+    )
+    logger.debug("gamma*(eps) over %d points: %s", n_points, stats)
     result = np.empty_like(best)
     np.put_along_axis(result, order, best, axis=0)
     return result

@@ -14,8 +14,8 @@ warning says so), ``"raise"`` refuses the update.
 
 γ*(ε) of the grown set is the largest of γ*(ε) of the old set and the quotients of the pairs
 that hold a new point; when the old γ*(ε) is known and the old targets did not change (no linear
-part), only those pairs are computed (``n_new × n`` distances); otherwise the whole compiled
-pass over all pairs runs (:func:`~neckid.models._sm_kernels.gamma_star`).
+part), only those pairs are computed (``n_new × n`` distances); otherwise γ*(ε) of the whole set
+is computed again (:func:`~neckid.models._sm_kernels.gamma_star`, the kd-tree branch and bound).
 
 References
 ----------
@@ -118,7 +118,7 @@ def revise_prior(
     old_gamma_star : ndarray, shape (n_outputs,)
         γ*(ε) of the old data set where known (NaN where not).
     targets_changed : bool
-        The old targets changed too (a refitted linear part): γ* is recomputed over all pairs.
+        The old targets changed too (a refitted linear part): γ* is recomputed over the whole set.
     prior : {"adapt", "keep", "raise"}
     gamma_margin : float
         γ = ``gamma_margin`` · γ*(ε) where ``"adapt"`` raises it.

@@ -1,0 +1,486 @@
+"""γ*(ε) kernels: the blocked all-pairs pass and the exact kd-tree branch and bound.
+
+γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ (Milanese & Novara 2004) is the smallest
+Lipschitz constant that the data allow for the noise bound ε. Both kernels below compute it
+*exactly* for a whole grid of ε at once, by the same arithmetic on each pair; they differ only
+in which pairs they can prove useless without computing them.
+
+- :func:`_pairs_rows_kernel` walks every pair ``(i, j > i)`` of a set of rows (the reference,
+  quadratic in the number of points);
+- :func:`_tree_leaves_kernel` searches the kd-tree built by
+  :func:`neckid.models._sm_kernels.build_tree` by branch and bound (Bentley 1975; Friedman,
+  Bentley & Finkel 1977): the points of one leaf search together for the partners that could
+  still raise the running maximum, and skip every node whose bound on the ratio,
+  (max |ỹ_i − ỹ_j| − 2ε) / min ‖w̃_i − w̃_j‖ over the node, cannot exceed it.
+
+Both test a pair (or a node) against one table, ``reach2[b, c]``: the squared distance below
+which a pair whose |ỹ_i − ỹ_j| falls in bin ``b`` can raise γ*(ε) at some ε of the grid, given
+the maxima found so far (seeded with the pairs of nearby rows). Only one number is compared per
+output, whatever the size of the grid. :func:`gamma_star_blocked` runs the kernels over blocks
+of rows (or of leaves), refreshing the table between blocks and reporting progress; with a
+tree it can hand the remaining rows to the pair kernel when the tree prunes too little. The
+public entry point is :func:`neckid.models._sm_kernels.gamma_star`.
+
+References
+----------
+M. Milanese and C. Novara, "Set Membership identification of nonlinear systems", Automatica 40(6),
+957-975, 2004.
+J. L. Bentley, "Multidimensional binary search trees used for associative searching", Commun. ACM
+18(9), 509-517, 1975.
+J. H. Friedman, J. L. Bentley and R. A. Finkel, "An algorithm for finding best matches in
+logarithmic expected time", ACM Trans. Math. Softw. 3(3), 209-226, 1977.
+A. G. Gray and A. W. Moore, "'N-body' problems in statistical learning", Advances in Neural
+Information Processing Systems 13, 521-527, 2001.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numba import njit, prange
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from neckid.models._sm_kernels import SMTree
+
+__all__ = [
+    "REACH_BINS",
+    "TREE_HANDOVER",
+    "TREE_NODE_COST",
+    "TREE_PAIR_COST",
+    "gamma_star_blocked",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Bins of the output difference Δ in the table of reachable distances.
+REACH_BINS = 4096
+#: Consecutive rows (in the order given, and in tree order) paired for the first lower bound.
+_SEED_STEPS = 8
+#: Depth of the traversal stack; a median-split tree over 2**60 points is shallower.
+_STACK_DEPTH = 128
+#: Cost of a pair whose distance the tree computes, and of a node it tests, in units of one pair
+#: of the all-pairs kernel (which streams the distances of a row); see :func:`gamma_star_blocked`.
+TREE_PAIR_COST = 2.5
+TREE_NODE_COST = 4.5
+#: With ``adaptive``, the tree hands over to the pair kernel only when the cost so estimated
+#: exceeds the block's pairs by this factor: the estimate is within about 30 % of the measured
+#: ratio (1 to 20 dimensions, 1 or 2 threads), so a near tie stays with the tree.
+TREE_HANDOVER = 1.25
+#: A tree block runs without threads when the previous one cost less than this (in pairs).
+SERIAL_WORK = 200_000
+
+
+# ------------------------------------------------------------------------- one pair
+@njit(cache=True, inline="always")
+def _raise_with_pair(
+    g: FloatArray,
+    dd: float,
+    targets: FloatArray,
+    i: int,
+    j: int,
+    twice_eps: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+) -> None:
+    """Raise the running maxima ``g`` (E, m) with the pair ``(i, j)`` at squared distance ``dd``.
+
+    ``reach2[b, c]`` bounds from above the squared distance below which a pair whose output
+    difference Δ falls in bin ``b - 1`` (``Δ * bins_per_unit[c]``) can still raise ``g`` at
+    some ε; other pairs are skipped without a square root or a division. For a pair, the ratio
+    ℓ_e = (Δ − 2ε_e)/d is affine in ε and the running maximum G_e is convex in ε (a maximum of
+    such lines, sampled on the grid), so ℓ_e − G_e is concave along the grid: once it is <= 0 and
+    not increasing it stays <= 0, and the loop over the grid stops. ``twice_eps`` is sorted.
+    """
+    n_out = targets.shape[1]
+    n_eps = twice_eps.shape[0]
+    n_bins = reach2.shape[0]
+    if dd == 0.0:
+        for c in range(n_out):
+            delta = abs(targets[i, c] - targets[j, c])
+            for e in range(n_eps):
+                if delta - twice_eps[e, c] <= 0.0:
+                    break
+                g[e, c] = np.inf
+        return
+    for c in range(n_out):
+        delta = abs(targets[i, c] - targets[j, c])
+        b = int(delta * bins_per_unit[c]) + 1
+        if b >= n_bins:
+            b = n_bins - 1
+        if dd >= reach2[b, c]:
+            continue
+        d = math.sqrt(dd)
+        previous = -np.inf
+        for e in range(n_eps):
+            num = delta - twice_eps[e, c]
+            if num <= 0.0:
+                break
+            ratio = num / d
+            gap = ratio - g[e, c]
+            if gap > 0.0:
+                g[e, c] = ratio
+            elif gap <= previous and previous > -np.inf and twice_eps[e, c] > twice_eps[e - 1, c]:
+                # (a repeated ε of the grid has its own entry: never stop on it)
+                break
+            previous = gap
+
+
+# ------------------------------------------------------------------------- all pairs
+@njit(cache=True, parallel=True)
+def _pairs_rows_kernel(
+    points_t: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    rows: IntArray,
+    out: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+) -> None:
+    """For each row ``i`` in ``rows``, raise ``out[r]`` (E, m) with every pair ``(i, j > i)``.
+
+    ``out[r]`` comes in holding the running maximum from earlier blocks. The squared distances of
+    a row are computed component by component over the contiguous rows of ``points_t``.
+    """
+    n_dims, n_points = points_t.shape
+    for r in prange(rows.shape[0]):
+        i = rows[r]
+        count = n_points - i - 1
+        if count <= 0:
+            continue
+        g = out[r]
+        d2 = np.zeros(count)
+        for k in range(n_dims):
+            xi = points_t[k, i]
+            row = points_t[k, i + 1 :]
+            for q in range(count):
+                diff = row[q] - xi
+                d2[q] += diff * diff
+        for q in range(count):
+            _raise_with_pair(g, d2[q], targets, i, i + 1 + q, twice_eps, reach2, bins_per_unit)
+
+
+# ------------------------------------------------------------------------- kd-tree
+@njit(cache=True)
+def _search_leaf(
+    q: int,
+    points: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    g: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+    tree: Any,
+    stack: IntArray,
+) -> tuple[int, int]:
+    """Raise ``g`` (E, m) with the pairs ``(i, j > i)``, ``i`` in leaf ``q``, by branch and bound.
+
+    ``points`` and ``targets`` are in tree order and ``i``, ``j`` are tree positions; ``tree`` is
+    ``(start, end, left, right, lo, hi, ymin, ymax)`` of :class:`~neckid.models._sm_kernels.SMTree`.
+    The points of a leaf are close together, so they search the tree together (node-to-node
+    bounds, as in the dual-tree algorithms of Gray & Moore 2001): a node is opened only if it
+    holds a position after the leaf's first one and, for some output c,
+
+        dist²(box(q), box(node)) < reach2[bin(Δ_max), c],
+        Δ_max = max(max ỹ(q) − min ỹ(node), max ỹ(node) − min ỹ(q)).
+
+    In a leaf that passes, each point ``i`` of ``q`` is tested again with its own distance to the
+    box and its own Δ_max = max(|ỹ_i − min ỹ(node)|, |ỹ_i − max ỹ(node)|), then each pair with its
+    own Δ (no distance when the table is 0 there) and, last, its squared distance.
+
+    Every pair (i, j) under a node has Δ <= Δ_max and ‖w̃_i − w̃_j‖² >= each box distance² in
+    floating point too: differences, absolute values, squares and sums are monotone, and a box
+    distance sums a subset of the terms of the point distance in the same order (the others
+    are 0). The table grows with Δ, so a skipped node holds only pairs that the same test in
+    :func:`_raise_with_pair` would skip: the result is bit for bit that of all pairs.
+
+    Returns
+    -------
+    computed, tested : int
+        Squared distances of pairs computed, and box distances computed (nodes and leaf points).
+    """
+    start, end, left, right, lo, hi, ymin, ymax = tree
+    n_dims = points.shape[1]
+    n_out = targets.shape[1]
+    n_bins = reach2.shape[0]
+    first, last = start[q], end[q]
+    stack[0] = 0
+    top = 1
+    computed = 0
+    tested = 0
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if end[node] <= first + 1:
+            continue
+        reach = 0.0
+        for c in range(n_out):
+            delta = max(ymax[q, c] - ymin[node, c], ymax[node, c] - ymin[q, c], 0.0)
+            b = min(int(delta * bins_per_unit[c]) + 1, n_bins - 1)
+            reach = max(reach, reach2[b, c])
+        if reach == 0.0:
+            continue
+        tested += 1
+        acc = 0.0
+        for k in range(n_dims):
+            gap = max(lo[node, k] - hi[q, k], lo[q, k] - hi[node, k], 0.0)  # 0 if they overlap
+            acc += gap * gap
+        if acc >= reach:
+            continue
+        child = left[node]
+        if child >= 0:
+            stack[top] = right[node]
+            stack[top + 1] = child
+            top += 2
+            continue
+        for i in range(first, min(last, end[node] - 1)):
+            reach = 0.0
+            for c in range(n_out):
+                y = targets[i, c]
+                delta = max(abs(y - ymin[node, c]), abs(y - ymax[node, c]))
+                b = min(int(delta * bins_per_unit[c]) + 1, n_bins - 1)
+                reach = max(reach, reach2[b, c])
+            if reach == 0.0:
+                continue
+            tested += 1
+            acc = 0.0
+            for k in range(n_dims):
+                v = points[i, k]
+                gap = max(lo[node, k] - v, v - hi[node, k], 0.0)
+                acc += gap * gap
+            if acc >= reach:
+                continue
+            for j in range(max(start[node], i + 1), end[node]):
+                reach = 0.0
+                for c in range(n_out):
+                    b = int(abs(targets[i, c] - targets[j, c]) * bins_per_unit[c]) + 1
+                    reach = max(reach, reach2[min(b, n_bins - 1), c])
+                if reach == 0.0:
+                    continue
+                dd = 0.0
+                for k in range(n_dims):
+                    diff = points[j, k] - points[i, k]
+                    dd += diff * diff
+                computed += 1
+                if dd < reach or dd == 0.0:
+                    _raise_with_pair(g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
+    return computed, tested
+
+
+@njit(cache=True, parallel=True)
+def _tree_leaves_kernel(
+    points: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    leaves: IntArray,
+    out: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+    tree: Any,
+    work: IntArray,
+) -> None:
+    """:func:`_search_leaf` for each leaf of ``leaves`` (threads); ``work[r]`` its two counts."""
+    for r in prange(leaves.shape[0]):
+        stack = np.empty(_STACK_DEPTH, np.int64)
+        work[r, 0], work[r, 1] = _search_leaf(
+            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack
+        )
+
+
+@njit(cache=True)
+def _tree_leaves_serial(
+    points: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    leaves: IntArray,
+    out: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+    tree: Any,
+    work: IntArray,
+) -> None:  # pragma: no cover - compiled; the same leaves as the threaded kernel
+    """:func:`_tree_leaves_kernel` without threads, for blocks with little work.
+
+    Waking the thread pool costs more than a small block, and much more on a busy machine.
+    """
+    stack = np.empty(_STACK_DEPTH, np.int64)
+    for r in range(leaves.shape[0]):
+        work[r, 0], work[r, 1] = _search_leaf(
+            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack
+        )
+
+
+# ------------------------------------------------------------------------- driver
+@njit(cache=True)
+def _seed_kernel(
+    points: FloatArray, targets: FloatArray, twice_eps: FloatArray, g: FloatArray
+) -> None:
+    """Raise ``g`` with the pairs of rows up to ``_SEED_STEPS`` apart (no pruning)."""
+    n_points, n_dims = points.shape
+    reach2 = np.full((1, targets.shape[1]), np.inf)
+    bins_per_unit = np.zeros(targets.shape[1])
+    for step in range(1, _SEED_STEPS + 1):
+        for i in range(n_points - step):
+            dd = 0.0
+            for k in range(n_dims):
+                diff = points[i + step, k] - points[i, k]
+                dd += diff * diff
+            _raise_with_pair(g, dd, targets, i, i + step, twice_eps, reach2, bins_per_unit)
+
+
+def _reach_table(best: FloatArray, twice_eps: FloatArray, bins_per_unit: FloatArray) -> FloatArray:
+    """``reach2[b, c]``: squared distance below which a pair with Δ up to bin ``b`` may count.
+
+    A pair (Δ, d) raises γ*(ε_e) only if ``d < (Δ − 2ε_e) / γ*(ε_e)`` for some e; the right side
+    grows with Δ, so its value at the bin's upper edge bounds the whole bin. Slightly inflated
+    so that rounding never skips a pair that counts. An output that never changes (no bins)
+    gets 0: no pair of it can exceed 2ε >= 0.
+    """
+    n_out = best.shape[1]
+    # A Δ in bin b - 1 has Δ * bins_per_unit < b; the relative 1e-12 covers the rounding of both.
+    edges = (
+        np.arange(REACH_BINS)[:, None]
+        * (1.0 + 1e-12)
+        / np.where(bins_per_unit > 0, bins_per_unit, 1.0)
+    )
+    reach = np.zeros((REACH_BINS, n_out))
+    for e in range(best.shape[0]):
+        num = edges - twice_eps[e]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(num > 0, num / best[e], 0.0)
+        reach = np.maximum(reach, ratio)
+    reach2 = reach * reach * (1.0 + 1e-9)
+    reach2[:, bins_per_unit == 0] = 0.0
+    return np.ascontiguousarray(reach2)
+
+
+def _interleaved(items: IntArray) -> IntArray:
+    """``items[0], items[-1], items[1], items[-2], ...``.
+
+    Over rows 0..N-1, consecutive pairs of this order hold N-1 pairs ``(i, j > i)`` together, so
+    equal slices hold equal numbers of pairs (and over leaves in tree order, nearly equal).
+    """
+    half = (items.size + 1) // 2
+    order = np.empty(items.size, dtype=np.int64)
+    order[0::2] = items[:half]
+    order[1::2] = items[::-1][: items.size // 2]
+    return order
+
+
+def _rows_of(first: IntArray, last: IntArray) -> IntArray:
+    """The rows of the ranges ``[first[k], last[k])``, one range after the other."""
+    lengths = last - first
+    return np.repeat(first - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
+
+
+def gamma_star_blocked(
+    points: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    n_blocks: int,
+    callback: Callable[[int, int], None] | None,
+    tree: SMTree | None,
+    adaptive: bool = False,
+) -> tuple[FloatArray, dict[str, int]]:
+    """γ*(ε) on a sorted grid ``twice_eps`` (2ε, shape (E, m)), block after block of rows.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n_points, n_dims)
+        Scaled regressors (C-contiguous float64).
+    targets : ndarray, shape (n_points, n_outputs)
+        Targets ỹ (C-contiguous float64).
+    twice_eps : ndarray, shape (n_eps, n_outputs)
+        2ε, each column sorted ascending.
+    n_blocks : int
+        Number of blocks: of rows without a tree, of leaves with one (at most the number of
+        rows or leaves). Each holds about the same number of pairs ``(i, j > i)``; the pruning
+        table is refreshed and ``callback`` called after each.
+    callback : callable or None
+        ``callback(pairs_done, pairs_total)``.
+    tree : SMTree or None
+        The kd-tree over ``points`` and ``targets`` (leaf size 4 to 16 works best); None runs
+        the all-pairs kernel only.
+    adaptive : bool, default False
+        With a tree: once a block's counted work, ``TREE_PAIR_COST`` per pair distance plus
+        ``TREE_NODE_COST`` per box distance, exceeds ``TREE_HANDOVER`` times the number of
+        pairs the all-pairs kernel would have walked, the remaining blocks go to the all-pairs
+        kernel (over the points in tree order). The result is the same, bit for bit; only the
+        time differs. The costs are in units of one pair of the all-pairs kernel, measured on 1
+        to 20 dimensions.
+
+    Returns
+    -------
+    gamma : ndarray, shape (n_eps, n_outputs)
+        γ*(ε), in the order of ``twice_eps``.
+    stats : dict
+        ``pairs`` (all pairs), ``computed`` and ``tested`` (pair and box distances the tree
+        computed), ``tree_rows`` and ``pair_rows`` (rows done by each kernel).
+    """
+    n_points = points.shape[0]
+    best = np.zeros(twice_eps.shape)
+    _seed_kernel(points, targets, twice_eps, best)
+    if tree is not None:
+        points, targets = tree.points, tree.targets
+        _seed_kernel(points, targets, twice_eps, best)
+        arrays = (
+            tree.start,
+            tree.end,
+            tree.left,
+            tree.right,
+            tree.lo,
+            tree.hi,
+            tree.ymin,
+            tree.ymax,
+        )
+        leaves = np.flatnonzero(tree.left < 0)
+        units = _interleaved(leaves[np.argsort(tree.start[leaves], kind="stable")])
+    else:
+        units = _interleaved(np.arange(n_points))
+    searching = tree is not None
+    span = np.ptp(targets, axis=0) if n_points else np.zeros(targets.shape[1])
+    bins_per_unit = np.where(span > 0, (REACH_BINS - 2) / np.where(span > 0, span, 1.0), 0.0)
+    total = n_points * (n_points - 1) // 2
+    stats = {"pairs": total, "computed": 0, "tested": 0, "tree_rows": 0, "pair_rows": 0}
+    points_t: FloatArray | None = None
+    cost = np.inf  # of the last tree block, in pairs of the all-pairs kernel
+    reach2: FloatArray | None = None
+    reach_of = best  # the maxima reach2 was computed from
+    done = 0
+    for block in np.array_split(units, max(1, min(int(n_blocks), units.size))):
+        if block.size == 0:
+            continue
+        first, last = (
+            (tree.start[block], tree.end[block]) if tree is not None else (block, block + 1)
+        )
+        count = last - first
+        pairs = int(np.sum(count * (n_points - 1) - (first + last - 1) * count // 2))
+        if reach2 is None or not np.array_equal(best, reach_of):
+            reach2, reach_of = _reach_table(best, twice_eps, bins_per_unit), best
+        if searching:
+            out = np.broadcast_to(best, (block.size, *best.shape)).copy()
+            work = np.zeros((block.size, 2), dtype=np.int64)
+            kernel = _tree_leaves_serial if cost < SERIAL_WORK else _tree_leaves_kernel
+            kernel(points, targets, twice_eps, block, out, reach2, bins_per_unit, arrays, work)
+            computed, tested = (int(v) for v in work.sum(axis=0))
+            stats["computed"] += computed
+            stats["tested"] += tested
+            stats["tree_rows"] += int(count.sum())
+            cost = TREE_PAIR_COST * computed + TREE_NODE_COST * tested
+            searching = not (adaptive and cost > TREE_HANDOVER * pairs)
+        else:
+            rows = np.ascontiguousarray(_rows_of(first, last) if tree is not None else block)
+            if points_t is None:
+                points_t = np.ascontiguousarray(points.T)
+            out = np.broadcast_to(best, (rows.size, *best.shape)).copy()
+            _pairs_rows_kernel(points_t, targets, twice_eps, rows, out, reach2, bins_per_unit)
+            stats["pair_rows"] += rows.size
+        best = np.maximum(best, out.max(axis=0))
+        done += pairs
+        if callback is not None:
+            callback(done, total)
+    return best, stats
