@@ -61,12 +61,14 @@ def test_the_registry_lists_every_method() -> None:
     assert METHODS == [
         "arx",
         "nn",
+        "poly",
         "rls",
         "scheduled",
         "sm",
         "sm-linear",
         "sm-multistep",
         "sm-parallel",
+        "sm-parallel-poly",
     ]
     for name, method in neckid.methods().items():
         assert method.name == name

@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from neckid.models.base import DivergenceError, ModelResult, NotFittedError
     from neckid.models.io import load_model
     from neckid.models.neural import NeuralNARX
+    from neckid.models.polynomial import PolynomialNARX
     from neckid.models.rls import RecursiveARX
     from neckid.models.scheduled import GainScheduledModel
     from neckid.models.set_membership import SetMembership, gamma_curve
@@ -60,6 +61,7 @@ __all__ = [
     "NotFittedError",
     "OperatingPointResult",
     "ParallelSetMembership",
+    "PolynomialNARX",
     "RecursiveARX",
     "SetMembership",
     "__version__",
@@ -100,6 +102,7 @@ _NAME_TO_MODULE = {
     "NotFittedError": "neckid.models.base",
     "load_model": "neckid.models.io",
     "NeuralNARX": "neckid.models.neural",
+    "PolynomialNARX": "neckid.models.polynomial",
     "RecursiveARX": "neckid.models.rls",
     "GainScheduledModel": "neckid.models.scheduled",
     "SetMembership": "neckid.models.set_membership",

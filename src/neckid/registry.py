@@ -10,7 +10,8 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'nn', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel']
+['arx', 'nn', 'poly', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel',
+ 'sm-parallel-poly']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -114,6 +115,22 @@ _METHODS: tuple[Method, ...] = (
         "Set Membership parallel",
         "neckid.models.sm_parallel:ParallelSetMembership",
         "Set Membership on the free run of a parallel linear ARX (output-error form)",
+    ),
+    Method(
+        "sm-parallel-poly",
+        "Set Membership parallel (polynomial OE)",
+        "neckid.models.sm_parallel:ParallelSetMembership",
+        "Set Membership on the free run of a parallel degree-3 polynomial NARX fitted for"
+        " simulation",
+        defaults={"parallel_degree": 3, "parallel_fit": "simulation"},
+        quick={"parallel_degree": 2},
+    ),
+    Method(
+        "poly",
+        "Polynomial NARX (OE)",
+        "neckid.models.polynomial:PolynomialNARX",
+        "polynomial NARX of degree 3, least squares then fitted for free-run simulation",
+        quick={"degree": 2, "max_iter": 10},
     ),
     Method(
         "nn",

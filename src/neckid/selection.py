@@ -26,10 +26,11 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from joblib import Parallel, delayed
+from joblib import delayed
 from numpy.typing import NDArray
 from sklearn.base import clone
 
+from neckid._parallel import check_backend, run_jobs
 from neckid.data import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
@@ -385,6 +386,7 @@ def score_candidates(
     n_jobs: int | None = None,
     progress: bool = False,
     folds: int | None = None,
+    backend: str | None = None,
 ) -> pd.DataFrame:
     """Fit a copy of every candidate estimator and score it on held-out records.
 
@@ -423,12 +425,17 @@ def score_candidates(
         candidate's own ``max_lag_``.
     n_jobs : int or None, default None
         Parallel workers (joblib) over candidates and folds; ``None`` means 1 unless inside a
-        ``joblib.parallel_config`` context, -1 means all cores.
+        ``joblib.parallel_config`` context, or every worker of the cluster with
+        ``backend="dask"``; -1 means all cores.
     progress : bool, default False
         Show a rich progress bar (on standard error).
     folds : int or None, default None
         With ``validation=None``: the number of folds ``k`` in ``[2, n]``; ``None`` is one fold
         per experiment. Must be None when ``validation`` is given.
+    backend : str or None, default None
+        The joblib backend the fits run on: ``None`` is the active ``joblib.parallel_config``
+        (joblib's default outside one), ``"dask"`` the cluster of the active
+        ``distributed.Client`` (``pip install neckid[dask]``), or any joblib backend name.
 
     Returns
     -------
@@ -450,13 +457,21 @@ def score_candidates(
     ValueError
         If a criterion is unknown, ``n_initial`` is negative, the records do not share
         channels, ``validation`` is None and ``train`` holds fewer than 2 experiments, or
-        ``folds`` is out of range or given with ``validation``.
+        ``folds`` is out of range or given with ``validation``, ``backend`` is unknown, or
+        ``backend="dask"`` and no ``distributed.Client`` is active.
+    ImportError
+        If ``backend="dask"`` and the ``distributed`` package is not installed.
 
     Notes
     -----
     Warnings raised while fitting (e.g. convergence warnings) are silenced. The folds are
     deterministic (no shuffling): order the experiments so that every fold mixes the conditions
     you care about, or use leave-one-experiment-out.
+
+    Every fit is an independent unit (the estimator, the records and the settings, pickled to
+    the worker; a seed travels in the estimator's parameters), and the rows come back in the
+    order of the candidates, whichever finishes first: on any backend, a Dask cluster included,
+    the scores are those of a run on this machine (``fit_time_s`` aside, a wall time).
 
     Examples
     --------
@@ -495,34 +510,14 @@ def score_candidates(
         for name, estimator in options
         for fit_part, held_out in splits
     )
-    runner = Parallel(n_jobs=n_jobs, return_as="generator")
-    fold_rows: list[dict[str, Any]] = []
-    if progress:
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        with Progress(
-            TextColumn("score_candidates"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=Console(stderr=True),
-            transient=True,
-        ) as bar:
-            task = bar.add_task("fits", total=len(options) * len(splits))
-            for row in runner(jobs):
-                fold_rows.append(row)
-                bar.advance(task)
-    else:
-        fold_rows = list(runner(jobs))
+    fold_rows = run_jobs(
+        jobs,
+        total=len(options) * len(splits),
+        n_jobs=n_jobs,
+        backend=backend,
+        progress=progress,
+        label="score_candidates",
+    )
 
     output_names = train_list[0].output_names
     n_folds = len(splits)
@@ -554,6 +549,7 @@ def select_lags(
     progress: bool = True,
     *,
     folds: int | None = None,
+    backend: str | None = None,
 ) -> LagSelection:
     """Train a copy of ``estimator`` on every candidate lag set and rank them on held-out data.
 
@@ -584,12 +580,17 @@ def select_lags(
         fewer regressor terms.
     n_jobs : int or None, default None
         Parallel workers (joblib); ``None`` means 1 unless inside a ``joblib.parallel_config``
-        context, -1 means all cores.
+        context, or every worker of the cluster with ``backend="dask"``; -1 means all cores.
     progress : bool, default True
         Show a rich progress bar (on standard error).
     folds : int or None, default None
         With ``validation=None``: group the experiments into ``k`` folds (experiment ``i`` in
         fold ``i mod k``); ``None`` is leave-one-experiment-out.
+    backend : str or None, default None
+        The joblib backend the fits run on: ``None`` is the active ``joblib.parallel_config``
+        (joblib's default outside one); ``"dask"`` runs them on the cluster of the active
+        ``distributed.Client`` (``pip install neckid[dask]``; create the client first), with
+        the same result as here. See :func:`score_candidates`.
 
     Returns
     -------
@@ -605,7 +606,10 @@ def select_lags(
     ValueError
         If ``estimator`` is a name no registered method has, ``criterion`` is unknown,
         ``candidates`` is empty, the records do not share channels, ``validation`` is None and
-        ``train`` holds fewer than 2 experiments, or ``folds`` is out of range.
+        ``train`` holds fewer than 2 experiments, ``folds`` is out of range, ``backend`` is
+        unknown, or ``backend="dask"`` and no ``distributed.Client`` is active.
+    ImportError
+        If ``backend="dask"`` and the ``distributed`` package is not installed.
 
     Notes
     -----
@@ -648,6 +652,7 @@ def select_lags(
         raise TypeError(f"select_lags needs {missing}=; got None")
     if criterion not in ("prediction", "simulation"):
         raise ValueError(f"criterion must be 'simulation' or 'prediction'; got {criterion!r}")
+    check_backend(backend)  # before any work: a missing cluster is said at once
     if isinstance(estimator, str):
         estimator = get_method(estimator).make()
     try:
@@ -690,6 +695,7 @@ def select_lags(
             n_jobs=n_jobs,
             progress=progress,
             folds=folds,
+            backend=backend,
         )  # fmt: skip
         for row, score in zip(fitted, scores.to_dict(orient="records"), strict=True):
             row.update({str(k): v for k, v in score.items() if k not in ("candidate", "name")})

@@ -5,7 +5,8 @@ from __future__ import annotations
 import functools
 import logging
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any, TypeVar
 
 import typer
@@ -242,3 +243,41 @@ TILT_OPTION = typer.Option(
     help="3-D neck: read the inclination and orientation outputs [deg] and use the wrap-free"
     " tilt vector tilt_x, tilt_y [deg] in their place.",
 )
+
+
+SCHEDULER_HELP = (
+    "Address of a Dask scheduler, e.g. tcp://10.0.0.5:8786: the candidates' fits run on its"
+    " workers (needs pip install neckid[dask]); the results are those of a local run."
+)
+SCHEDULER_OPTION = typer.Option(None, "--scheduler", help=SCHEDULER_HELP, show_default=False)
+
+
+@contextmanager
+def _on_scheduler(address: str | None) -> Iterator[None]:
+    """Run the sweeps inside on the Dask cluster at ``address``; nothing changes for None.
+
+    Connects a ``distributed.Client(address)`` (the connect timeout is Dask's own setting,
+    ``distributed.comm.timeouts.connect``, 30 s by default) and sets
+    ``joblib.parallel_config(backend="dask")``, so that every joblib sweep inside runs on the
+    cluster's workers. A missing extra or an unreachable scheduler is one ``error:`` line.
+    """
+    if address is None:
+        yield
+        return
+    from joblib import parallel_config
+
+    from neckid._parallel import DASK_INSTALL_HINT
+
+    try:
+        from distributed import Client
+    except ImportError:
+        _fail(
+            f"--scheduler needs the distributed package, which is not installed: {DASK_INSTALL_HINT}"
+        )
+    try:
+        client = Client(address)
+    except (OSError, ValueError, TimeoutError) as exc:
+        _fail(f"--scheduler: cannot connect to the Dask scheduler at {address!r}: {_message(exc)}")
+    logging.getLogger(__name__).info("sweeps run on the Dask scheduler at %s", address)
+    with client, parallel_config(backend="dask"):
+        yield

@@ -12,8 +12,10 @@ from rich.markup import escape
 from rich.table import Table
 
 from neckid.cli._app import (
+    SCHEDULER_OPTION,
     _fail,
     _method_name,
+    _on_scheduler,
     _split,
     app,
     console,
@@ -203,26 +205,31 @@ def benchmark(
     force: bool = typer.Option(
         False, "--force", help="Replace the files of an existing --out folder."
     ),
+    scheduler: str = SCHEDULER_OPTION,
 ) -> None:
     """Run the models on real logs and public benchmarks with their official protocols.
 
     Free-run simulation; RMSE in each benchmark's unit (Silverbox mV, cascaded tanks V, Bouc-Wen m,
     soft neck deg) next to the published figures; wall time of each method.
+
+    With --scheduler, the hyper-parameter candidates are fitted on the workers of a Dask cluster
+    (the final fit and the test simulations stay here); the table is that of a local run.
     """
     from neckid.experiments.benchmark import BENCHMARK_METHODS, run_benchmark
 
     names = [_method_name(n) for n in dict.fromkeys(_split(methods) or BENCHMARK_METHODS)]
     # Long work reports progress: one line per data set and method, in a terminal or a log file.
     logging.getLogger("neckid.experiments.benchmark").setLevel(logging.INFO)
-    report = run_benchmark(
-        data_dir,
-        methods=names,
-        benchmarks=_split(only),
-        quick=quick,
-        seed=seed,
-        output_dir=out,
-        force=force,
-    )
+    with _on_scheduler(scheduler):
+        report = run_benchmark(
+            data_dir,
+            methods=names,
+            benchmarks=_split(only),
+            quick=quick,
+            seed=seed,
+            output_dir=out,
+            force=force,
+        )
     console.print(report.rich_table())
     if len(report.published):
         console.print(report.published_rich_table())

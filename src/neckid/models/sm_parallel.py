@@ -50,6 +50,7 @@ from neckid.models.base import (
     history_rows,
 )
 from neckid.models.online import extend_training_ranges, update_experiments
+from neckid.models.polynomial import PolynomialNARX
 from neckid.models.set_membership import (
     DEFAULT_GAMMA_MARGIN,
     GammaCurve,
@@ -86,6 +87,14 @@ class ParallelSetMembership(Estimator):
         Lags (>= 0) of the linear model's simulated output(s) in the SM regressor.
     input_lags : sequence of int, default ()
         Lags (>= 0) of every measured input in the SM regressor.
+    parallel_degree : int, default 1
+        Degree of the model run in parallel: 1 is the linear ARX; higher degrees make it a
+        :class:`~neckid.PolynomialNARX` on ``lags`` (the SM map then corrects what that
+        polynomial misses).
+    parallel_fit : {"prediction", "simulation"}, default "prediction"
+        How the parallel model is fitted: least squares on the one-step error, or then for its
+        free run (output error; see :class:`~neckid.PolynomialNARX`). ``"simulation"`` with
+        degree 1 gives an output-error linear model.
     epsilon, gamma, gamma_margin, scaling, input_weight, linear_part, epsilons, progress
         As for :class:`~neckid.SetMembership` (same defaults and rules), applied to the SM map
         (``linear_part`` adds a least-squares linear map of ``v`` under the SM residual; by
@@ -94,8 +103,9 @@ class ParallelSetMembership(Estimator):
 
     Attributes
     ----------
-    linear_ : LinearARX
-        The linear model run in parallel.
+    linear_ : LinearARX or PolynomialNARX
+        The model run in parallel (a linear ARX unless ``parallel_degree`` or ``parallel_fit``
+        say otherwise).
     sm_ : SetMembership
         The SM map; its inputs are the model's inputs followed by one ``<output>_linear``
         channel per output.
@@ -157,6 +167,8 @@ class ParallelSetMembership(Estimator):
         "lags": [None, Lags],
         "linear_lags": ["lag-list"],
         "input_lags": ["lag-list"],
+        "parallel_degree": PolynomialNARX._parameter_constraints["degree"],
+        "parallel_fit": PolynomialNARX._parameter_constraints["fit_for"],
         **{k: SetMembership._parameter_constraints[k] for k in _SM_PARAMETERS},
     }
     predicts_by_simulation = True
@@ -167,6 +179,8 @@ class ParallelSetMembership(Estimator):
         *,
         linear_lags: Sequence[int] = (0, 1),
         input_lags: Sequence[int] = (),
+        parallel_degree: int = 1,
+        parallel_fit: str = "prediction",
         epsilon: float | ArrayLike | None = None,
         gamma: float | ArrayLike | None = None,
         gamma_margin: float = DEFAULT_GAMMA_MARGIN,
@@ -179,6 +193,8 @@ class ParallelSetMembership(Estimator):
         self.lags = lags
         self.linear_lags = linear_lags
         self.input_lags = input_lags
+        self.parallel_degree = parallel_degree
+        self.parallel_fit = parallel_fit
         self.epsilon = epsilon
         self.gamma = gamma
         self.gamma_margin = gamma_margin
@@ -258,7 +274,7 @@ class ParallelSetMembership(Estimator):
         sm_lags = self._sm_lags(first.input_names, first.output_names)
         if self.lags is None:
             raise ValueError("ParallelSetMembership needs lags=Lags(...) for its linear model")
-        self.linear_ = LinearARX(self.lags).fit(experiments)
+        self.linear_ = self._parallel_model().fit(experiments)
         augmented = [
             self._linear_run(d, f"training experiment {i}") for i, d in enumerate(experiments)
         ]
@@ -268,6 +284,14 @@ class ParallelSetMembership(Estimator):
         self._set_channels(first)
         self._set_fitted_attributes()
         return self
+
+    def _parallel_model(self) -> LinearARX | PolynomialNARX:
+        """The model run in parallel: the linear ARX, or a polynomial NARX when asked for."""
+        if int(self.parallel_degree) == 1 and self.parallel_fit == "prediction":
+            return LinearARX(self.lags)
+        return PolynomialNARX(
+            self.lags, degree=int(self.parallel_degree), fit_for=self.parallel_fit
+        )
 
     def _set_fitted_attributes(self) -> None:
         self.lags_: ResolvedLags = self.linear_.lags_
@@ -407,7 +431,10 @@ class ParallelSetMembership(Estimator):
             "params": {
                 "linear_lags": list(check_lag_list(self.linear_lags, "linear_lags")),
                 "input_lags": list(check_lag_list(self.input_lags, "input_lags")),
+                "parallel_degree": int(self.parallel_degree),
+                "parallel_fit": str(self.parallel_fit),
             },
+            "parallel_class": type(self.linear_).__name__,
             **self._channels_meta(),
             "linear": linear_meta,
             "sm": sm_meta,
@@ -422,7 +449,11 @@ class ParallelSetMembership(Estimator):
             return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
 
         model = cls(None, **meta["params"])
-        model.linear_ = LinearARX._from_state(part("linear__"), meta["linear"])
+        parallel = {"LinearARX": LinearARX, "PolynomialNARX": PolynomialNARX}
+        kind = meta.get("parallel_class", "LinearARX")
+        if kind not in parallel:
+            raise ValueError(f"parallel_class must be one of {sorted(parallel)}; got {kind!r}")
+        model.linear_ = parallel[kind]._from_state(part("linear__"), meta["linear"])
         model.sm_ = SetMembership._from_state(part("sm__"), meta["sm"])
         model.lags = model.linear_.lags
         sm_params = model.sm_.get_params()

@@ -27,6 +27,7 @@ import pandas as pd
 from numpy.typing import NDArray
 from sklearn.base import clone
 
+from neckid._parallel import check_backend
 from neckid.data import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
@@ -205,15 +206,30 @@ def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
 
 
 # ---------------------------------------------------------------------------- selection
+@dataclass(frozen=True)
+class _Sweep:
+    """Where the candidates' fits run: ``n_jobs`` and ``backend`` of :func:`score_candidates`."""
+
+    n_jobs: int | None = None
+    backend: str | None = None
+
+    def options(self) -> dict[str, Any]:
+        """The keyword arguments of :func:`~neckid.selection.score_candidates`."""
+        return {"n_jobs": self.n_jobs, "backend": self.backend}
+
+
 def _select(
-    options: Sequence[Candidate], train: IOData | Sequence[IOData], n_initial: int | None
+    options: Sequence[Candidate],
+    train: IOData | Sequence[IOData],
+    n_initial: int | None,
+    sweep: _Sweep | None = None,
 ) -> tuple[Candidate, list[dict[str, Any]]]:
     """The candidate with the smallest free-run RMSE on held-out training data.
 
     One training record: fitted on its first :data:`SELECTION_FRACTION`, scored on the rest. A
     list of two or more experiments: scored on held-out experiments (:data:`SELECTION_FOLDS`,
     leave-one-experiment-out by default), by the mean RMSE over the folds; each score then also
-    says the scheme and the worst fold's RMSE.
+    says the scheme and the worst fold's RMSE. ``sweep`` says where the fits run.
     """
     if not options:
         raise ValueError("the method has no candidate on this data set")
@@ -228,11 +244,17 @@ def _select(
             criteria=("simulation",),
             n_initial=n_initial,
             folds=SELECTION_FOLDS,
+            **(sweep or _Sweep()).options(),
         )
     else:
         fit_part, check_part = experiments[0].split(SELECTION_FRACTION)
         table = score_candidates(
-            options, fit_part, check_part, criteria=("simulation",), n_initial=n_initial
+            options,
+            fit_part,
+            check_part,
+            criteria=("simulation",),
+            n_initial=n_initial,
+            **(sweep or _Sweep()).options(),
         )
     values = table["rmse_simulation"].to_numpy(dtype=np.float64)
     worst = table["rmse_simulation_worst"].to_numpy(dtype=np.float64)
@@ -275,12 +297,12 @@ def _row(bench: BenchmarkData, test: str, method: str, **values: Any) -> dict[st
 
 
 def _run_method(
-    method: str, bench: BenchmarkData, quick: bool, seed: int
+    method: str, bench: BenchmarkData, quick: bool, seed: int, sweep: _Sweep | None = None
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Select, fit and simulate one method on one data set; return table rows and details."""
     start = time.perf_counter()
     options = candidates(method, bench.name, bench.train, quick=quick, seed=seed)
-    (settings, estimator), scores = _select(options, bench.train, bench.n_initial)
+    (settings, estimator), scores = _select(options, bench.train, bench.n_initial, sweep)
     model = clone(estimator).fit(bench.train)
     train_time = time.perf_counter() - start
     rows = []
@@ -367,6 +389,8 @@ def run_benchmark(
     errors: Literal["record", "raise"] = "record",
     output_dir: str | Path | None = None,
     force: bool = False,
+    n_jobs: int | None = None,
+    backend: str | None = None,
 ) -> BenchmarkReport:
     """Run the identification methods on the real data sets found under ``data_dir``.
 
@@ -399,6 +423,15 @@ def run_benchmark(
         checked and locked *before* the run, so a second run into it is refused at once.
     force : bool, default False
         Replace the files of an ``output_dir`` that holds some already.
+    n_jobs : int or None, default None
+        Parallel workers (joblib) over the hyper-parameter candidates and folds of a method;
+        ``None`` means 1 unless inside a ``joblib.parallel_config`` context, or every worker of
+        the cluster with ``backend="dask"``.
+    backend : str or None, default None
+        The joblib backend the candidates are fitted on: ``None`` is the active
+        ``joblib.parallel_config`` (joblib's default outside one); ``"dask"`` the cluster of
+        the active ``distributed.Client`` (``pip install neckid[dask]``). The report is the
+        same as a run on this machine but for the wall times.
 
     Returns
     -------
@@ -409,7 +442,10 @@ def run_benchmark(
     Raises
     ------
     ValueError
-        If a method or benchmark key is unknown.
+        If a method or benchmark key is unknown, ``backend`` is unknown, or ``backend="dask"``
+        and no ``distributed.Client`` is active.
+    ImportError
+        If ``backend="dask"`` and the ``distributed`` package is not installed.
     FileNotFoundError
         If ``data_dir`` is not a folder.
 
@@ -421,7 +457,8 @@ def run_benchmark(
     Wall times are measured with :func:`time.perf_counter` on whatever machine runs this; they
     include the hyper-parameter selection.
     """
-    arguments = (data_dir, methods, benchmarks, quick, seed, errors)
+    check_backend(backend)  # before the output folder is locked and any data is read
+    arguments = (data_dir, methods, benchmarks, quick, seed, errors, _Sweep(n_jobs, backend))
     if output_dir is None:
         return _run(*arguments)
     with output_folder(output_dir, force=force) as staged:
@@ -437,6 +474,7 @@ def _run(
     quick: bool,
     seed: int,
     errors: Literal["record", "raise"],
+    sweep: _Sweep,
 ) -> BenchmarkReport:
     root = Path(data_dir)
     if not root.is_dir():
@@ -482,7 +520,7 @@ def _run(
                 continue
             logger.info("benchmark %s: %s (%d training samples)", name, method, n_train)
             try:
-                method_rows, method_details = _run_method(method, bench, quick, seed)
+                method_rows, method_details = _run_method(method, bench, quick, seed, sweep)
             except Exception as exc:  # a failing method must not stop the others
                 if errors == "raise":
                     raise
