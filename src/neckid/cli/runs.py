@@ -183,7 +183,8 @@ def benchmark(
         None,
         "--methods",
         help=(
-            "Comma-separated registry names: arx, sm, sm-linear, sm-parallel, nn, scheduled"
+            "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel, sm-parallel-poly, nn,"
+            " scheduled"
             " (default all)."
         ),
     ),

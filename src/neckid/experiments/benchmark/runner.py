@@ -403,8 +403,8 @@ def run_benchmark(
     methods : str or sequence of str, optional
         Registry names (:func:`neckid.methods`) among
         :data:`~neckid.experiments.benchmark.settings.BENCHMARK_METHODS`: ``"arx"``, ``"sm"``,
-        ``"sm-linear"``, ``"sm-parallel"``, ``"nn"``, ``"scheduled"`` (the scheduled model runs on
-        the soft-neck logs only); default all. The spellings of the previous release
+        ``"sm-linear"``, ``"sm-parallel"``, ``"sm-parallel-poly"``, ``"poly"``, ``"nn"``,
+        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only); default all. The spellings of the previous release
         (``"sm_linear"``, ``"sm_parallel"``, ``"neural"``) still work for one release, with a
         ``FutureWarning``.
     benchmarks : sequence of str, optional

@@ -34,6 +34,7 @@ __all__ = [
     "LARGE_RECORDS",
     "NEURAL_PARAMS",
     "ONLY_ON",
+    "POLYNOMIAL_DEGREE",
     "SCHEDULED_LAGS",
     "SCHEDULED_PARAMS",
     "SELECTION_FOLDS",
@@ -42,6 +43,8 @@ __all__ = [
     "SM_EPSILON_FACTORS_LARGE",
     "SM_INPUT_WEIGHTS",
     "SM_PARALLEL_EPSILON_FACTORS",
+    "SM_PARALLEL_POLY_EPSILON_FACTORS",
+    "SM_PARALLEL_POLY_REGRESSORS",
     "SM_PARALLEL_REGRESSORS",
     "Candidate",
     "arx_error_scale",
@@ -122,6 +125,22 @@ SM_PARALLEL_REGRESSORS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
 #: linear ARX on the training record; ``None`` is the knee rule (left out on
 #: :data:`LARGE_RECORDS`).
 SM_PARALLEL_EPSILON_FACTORS: tuple[float | None, ...] = (None, 0.25, 1.0)
+
+#: Degree of the polynomial NARX (and of SM's parallel polynomial): a cubic, as the FROLS
+#: polynomial NARX the Silverbox literature compares against.
+POLYNOMIAL_DEGREE = 3
+
+#: SM regressors on the parallel polynomial: its simulated output at t and t-1, without and with
+#: the input at t-1.
+SM_PARALLEL_POLY_REGRESSORS: tuple[tuple[tuple[int, ...], tuple[int, ...]], ...] = (
+    ((0, 1), ()),
+    ((0, 1), (1,)),
+)
+
+#: Noise bounds of SM on the parallel polynomial, as multiples of the polynomial's RMS free-run
+#: error on the training record (a polynomial fitted for simulation leaves an error a fraction of
+#: the ARX's, so the ARX's scale would make the SM map flat).
+SM_PARALLEL_POLY_EPSILON_FACTORS: tuple[float | None, ...] = (1.0, 3.0)
 
 #: The neural network of a full run (a quick run takes the registry's ``quick`` settings): 10
 #: networks trained, the 5 with the best free run on the held-out ends of the training records
@@ -269,6 +288,57 @@ def _parallel_grid(benchmark: str, train: Training, quick: bool, seed: int) -> l
     return out
 
 
+def _polynomial_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
+    make = methods()["poly"].make
+    return [
+        (f"lags={lags!r}, degree={POLYNOMIAL_DEGREE}, fit_for=simulation", make(lags, quick=quick))
+        if quick
+        else (
+            f"lags={lags!r}, degree={POLYNOMIAL_DEGREE}, fit_for=simulation",
+            make(lags, degree=POLYNOMIAL_DEGREE),
+        )
+        for lags in lag_grid(benchmark, quick)
+    ]
+
+
+def _parallel_polynomial_grid(
+    benchmark: str, train: Training, quick: bool, seed: int
+) -> list[Candidate]:
+    """SM on a parallel polynomial NARX: lags × SM regressor × ε (× the polynomial's own error)."""
+    method = methods()["sm-parallel-poly"]
+    regressors = SM_PARALLEL_POLY_REGRESSORS[:1] if quick else SM_PARALLEL_POLY_REGRESSORS
+    out: list[Candidate] = []
+    factors: tuple[float | None, ...] = (None,)
+    for lags in lag_grid(benchmark, quick):
+        if quick:
+            scale = 0.0
+        else:
+            polynomial = methods()["poly"].make(lags, degree=POLYNOMIAL_DEGREE)
+            try:
+                polynomial.fit(train)
+            except ValueError:
+                continue  # too few rows for the monomials of this regressor
+            scale = float(np.sqrt(np.mean(np.square(polynomial.fit_report_["rmse"]))))
+            factors = SM_PARALLEL_POLY_EPSILON_FACTORS
+        for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
+            epsilon, label = _epsilon(factor, scale)
+            out.append(
+                (
+                    f"lags={lags!r}, degree={POLYNOMIAL_DEGREE}, linear_lags={list(linear_lags)},"
+                    f" input_lags={list(input_lags)}, epsilon={label}",
+                    method.make(
+                        lags,
+                        quick=quick,
+                        linear_lags=linear_lags,
+                        input_lags=input_lags,
+                        epsilon=epsilon,
+                        progress=False,
+                    ),
+                )
+            )
+    return out
+
+
 def _neural_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     make = methods()["nn"].make
     params = {} if quick else dict(NEURAL_PARAMS)
@@ -296,6 +366,8 @@ CANDIDATE_GRIDS: Mapping[str, Callable[[str, Training, bool, int], list[Candidat
             "sm": _set_membership_grid("sm", (1.0,)),
             "sm-linear": _set_membership_grid("sm-linear", SM_INPUT_WEIGHTS),
             "sm-parallel": _parallel_grid,
+            "sm-parallel-poly": _parallel_polynomial_grid,
+            "poly": _polynomial_grid,
             "nn": _neural_grid,
             "scheduled": _scheduled_grid,
         }
