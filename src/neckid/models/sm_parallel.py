@@ -449,7 +449,10 @@ class ParallelSetMembership(Estimator):
             return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
 
         model = cls(None, **meta["params"])
-        parallel = {"LinearARX": LinearARX, "PolynomialNARX": PolynomialNARX}
+        parallel: dict[str, type[LinearARX] | type[PolynomialNARX]] = {
+            "LinearARX": LinearARX,
+            "PolynomialNARX": PolynomialNARX,
+        }
         kind = meta.get("parallel_class", "LinearARX")
         if kind not in parallel:
             raise ValueError(f"parallel_class must be one of {sorted(parallel)}; got {kind!r}")
