@@ -84,6 +84,55 @@ def test_forward_pass_all_activations_equal_mlpregressor(activation: str) -> Non
     np.testing.assert_allclose(ours, net.predict(x), rtol=1e-12, atol=1e-12)
 
 
+def two_output_system(n: int, seed: int) -> IOData:
+    """Two coupled outputs and two inputs, so the regressor mixes channels and lags."""
+    rng = np.random.default_rng(seed)
+    u = rng.uniform(-1.0, 1.0, size=(n, 2))
+    y = np.zeros((n, 2))
+    for t in range(2, n):
+        y[t, 0] = 0.5 * y[t - 1, 0] + 0.1 * y[t - 2, 1] + np.tanh(u[t - 1, 0])
+        y[t, 1] = 0.3 * y[t - 1, 1] + 0.5 * u[t - 2, 1] * u[t - 1, 0]
+    return IOData(u, y, ts=0.1)
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+@pytest.mark.parametrize("activation", ["tanh", "relu", "logistic", "identity"])
+@pytest.mark.parametrize("hidden", [(6,), (6, 4)])
+def test_compiled_free_run_equals_numpy_loop(activation: str, hidden: tuple[int, ...]) -> None:
+    data = two_output_system(400, 3)
+    model = NeuralNARX(
+        Lags(outputs=2, inputs=[1, 2]),
+        hidden_layer_sizes=hidden,
+        activation=activation,  # type: ignore[arg-type]
+        n_networks=3,
+        max_iter=30,
+        random_state=1,
+    ).fit(data[:250])
+    test = data[250:]
+    compiled = model._simulate_array(test.u, test.y)
+    reference = model._simulate_array(test.u, test.y, compiled=False)
+    assert np.all(np.isfinite(reference)) and np.ptp(reference[2:], axis=0).min() > 1e-3
+    np.testing.assert_allclose(compiled, reference, rtol=1e-10, atol=1e-10)
+    np.testing.assert_array_equal(compiled[:2], test.y[:2])  # the initial conditions
+    # the ensemble of some networks only, as simulation_tuning scores them
+    np.testing.assert_allclose(
+        model._simulate_array(test.u, test.y, [2, 0]),
+        model._simulate_array(test.u, test.y, [2, 0], compiled=False),
+        rtol=1e-10,
+        atol=1e-10,
+    )
+
+
+def test_compiled_tanh_within_rounding_of_numpy() -> None:
+    from neckid.models._neural_kernels import _tanh
+
+    z = np.concatenate([np.linspace(-25.0, 25.0, 2001), [0.0, -0.0, 1e-300, -1e-12, 400.0, np.inf]])
+    ours = np.array([_tanh(v) for v in z])
+    np.testing.assert_allclose(ours, np.tanh(z), rtol=0.0, atol=2.3e-16)
+    assert ours[-1] == 1.0 and ours[-2] == 1.0 and np.isnan(_tanh(np.nan))
+    assert np.all(np.sign(ours) * np.sign(z) >= 0.0)  # never the opposite sign (tiny z: +-0)
+
+
 def test_simulator_steps_like_simulate(fitted: NeuralNARX, validation: IOData) -> None:
     sim = fitted.simulator()
     sim.reset(y0=validation.y[:2], u0=validation.u[:2])

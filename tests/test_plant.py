@@ -117,9 +117,23 @@ def test_derivatives_reference_matches_compiled_on_random_states():
     for _ in range(20):
         x = rng.normal(scale=[3, 3, 3, 2, 2, 2, 0.3, 0.3, 1, 1, 0.01, 0.01])
         u = rng.normal(scale=3.0, size=3)
-        _kernels._derivatives(x, u, neck._packed, neck._directions, 3, 2, dx)
+        _kernels._derivatives(x, u, neck._packed, neck._directions, 3, 2, dx[None, :], 0)
         ref = _kernels.derivatives_reference(x, u, neck._packed, neck._directions)
         np.testing.assert_allclose(dx, ref, rtol=1e-10, atol=1e-9)
+
+
+def test_shape_functions_series_and_closed_forms_agree_with_the_reference():
+    # The kernel uses 12-term series in theta^2 below pi/2 and the closed forms above; the
+    # reference uses short series below 0.01 rad and the closed forms above (whose cancellation
+    # costs it about 1e-11 just above 0.01).
+    limit = np.sqrt(_kernels.SERIES_LIMIT)
+    thetas = np.r_[
+        0.0, 1e-9, 1e-4, 0.0099, 0.0101, np.linspace(0.02, 3.0, 400), limit, limit * 1.0001
+    ]
+    for theta in thetas:
+        ours = _kernels._shape_functions(theta, theta * theta)
+        reference = _kernels._shape_functions_reference(theta)
+        np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-15, err_msg=f"{theta=}")
 
 
 # ----------------------------------------------------------------------------- three tendons
@@ -213,6 +227,57 @@ def test_closed_loop_accepts_any_reset_step_object():
     assert data.input_names == ("reference", "velocity_command")
     assert data.output_names == ("inclination",)
     assert abs(data.y[-20:, 0].mean() - 5.0) < 0.5
+
+
+class SteppedNeck(SoftNeck):
+    """A SoftNeck that closed_loop steps from Python (not the exact class: no compiled loop)."""
+
+
+class SteppedController(InclinationController):
+    """An InclinationController that closed_loop steps from Python."""
+
+
+@pytest.mark.parametrize("configuration", ["planar", "three_tendon"])
+def test_compiled_closed_loop_equals_the_stepped_loop(configuration):
+    n = 600
+    t = np.arange(n) * 0.02
+    excitation = 0.3 * np.sign(np.sin(3.1 * t))
+    if configuration == "planar":
+        # a reference that saturates the command (anti-windup) and one that reverses it
+        reference = np.where(t < 4.0, 35.0, 10.0 + 5.0 * np.sin(2.0 * t))
+    else:
+        reference = np.column_stack([np.where(t < 4.0, 30.0, 12.0), (45.0 * t) % 360.0])
+        excitation = excitation[:, None] * np.array([1.0, -0.5, 0.25])
+    pairs = []
+    for neck_class, controller_class in ((SoftNeck, InclinationController),
+                                         (SteppedNeck, SteppedController)):  # fmt: skip
+        neck = neck_class(configuration=configuration, seed=4)
+        controller = controller_class(ki=1.5, configuration=configuration)
+        log = closed_loop(neck, controller, reference, 0.02, excitation)
+        pairs.append((log, neck, controller))
+    (fast, fast_neck, fast_pi), (slow, slow_neck, slow_pi) = pairs
+    assert fast.input_names == slow.input_names
+    assert fast.output_names == slow.output_names
+    np.testing.assert_array_equal(fast.u, slow.u)
+    np.testing.assert_array_equal(fast.y, slow.y)
+    first_command = next(name for name in fast.input_names if name.startswith("velocity_command"))
+    assert np.any(np.abs(fast.channel(first_command)) > 4.0)  # saturated, plus the excitation
+    # the objects are left alike: neck state, sensor buffer, noise generator, PI integral
+    np.testing.assert_array_equal(fast_neck._state, slow_neck._state)
+    np.testing.assert_array_equal(fast_neck._buffer, slow_neck._buffer)
+    assert fast_neck._rng.standard_normal() == slow_neck._rng.standard_normal()
+    np.testing.assert_array_equal(fast_pi._integral, slow_pi._integral)
+    np.testing.assert_array_equal(fast_neck.step([1.0] * fast_neck.n_motors),
+                                  slow_neck.step([1.0] * slow_neck.n_motors))  # fmt: skip
+
+
+def test_compiled_closed_loop_reports_a_non_finite_state():
+    from neckid.plant.control import _compiled_loop
+
+    neck = SoftNeck()
+    neck._state[2] = np.nan  # the bending
+    with pytest.raises(FloatingPointError, match="diverged"):
+        _compiled_loop(neck, InclinationController(), np.full((5, 1), 10.0), np.zeros((5, 1)))
 
 
 def test_anti_windup_limits_the_integral():

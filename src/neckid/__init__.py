@@ -24,7 +24,12 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
+from neckid import _numba_setup
 from neckid._version import __version__
+
+# Before any kernel module imports numba: a read-only install caches its kernels in the user's
+# cache folder (neckid._numba_setup); a writable one, or NUMBA_CACHE_DIR, is left as it is.
+_numba_setup.configure_numba_cache()
 
 if TYPE_CHECKING:
     from neckid import datasets, interop, metrics, plant, signals

@@ -2,9 +2,10 @@
 
 The network maps the standardised regressor ``w(t)`` (see :class:`~neckid.Lags`) to the
 standardised output ``y(t)``. scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` trains
-it on one-step-ahead targets; prediction, free-run simulation and model files use a plain NumPy
-forward pass over the learned weight matrices, so a loaded model needs no scikit-learn object and
-the free-run loop costs a few small matrix-vector products per sample.
+it on one-step-ahead targets; prediction and model files use a plain NumPy forward pass over the
+learned weight matrices, so a loaded model needs no scikit-learn object, and the free run is one
+compiled loop over those matrices (:mod:`neckid.models._neural_kernels`, about 3 µs per sample
+for five 2x25 networks, against about 16 µs for the NumPy loop kept beside it as reference).
 
 A fitted model is an ensemble of ``n_networks`` such networks, trained alike from different seeds,
 whose outputs are averaged: one network's result depends on its seed by several points of
@@ -244,10 +245,11 @@ class NeuralNARX(NarxModel):
     one NARX model (prediction, free run and simulator agree), not the mean of ``M`` free runs.
 
     Free-run simulation folds the regressor standardisation into the first layer,
-    ``W_1' = W_1 / x_scale``, ``b_1' = b_1 - (x_mean / x_scale) W_1``, computes the input part of the
-    first layer for all samples in one product, and then needs per sample only the output-lag terms
-    times their rows of ``W_1'``, the remaining layers, and the de-standardisation, each one
-    batched product over the ``M`` networks.
+    ``W_1' = W_1 / x_scale``, ``b_1' = b_1 - (x_mean / x_scale) W_1``, and runs a compiled loop
+    (numba) that per sample builds the raw regressor, runs the ``M`` networks and writes their
+    mean, de-standardised. It computes ``tanh`` as ``1 - 2 / (exp(2|z|) + 1)`` (within 2.3e-16 of
+    it) and agrees with the NumPy loop (``_simulate_array(..., compiled=False)``, which computes the
+    input part of the first layer for all samples in one product) to rounding, about 1e-15.
 
     References
     ----------
@@ -478,7 +480,7 @@ class NeuralNARX(NarxModel):
 
         The first ``max_lag`` outputs of ``data`` (or ``initial``) are the initial conditions;
         from then on only ``data.u`` is used. Same result as the generic loop of
-        :class:`NarxModel`, computed with a NumPy forward pass specialised for one row per step.
+        :class:`NarxModel` (to rounding), computed by a compiled loop (see Notes of the class).
 
         Parameters
         ----------
@@ -501,8 +503,19 @@ class NeuralNARX(NarxModel):
         return self._result("simulation", data, y)
 
     def _simulate_array(
-        self, u: FloatArray, y_measured: FloatArray, networks: Sequence[int] | None = None
+        self,
+        u: FloatArray,
+        y_measured: FloatArray,
+        networks: Sequence[int] | None = None,
+        *,
+        compiled: bool = True,
     ) -> FloatArray:
+        """Free run over ``u`` from the first ``max_lag`` rows of ``y_measured``.
+
+        ``networks`` (positions in the ensemble) runs the ensemble of those alone. ``compiled``
+        runs the numba loop (:func:`~neckid.models._neural_kernels.mlp_free_run`); ``False``
+        runs the NumPy loop kept beside it as its reference (the tests check they agree).
+        """
         coefs, intercepts = self.coefs_, self.intercepts_
         if networks is not None:  # the ensemble of some of the networks only
             coefs = [w[list(networks)] for w in coefs]
@@ -514,15 +527,36 @@ class NeuralNARX(NarxModel):
             raise ValueError(
                 f"data has {n} samples, too few for lags up to {m}: it needs at least {m + 1}"
             )
+        # Fold the standardisation of the regressor into the first layer of every network:
+        # w1 is (n_networks, n_terms, width), b1 and each row of pre (n_networks, width).
+        w1 = coefs[0] / self.x_scale_[None, :, None]
+        b1 = intercepts[0] - (self.x_mean_ / self.x_scale_) @ coefs[0]
+        y = np.array(y_measured, dtype=np.float64)
+        if compiled:
+            from neckid.models._neural_kernels import ACTIVATION_CODES, mlp_free_run, pack_layers
+
+            weights, biases, sizes = pack_layers([w1, *coefs[1:]], [b1, *intercepts[1:]])
+            mlp_free_run(
+                np.ascontiguousarray(u, dtype=np.float64),
+                y,
+                np.ascontiguousarray(resolved.source, dtype=np.int64),
+                np.ascontiguousarray(resolved.channel, dtype=np.int64),
+                np.ascontiguousarray(resolved.lag, dtype=np.int64),
+                weights,
+                biases,
+                sizes,
+                int(w1.shape[0]),
+                ACTIVATION_CODES[str(self.activation)],
+                np.ascontiguousarray(self.y_scale_, dtype=np.float64),
+                np.ascontiguousarray(self.y_mean_, dtype=np.float64),
+                int(m),
+            )
+            return y
         is_out = resolved.source == 0
         out_lag = resolved.lag[is_out]
         out_channel = resolved.channel[is_out]
         in_lag = resolved.lag[~is_out]
         in_channel = resolved.channel[~is_out]
-        # Fold the standardisation of the regressor into the first layer of every network:
-        # w1 is (n_networks, n_terms, width), b1 and each row of pre (n_networks, width).
-        w1 = coefs[0] / self.x_scale_[None, :, None]
-        b1 = intercepts[0] - (self.x_mean_ / self.x_scale_) @ coefs[0]
         steps = np.arange(m, n)
         pre = np.broadcast_to(b1, (steps.size, *b1.shape)).copy()
         if in_lag.size:
@@ -536,7 +570,6 @@ class NeuralNARX(NarxModel):
         activation = self.activation
         y_scale = self.y_scale_
         y_mean = self.y_mean_
-        y = np.array(y_measured, dtype=np.float64)
         has_out = bool(out_lag.size)
         for i, t in enumerate(steps):
             z = pre[i]

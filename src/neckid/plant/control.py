@@ -14,8 +14,10 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+import neckid.plant._kernels as _kernels
 from neckid.data import IOData
 from neckid.plant.protocols import Controller, Plant
+from neckid.plant.soft_neck import DIVERGED_MESSAGE, SoftNeck
 from neckid.validation import check_finite, check_number, check_ts
 
 __all__ = ["InclinationController", "closed_loop"]
@@ -23,6 +25,8 @@ __all__ = ["InclinationController", "closed_loop"]
 FloatArray = NDArray[np.float64]
 
 _TENDON_ANGLES = np.radians([0.0, 120.0, 240.0])
+_TENDON_COS = np.cos(_TENDON_ANGLES)
+_TENDON_SIN = np.sin(_TENDON_ANGLES)
 
 
 class InclinationController:
@@ -176,7 +180,7 @@ class InclinationController:
         if self.configuration == "planar":
             raw = wanted
         else:
-            raw = np.cos(_TENDON_ANGLES) * wanted[0] + np.sin(_TENDON_ANGLES) * wanted[1]
+            raw = _TENDON_COS * wanted[0] + _TENDON_SIN * wanted[1]
         peak = float(np.max(np.abs(raw)))
         saturated = peak > self.command_limit
         command = raw * (self.command_limit / peak) if saturated else raw
@@ -230,6 +234,14 @@ def closed_loop(
     output is only known after its ``step``), i.e. one sample of computation delay, like a real-time
     loop that applies at the next tick what it computed in this one. The first command uses a
     zero measurement (the neck at rest).
+
+    With the built-in pair, a :class:`~neckid.plant.SoftNeck` and an
+    :class:`InclinationController` (those classes exactly, not subclasses, which may override
+    ``step``), the whole loop runs in one compiled kernel (``neckid.plant._kernels``): about 3
+    µs per sample instead of about 30, most of it the neck's own integration
+    (``benchmarks/bench_closed_loop.py``). It gives the same log as stepping the objects
+    (``tests/test_plant.py`` checks it) and leaves the neck, its noise generator and the
+    controller's integral as the stepped loop would.
 
     Raises
     ------
@@ -286,25 +298,19 @@ def closed_loop(
             )
         check_finite(extra, "excitation")
     has_motors = hasattr(plant, "motor_position") and hasattr(plant, "motor_velocity")
-    motor_source: Any = plant
 
     plant.reset()
     controller.reset()
-    commands = np.empty((n, n_motors))
-    positions = np.empty((n, n_motors))
-    velocities = np.empty((n, n_motors))
-    outputs: list[FloatArray] = []
-    measurement = np.zeros(n_ref)
-    for k in range(n):
-        command = np.asarray(controller.step(ref[k] if n_ref > 1 else ref[k, 0], measurement))
-        commands[k] = command.reshape(-1) + extra[k]
-        if has_motors:
-            positions[k] = np.asarray(motor_source.motor_position).reshape(-1)
-            velocities[k] = np.asarray(motor_source.motor_velocity).reshape(-1)
-        y = np.asarray(plant.step(commands[k]), dtype=np.float64).reshape(-1)
-        outputs.append(y)
-        measurement = y[:n_ref]
-    y_all = np.vstack(outputs)
+    if (
+        type(plant) is SoftNeck
+        and type(controller) is InclinationController
+        and controller.n_motors == plant.n_motors
+    ):
+        commands, positions, velocities, y_all = _compiled_loop(plant, controller, ref, extra)
+    else:
+        commands, positions, velocities, y_all = _stepped_loop(
+            plant, controller, ref, extra, has_motors
+        )
     n_out = y_all.shape[1]
     default_out = ["inclination", "orientation"][:n_out] if n_out <= 2 else None
     out_names = list(getattr(plant, "output_names", default_out) or [])
@@ -330,3 +336,71 @@ def closed_loop(
         output_units=out_units,
         name="closed_loop",
     )
+
+
+def _stepped_loop(
+    plant: Plant, controller: Controller, ref: FloatArray, extra: FloatArray, has_motors: bool
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The loop for any plant and controller: one ``step`` of each per sample, from Python."""
+    n, n_ref = ref.shape
+    n_motors = extra.shape[1]
+    commands = np.empty((n, n_motors))
+    positions = np.empty((n, n_motors))
+    velocities = np.empty((n, n_motors))
+    outputs: list[FloatArray] = []
+    measurement = np.zeros(n_ref)
+    motor_source: Any = plant
+    for k in range(n):
+        command = np.asarray(controller.step(ref[k] if n_ref > 1 else ref[k, 0], measurement))
+        commands[k] = command.reshape(-1) + extra[k]
+        if has_motors:
+            positions[k] = np.asarray(motor_source.motor_position).reshape(-1)
+            velocities[k] = np.asarray(motor_source.motor_velocity).reshape(-1)
+        y = np.asarray(plant.step(commands[k]), dtype=np.float64).reshape(-1)
+        outputs.append(y)
+        measurement = y[:n_ref]
+    return commands, positions, velocities, np.vstack(outputs)
+
+
+def _compiled_loop(
+    neck: SoftNeck, controller: InclinationController, ref: FloatArray, extra: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The same loop for the built-in neck and PI, in one compiled kernel (both just reset).
+
+    The sensor noise is drawn for all samples at once, which gives the same numbers as one draw
+    per ``SoftNeck.step``; the neck's state and the controller's integral end as after the
+    stepped loop.
+    """
+    n = ref.shape[0]
+    m = neck.n_motors
+    commands = np.empty((n, m))
+    positions = np.empty((n, m))
+    velocities = np.empty((n, m))
+    outputs = np.empty((n, neck.n_outputs))
+    noise = neck._rng.standard_normal((n, neck._n_dof))
+    gains = np.array([controller.kp, controller.ki * controller.ts, controller.command_limit])
+    integral = np.array(controller._integral, dtype=np.float64)
+    done = _kernels.closed_loop_compiled(
+        neck._state,
+        neck._buffer,
+        neck._head,
+        np.ascontiguousarray(ref),
+        np.ascontiguousarray(extra),
+        noise,
+        neck._packed,
+        neck._directions,
+        neck._n_sub,
+        neck._dt,
+        gains,
+        _TENDON_COS,
+        _TENDON_SIN,
+        integral,
+        commands,
+        outputs,
+        positions,
+        velocities,
+    )
+    controller._integral = integral
+    if done < n:
+        raise FloatingPointError(DIVERGED_MESSAGE)
+    return commands, positions, velocities, outputs

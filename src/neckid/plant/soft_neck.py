@@ -63,6 +63,12 @@ Configuration = Literal["planar", "three_tendon"]
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
 
+#: The error of a run whose state stopped being finite.
+DIVERGED_MESSAGE = (
+    "the simulation diverged (non-finite state); lower SoftNeckParameters.integration_step or"
+    " check the parameters"
+)
+
 
 @dataclass(frozen=True)
 class SoftNeckParameters:
@@ -535,10 +541,7 @@ class SoftNeck:
             velocity,
         )
         if not np.all(np.isfinite(self._state)):
-            raise FloatingPointError(
-                "the simulation diverged (non-finite state); lower"
-                " SoftNeckParameters.integration_step or check the parameters"
-            )
+            raise FloatingPointError(DIVERGED_MESSAGE)
         return outputs, position, velocity
 
     def step(self, u: ArrayLike) -> FloatArray:
