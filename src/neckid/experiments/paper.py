@@ -171,7 +171,8 @@ def _run_protocol(
         else "regressor: the paper's"
     )
     selection_table = None
-    network = methods()["nn"].make(PAPER_LAGS, random_state=int(seeds[3]))
+    # --quick is a smoke run: the registry's small networks there (as the 3-D demo does)
+    network = methods()["nn"].make(PAPER_LAGS, quick=settings.quick, random_state=int(seeds[3]))
     if settings.paper_regressor:
         lags = PAPER_LAGS
     else:
@@ -192,7 +193,9 @@ def _run_protocol(
         method = methods()[name]
         seeded = "random_state" in method.estimator_class()._parameter_constraints
         params: dict[str, Any] = {"random_state": int(seeds[3])} if seeded else {}
-        narx_models[method.label] = method.make(lags, **params)
+        narx_models[method.label] = method.make(
+            lags, quick=settings.quick and name == "nn", **params
+        )
     fit_times = {}
     for name, model in narx_models.items():
         t0 = time.perf_counter()

@@ -341,8 +341,14 @@ class PolynomialNARX(NarxModel):
 
     # ------------------------------------------------------------------ use
     def _predict_rows(self, x: FloatArray) -> FloatArray:
+        # Summed monomial by monomial from 0, as the compiled free run does, so that stepping
+        # the simulator and ``simulate`` agree to the last bit.
         phi = self._features(x)
-        return np.asarray(phi @ self.coef_[1:] + self.coef_[0], dtype=np.float64)
+        y = np.zeros((x.shape[0], self.coef_.shape[1]))
+        y += self.coef_[0]
+        for m in range(phi.shape[1]):
+            y += phi[:, m : m + 1] * self.coef_[m + 1]
+        return y
 
     def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation (compiled loop): the regressor holds the model's own past outputs.
