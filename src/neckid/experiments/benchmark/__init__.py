@@ -33,7 +33,7 @@ Examples
 --------
 >>> from neckid.experiments.benchmark import BENCHMARK_METHODS, BENCHMARKS
 >>> BENCHMARK_METHODS
-('arx', 'sm', 'sm-linear', 'sm-parallel', 'nn', 'scheduled')
+('arx', 'sm', 'sm-linear', 'sm-parallel', 'sm-parallel-poly', 'poly', 'nn', 'scheduled')
 >>> BENCHMARKS
 ('softneck', 'softneck-payload', 'softneck-controller', 'cascaded_tanks', 'silverbox', 'bouc_wen', 'robot_arm')
 """
