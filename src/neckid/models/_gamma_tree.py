@@ -21,6 +21,12 @@ of rows (or of leaves), refreshing the table between blocks and reporting progre
 tree it can hand the remaining rows to the pair kernel when the tree prunes too little. The
 public entry point is :func:`neckid.models._sm_kernels.gamma_star`.
 
+The same search answers two neighbouring questions (Milanese & Novara 2004, the prior is valid
+iff γ >= γ*(ε)): started at a ``floor`` γ instead of 0 it only opens what could exceed γ, which
+checks γ >= γ*(ε) for far less than γ*(ε) costs; with ``margin=True`` it computes
+2ε*(γ) = max (|ỹ_i − ỹ_j| − γ‖w̃_i − w̃_j‖)⁺, the smallest ε consistent with γ (a pair counts
+only if ``d < (Δ − 2ε̂)/γ``: the same table with the roles of the two swapped).
+
 References
 ----------
 M. Milanese and C. Novara, "Set Membership identification of nonlinear systems", Automatica 40(6),
@@ -130,6 +136,54 @@ def _raise_with_pair(
             previous = gap
 
 
+@njit(cache=True, inline="always")
+def _raise_margin_with_pair(
+    g: FloatArray,
+    dd: float,
+    targets: FloatArray,
+    i: int,
+    j: int,
+    gamma: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+) -> None:
+    """Raise the running maxima ``g`` (1, m) of ``Δ − γ d`` with the pair ``(i, j)``.
+
+    ``gamma`` (1, m) holds γ; ``reach2[b, c]`` bounds the squared distance below which a pair
+    with Δ in bin ``b - 1`` can exceed ``g`` (``d < (Δ − g) / γ``); other pairs are skipped.
+    """
+    n_bins = reach2.shape[0]
+    for c in range(targets.shape[1]):
+        delta = abs(targets[i, c] - targets[j, c])
+        margin = delta
+        if dd > 0.0:
+            b = min(int(delta * bins_per_unit[c]) + 1, n_bins - 1)
+            if dd >= reach2[b, c]:
+                continue
+            margin = delta - gamma[0, c] * math.sqrt(dd)
+        if margin > g[0, c]:
+            g[0, c] = margin
+
+
+@njit(cache=True, inline="always")
+def _raise(
+    margin: bool,
+    g: FloatArray,
+    dd: float,
+    targets: FloatArray,
+    i: int,
+    j: int,
+    twice_eps: FloatArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
+) -> None:
+    """:func:`_raise_margin_with_pair` if ``margin`` (``twice_eps`` holds γ), else the γ* one."""
+    if margin:
+        _raise_margin_with_pair(g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
+    else:
+        _raise_with_pair(g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
+
+
 # ------------------------------------------------------------------------- all pairs
 @njit(cache=True, parallel=True)
 def _pairs_rows_kernel(
@@ -140,6 +194,7 @@ def _pairs_rows_kernel(
     out: FloatArray,
     reach2: FloatArray,
     bins_per_unit: FloatArray,
+    margin: bool,
 ) -> None:
     """For each row ``i`` in ``rows``, raise ``out[r]`` (E, m) with every pair ``(i, j > i)``.
 
@@ -161,7 +216,7 @@ def _pairs_rows_kernel(
                 diff = row[q] - xi
                 d2[q] += diff * diff
         for q in range(count):
-            _raise_with_pair(g, d2[q], targets, i, i + 1 + q, twice_eps, reach2, bins_per_unit)
+            _raise(margin, g, d2[q], targets, i, i + 1 + q, twice_eps, reach2, bins_per_unit)
 
 
 # ------------------------------------------------------------------------- kd-tree
@@ -176,6 +231,7 @@ def _search_leaf(
     bins_per_unit: FloatArray,
     tree: Any,
     stack: IntArray,
+    margin: bool,
 ) -> tuple[int, int]:
     """Raise ``g`` (E, m) with the pairs ``(i, j > i)``, ``i`` in leaf ``q``, by branch and bound.
 
@@ -267,7 +323,7 @@ def _search_leaf(
                     dd += diff * diff
                 computed += 1
                 if dd < reach or dd == 0.0:
-                    _raise_with_pair(g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
+                    _raise(margin, g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
     return computed, tested
 
 
@@ -282,13 +338,15 @@ def _tree_leaves_kernel(
     bins_per_unit: FloatArray,
     tree: Any,
     work: IntArray,
+    margin: bool,
 ) -> None:
     """:func:`_search_leaf` for each leaf of ``leaves`` (threads); ``work[r]`` its two counts."""
     for r in prange(leaves.shape[0]):
         stack = np.empty(_STACK_DEPTH, np.int64)
         work[r, 0], work[r, 1] = _search_leaf(
-            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack
-        )
+            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack,
+            margin,
+        )  # fmt: skip
 
 
 @njit(cache=True)
@@ -302,6 +360,7 @@ def _tree_leaves_serial(
     bins_per_unit: FloatArray,
     tree: Any,
     work: IntArray,
+    margin: bool,
 ) -> None:  # pragma: no cover - compiled; the same leaves as the threaded kernel
     """:func:`_tree_leaves_kernel` without threads, for blocks with little work.
 
@@ -310,14 +369,15 @@ def _tree_leaves_serial(
     stack = np.empty(_STACK_DEPTH, np.int64)
     for r in range(leaves.shape[0]):
         work[r, 0], work[r, 1] = _search_leaf(
-            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack
-        )
+            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack,
+            margin,
+        )  # fmt: skip
 
 
 # ------------------------------------------------------------------------- driver
 @njit(cache=True)
 def _seed_kernel(
-    points: FloatArray, targets: FloatArray, twice_eps: FloatArray, g: FloatArray
+    points: FloatArray, targets: FloatArray, twice_eps: FloatArray, g: FloatArray, margin: bool
 ) -> None:
     """Raise ``g`` with the pairs of rows up to ``_SEED_STEPS`` apart (no pruning)."""
     n_points, n_dims = points.shape
@@ -329,7 +389,7 @@ def _seed_kernel(
             for k in range(n_dims):
                 diff = points[i + step, k] - points[i, k]
                 dd += diff * diff
-            _raise_with_pair(g, dd, targets, i, i + step, twice_eps, reach2, bins_per_unit)
+            _raise(margin, g, dd, targets, i, i + step, twice_eps, reach2, bins_per_unit)
 
 
 def _reach_table(best: FloatArray, twice_eps: FloatArray, bins_per_unit: FloatArray) -> FloatArray:
@@ -385,6 +445,8 @@ def gamma_star_blocked(
     callback: Callable[[int, int], None] | None,
     tree: SMTree | None,
     adaptive: bool = False,
+    floor: FloatArray | None = None,
+    margin: bool = False,
 ) -> tuple[FloatArray, dict[str, int]]:
     """γ*(ε) on a sorted grid ``twice_eps`` (2ε, shape (E, m)), block after block of rows.
 
@@ -412,6 +474,17 @@ def gamma_star_blocked(
         kernel (over the points in tree order). The result is the same, bit for bit; only the
         time differs. The costs are in units of one pair of the all-pairs kernel, measured on 1
         to 20 dimensions.
+    floor : ndarray, shape (n_outputs,), optional
+        Start the running maxima at this value instead of 0: the result is
+        ``max(γ*(ε), floor)``, and only pairs that could exceed the floor are computed. With a
+        floor at or above γ*(ε) the table of reachable distances is small from the start and
+        nearly every node is skipped: the check that γ >= γ*(ε) (result equal to the floor)
+        costs far less than γ*(ε) itself.
+    margin : bool, default False
+        Compute ``max_{i≠j} (|ỹ_i − ỹ_j| − γ‖w̃_i − w̃_j‖)⁺ = 2ε*(γ)`` instead, the same way:
+        ``twice_eps`` then holds γ, shape (1, m), and so does the result (``floor`` starts it).
+        A pair can raise it only if ``d < (Δ − 2ε̂)/γ``, the table of γ*(ε) with the roles of
+        the running maximum and the grid swapped.
 
     Returns
     -------
@@ -423,10 +496,13 @@ def gamma_star_blocked(
     """
     n_points = points.shape[0]
     best = np.zeros(twice_eps.shape)
-    _seed_kernel(points, targets, twice_eps, best)
+    if floor is not None:
+        best = np.array(np.broadcast_to(floor, twice_eps.shape), dtype=np.float64)
+    if tree is None or points is not tree.points:
+        _seed_kernel(points, targets, twice_eps, best, margin)
     if tree is not None:
         points, targets = tree.points, tree.targets
-        _seed_kernel(points, targets, twice_eps, best)
+        _seed_kernel(points, targets, twice_eps, best, margin)
         arrays = (
             tree.start,
             tree.end,
@@ -460,12 +536,19 @@ def gamma_star_blocked(
         count = last - first
         pairs = int(np.sum(count * (n_points - 1) - (first + last - 1) * count // 2))
         if reach2 is None or not np.array_equal(best, reach_of):
-            reach2, reach_of = _reach_table(best, twice_eps, bins_per_unit), best
+            reach2 = (
+                _reach_table(twice_eps, best, bins_per_unit)
+                if margin
+                else _reach_table(best, twice_eps, bins_per_unit)
+            )
+            reach_of = best
         if searching:
             out = np.broadcast_to(best, (block.size, *best.shape)).copy()
             work = np.zeros((block.size, 2), dtype=np.int64)
             kernel = _tree_leaves_serial if cost < SERIAL_WORK else _tree_leaves_kernel
-            kernel(points, targets, twice_eps, block, out, reach2, bins_per_unit, arrays, work)
+            kernel(
+                points, targets, twice_eps, block, out, reach2, bins_per_unit, arrays, work, margin
+            )
             computed, tested = (int(v) for v in work.sum(axis=0))
             stats["computed"] += computed
             stats["tested"] += tested
@@ -477,7 +560,9 @@ def gamma_star_blocked(
             if points_t is None:
                 points_t = np.ascontiguousarray(points.T)
             out = np.broadcast_to(best, (rows.size, *best.shape)).copy()
-            _pairs_rows_kernel(points_t, targets, twice_eps, rows, out, reach2, bins_per_unit)
+            _pairs_rows_kernel(
+                points_t, targets, twice_eps, rows, out, reach2, bins_per_unit, margin
+            )
             stats["pair_rows"] += rows.size
         best = np.maximum(best, out.max(axis=0))
         done += pairs

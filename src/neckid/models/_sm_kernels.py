@@ -6,7 +6,8 @@ so the distance is the plain Euclidean one.
 Kernels
 -------
 - :func:`build_tree`: a kd-tree over the training regressors (median split on the widest
-  component, leaves of at most ``LEAF_SIZE`` points); every node keeps its bounding box.
+  component by an in-place quickselect, leaves of at most ``LEAF_SIZE`` points); every node
+  keeps its bounding box. The node arrays are allocated once, at their exact size.
 - :class:`SMTree`: the tree plus, per node and per output, the min and max of the targets ỹ, and
   the exact branch-and-bound evaluation of
 
@@ -17,7 +18,9 @@ Kernels
   box distance is a sum of a subset of the very terms that make up a contained point's squared
   distance, summed in the same order, so (floating-point addition and multiplication being
   monotone) the pruning test never skips a point that would have changed the result: the bounds
-  are *bit for bit* those of a linear scan with the same formula.
+  are *bit for bit* those of a linear scan with the same formula. With ``overwrite_points`` it
+  reorders the caller's matrix in place (:func:`_permute_rows`, one spare row) instead of
+  keeping a reordered copy: the estimator's one copy of its training points.
 - :func:`free_run`: the compiled free-run loop (regressor from the simulated history, linear
   part, both bounds, central value fed back).
 - :func:`gamma_star`: γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε,
@@ -64,12 +67,63 @@ _STACK_DEPTH = 128
 
 # ---------------------------------------------------------------------------------- tree build
 @njit(cache=True)
+def _count_nodes(n_points: int, leaf_size: int) -> int:
+    """Nodes of the median-split tree over ``n_points`` (fewer if identical points stop a split)."""
+    sizes = np.empty(_STACK_DEPTH, np.int64)
+    sizes[0] = n_points
+    top = 1
+    count = 0
+    while top > 0:
+        top -= 1
+        size = sizes[top]
+        count += 1
+        if size > leaf_size:
+            sizes[top] = size // 2
+            sizes[top + 1] = size - size // 2
+            top += 2
+    return count
+
+
+@njit(cache=True)
+def _select(points: FloatArray, perm: IntArray, dim: int, first: int, stop: int, k: int) -> None:
+    """Reorder ``perm[first:stop]`` so that the points before ``k`` are <= those from ``k`` on.
+
+    Quickselect on component ``dim`` with a median-of-three pivot and a three-way partition (runs
+    of equal values, as identical regressors make, end it at once); no memory is allocated.
+    """
+    while stop - first > 1:
+        a = points[perm[first], dim]
+        b = points[perm[(first + stop) // 2], dim]
+        c = points[perm[stop - 1], dim]
+        pivot = max(min(a, b), min(max(a, b), c))
+        below = first
+        p = first
+        above = stop
+        while p < above:
+            v = points[perm[p], dim]
+            if v < pivot:
+                perm[below], perm[p] = perm[p], perm[below]
+                below += 1
+                p += 1
+            elif v > pivot:
+                above -= 1
+                perm[above], perm[p] = perm[p], perm[above]
+            else:
+                p += 1
+        if k < below:
+            stop = below
+        elif k >= above:
+            first = above
+        else:
+            return
+
+
+@njit(cache=True)
 def _build_tree_kernel(
     points: FloatArray, leaf_size: int
 ) -> tuple[IntArray, IntArray, IntArray, IntArray, IntArray, FloatArray, FloatArray]:
     n_points, n_dims = points.shape
-    max_leaves = n_points // ((leaf_size + 1) // 2) + 1
-    max_nodes = 2 * max_leaves + 1
+    max_nodes = _count_nodes(n_points, leaf_size)
     perm = np.arange(n_points)
     start = np.zeros(max_nodes, np.int64)
     end = np.zeros(max_nodes, np.int64)
@@ -77,7 +131,7 @@ def _build_tree_kernel(
     right = np.full(max_nodes, -1, np.int64)
     lo = np.empty((max_nodes, n_dims))
     hi = np.empty((max_nodes, n_dims))
-    stack = np.empty(max_nodes, np.int64)
+    stack = np.empty(_STACK_DEPTH, np.int64)
     start[0] = 0
     end[0] = n_points
     n_nodes = 1
@@ -110,14 +164,8 @@ def _build_tree_kernel(
                 dim = k
         if widest <= 0.0:  # all points identical: one leaf, however many
             continue
-        values = np.empty(e - s)
-        for p in range(s, e):
-            values[p - s] = points[perm[p], dim]
-        order = np.argsort(values, kind="mergesort")
-        segment = perm[s:e].copy()
-        for q in range(e - s):
-            perm[s + q] = segment[order[q]]
         mid = s + (e - s) // 2
+        _select(points, perm, dim, s, e, mid)
         child = n_nodes
         n_nodes += 2
         start[child] = s
@@ -129,6 +177,8 @@ def _build_tree_kernel(
         stack[top] = child
         stack[top + 1] = child + 1
         top += 2
+    if n_nodes == max_nodes:
+        return perm, start, end, left, right, lo, hi
     return (
         perm,
         start[:n_nodes].copy(),
@@ -138,6 +188,30 @@ def _build_tree_kernel(
         lo[:n_nodes].copy(),
         hi[:n_nodes].copy(),
     )
+
+
+@njit(cache=True)
+def _permute_rows(points: FloatArray, perm: IntArray) -> None:
+    """``points[p] = points[perm[p]]`` for every p, in place: one row and one flag per row spare."""
+    n_points, n_dims = points.shape
+    done = np.zeros(n_points, np.bool_)
+    row = np.empty(n_dims)
+    for first in range(n_points):
+        if done[first]:
+            continue
+        for k in range(n_dims):
+            row[k] = points[first, k]
+        p = first
+        while True:  # follow the cycle of the permutation through ``first``
+            done[p] = True
+            q = perm[p]
+            if q == first:
+                for k in range(n_dims):
+                    points[p, k] = row[k]
+                break
+            for k in range(n_dims):
+                points[p, k] = points[q, k]
+            p = q
 
 
 @njit(cache=True)
@@ -374,6 +448,9 @@ def _free_run_kernel(
 class SMTree:
     """Kd-tree over scaled training regressors with per-node target ranges, for exact SM bounds.
 
+    The tree holds the one copy of the points, in tree order (``points[p]`` is the input row
+    ``perm[p]``): each node is a range of rows, its bounding box and the range of its targets.
+
     Parameters
     ----------
     points : ndarray, shape (n_points, n_dims)
@@ -382,15 +459,30 @@ class SMTree:
         Training targets ỹ_k (one column per output).
     leaf_size : int, default LEAF_SIZE
         Largest number of points in a leaf.
+    overwrite_points : bool, default False
+        Reorder ``points`` in place into tree order and keep it as :attr:`points` instead of
+        keeping a reordered copy (when it is a C-contiguous float64 array; else a copy is made
+        as usual): for a caller that no longer needs the rows in their first order.
     """
 
-    def __init__(self, points: FloatArray, targets: FloatArray, leaf_size: int = LEAF_SIZE) -> None:
+    def __init__(
+        self,
+        points: FloatArray,
+        targets: FloatArray,
+        leaf_size: int = LEAF_SIZE,
+        *,
+        overwrite_points: bool = False,
+    ) -> None:
         points = np.ascontiguousarray(points, dtype=np.float64)
         targets = np.ascontiguousarray(targets, dtype=np.float64)
         tree = build_tree(points, leaf_size)
         perm = tree["perm"]
         self.perm: IntArray = perm
-        self.points: FloatArray = np.ascontiguousarray(points[perm])
+        if overwrite_points:
+            _permute_rows(points, perm)
+            self.points: FloatArray = points
+        else:
+            self.points = np.ascontiguousarray(points[perm])
         self.targets: FloatArray = np.ascontiguousarray(targets[perm])
         self.start: IntArray = tree["start"]
         self.end: IntArray = tree["end"]
@@ -492,6 +584,9 @@ def gamma_star(
     n_blocks: int = 64,
     callback: Callable[[int, int], None] | None = None,
     method: GammaMethod = "auto",
+    *,
+    tree: SMTree | None = None,
+    floor: FloatArray | None = None,
 ) -> FloatArray:
     """γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for each ε of a grid and each output.
 
@@ -516,6 +611,15 @@ def gamma_star(
         tree, handing the remaining rows to the pair kernel if the tree prunes too little (a
         cost estimate from the work it counted, see
         :func:`neckid.models._gamma_tree.gamma_star_blocked`). All give the same result.
+    tree : SMTree, optional
+        A kd-tree already built over ``points`` and ``targets`` (any leaf size; the estimator
+        passes its own, with ``points=tree.points`` and ``targets=tree.targets``): searched
+        instead of building a new one (which would copy the points).
+    floor : ndarray, shape (n_outputs,), optional
+        Return ``max(γ*(ε), floor)``: pairs that cannot exceed the floor are never computed
+        (see :func:`~neckid.models._gamma_tree.gamma_star_blocked`). The result equals the floor
+        exactly when no pair exceeds it, which is how :func:`~neckid.models.sm_training.prior_holds`
+        checks γ >= γ*(ε) without computing γ*(ε).
 
     Returns
     -------
@@ -565,9 +669,14 @@ def gamma_star(
     twice_eps = np.ascontiguousarray(2.0 * np.take_along_axis(epsilons, order, axis=0))
     n_points = points.shape[0]
     use_tree = method == "tree" or (method == "auto" and n_points >= TREE_MIN_POINTS)
-    tree = SMTree(points, targets, GAMMA_LEAF_SIZE) if use_tree and n_points > 1 else None
+    if not use_tree or n_points < 2:
+        tree = None
+    elif tree is None:
+        tree = SMTree(points, targets, GAMMA_LEAF_SIZE)
+    if floor is not None:
+        floor = np.ascontiguousarray(floor, dtype=np.float64)
     best, stats = gamma_star_blocked(
-        points, targets, twice_eps, n_blocks, callback, tree, adaptive=method == "auto"
+        points, targets, twice_eps, n_blocks, callback, tree, method == "auto", floor
     )
     logger.debug("gamma*(eps) over %d points: %s", n_points, stats)
     result = np.empty_like(best)

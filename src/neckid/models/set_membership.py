@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
-from neckid.models._sm_kernels import SMTree, free_run, gamma_star
+from neckid.models._sm_kernels import free_run
 from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
@@ -28,6 +28,14 @@ from neckid.models.sm_prior import (
     _epsilon_grid,
     _gamma_star,
     choose_epsilon,
+)
+from neckid.models.sm_training import (
+    check_duplicates,
+    linear_sum,
+    prior_holds,
+    smallest_epsilon,
+    training_tree,
+    unscale,
 )
 from neckid.models.sm_update import PriorRule, revise_prior
 from neckid.regressors import Lags, ResolvedLags
@@ -123,7 +131,8 @@ def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
         if scaling == "none":
             return np.ones(n_terms)
         if scaling == "std":
-            std = x.std(axis=0)
+            # column by column: a temporary of one column, not of the whole matrix
+            std = np.array([x[:, k].std() for k in range(n_terms)])
             constant = std == 0
             if constant.any():
                 warnings.warn(
@@ -154,40 +163,6 @@ def _term_weights(scaling: Any, input_weight: Any, x: FloatArray, lags: Resolved
     """The weights of :func:`_weights`, with the input terms' multiplied by ``input_weight``."""
     weights = _weights(scaling, x, lags.names)
     return np.where(lags.source == 1, float(input_weight) * weights, weights)
-
-
-def _check_duplicates(
-    points: FloatArray, targets: FloatArray, epsilon: FloatArray, output_names: Sequence[str]
-) -> None:
-    """Refuse identical regressors whose outputs differ by more than 2ε (no γ can fit them)."""
-    n = points.shape[0]
-    if n < 2:
-        return
-    order = np.lexsort(points.T[::-1])
-    ordered = points[order]
-    same = np.all(ordered[1:] == ordered[:-1], axis=1)
-    if not same.any():
-        return
-    group_start = np.flatnonzero(np.concatenate([[True], ~same]))
-    for c, name in enumerate(output_names):
-        values = targets[order, c]
-        high = np.maximum.reduceat(values, group_start)
-        low = np.minimum.reduceat(values, group_start)
-        spread = high - low
-        bad = np.flatnonzero(spread > 2.0 * epsilon[c])
-        if bad.size:
-            g = int(bad[np.argmax(spread[bad])])
-            stop = group_start[g + 1] if g + 1 < group_start.size else n
-            members = order[group_start[g] : stop]
-            i = int(members[np.argmax(values[group_start[g] : stop])])
-            j = int(members[np.argmin(values[group_start[g] : stop])])
-            raise ValueError(
-                f"training regressor rows {min(i, j)} and {max(i, j)} are identical but output"
-                f" {name!r} differs by {spread[g]:.6g} > 2*epsilon = {2 * epsilon[c]:.6g}: no"
-                " Lipschitz function fits them, for any gamma (the prior is invalid); use"
-                f" epsilon >= {spread[g] / 2:.6g} for that output or add regressor terms that"
-                " tell the two samples apart"
-            )
 
 
 # ====================================================================================== estimator
@@ -243,8 +218,10 @@ class SetMembership(NarxModel):
     gamma_curve_ : GammaCurve or None
         The ε grid and γ*(ε) (None when γ was given and ``epsilons`` was not).
     prior_valid_ : ndarray of bool, shape (n_outputs,)
-        The validation test f_u(w̃_k) >= ỹ_k − ε for every training k (checked with the tree);
-        fit raises when it fails, so after fit it holds True.
+        Whether the data are consistent with (ε, γ): ``f_u(w̃_k) >= ỹ_k − ε`` for every
+        training k, i.e. γ >= γ*(ε) (checked by branch and bound when both are given, true by
+        construction when one is derived from the other); fit raises when it fails, so after
+        fit it holds True (``partial_fit`` with ``prior="keep"`` may leave it False).
     weights_ : ndarray, shape (n_terms,)
         Scaling of the regressor components.
     coef_, intercept_ : ndarray
@@ -290,8 +267,10 @@ class SetMembership(NarxModel):
     the knee of the curve (:func:`choose_epsilon`), where its slope flattens the most; then
     ``γ = gamma_margin · γ*(ε)``. With ε given, ``γ = gamma_margin · γ*(ε)``. With γ given,
     ε is the smallest value consistent with it, ``ε = ½ max_{i,j} (|ỹ_i − ỹ_j| − γ‖w̃_i − w̃_j‖)⁺``
-    (computed exactly with the tree). With both given, the prior is checked with the tree and a
-    γ below γ*(ε) is refused. If the sensor's noise bound is known, pass it as ``epsilon``: the
+    (computed exactly, by branch and bound over the pairs). With both given, γ >= γ*(ε) is
+    checked by the γ* branch and bound started at γ, which skips every pair that cannot exceed
+    it (:func:`~neckid.models.sm_training.prior_holds`; a relative 1e-9 of slack), and a γ
+    below γ*(ε) is refused. If the sensor's noise bound is known, pass it as ``epsilon``: the
     knee is a heuristic.
 
     *Linear part.* Following Milanese & Novara's later work (Novara, Milanese et al. on SM with a
@@ -302,7 +281,9 @@ class SetMembership(NarxModel):
     *Evaluation.* The bounds are evaluated exactly by branch and bound over a kd-tree of the
     training regressors whose nodes keep their bounding box and the min/max of ỹ; they equal a
     brute-force scan to the last bit in the distance sum's order (see
-    :mod:`neckid.models._sm_kernels`). In :meth:`simulate` the bounds at each step are the bounds
+    :mod:`neckid.models._sm_kernels`). The tree holds the one copy of the training regressors,
+    scaled and in tree order (the matrix built for ``fit`` is reordered in place;
+    :mod:`neckid.models.sm_training`). In :meth:`simulate` the bounds at each step are the bounds
     of ``f_o`` at the *simulated* regressor (as in the seed paper's figures), not a guaranteed
     enclosure of the true free-run trajectory.
 
@@ -372,6 +353,11 @@ class SetMembership(NarxModel):
 
     # ------------------------------------------------------------------ fit
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
+        """Fit on the regressor matrix ``x`` built by ``_prepare_fit``, which it takes over.
+
+        ``x`` becomes the kd-tree's points, scaled and reordered in place (the one copy of the
+        training regressors the model keeps); ``NarxModel.fit`` does not use it afterwards.
+        """
         n_rows, n_terms = x.shape
         n_out = y.shape[1]
         names = self.lags_.output_names
@@ -399,15 +385,16 @@ class SetMembership(NarxModel):
             coef, intercept = least_squares(x, y, fit_intercept=True)
         else:
             coef, intercept = np.zeros((n_terms, n_out)), np.zeros(n_out)
-        residual = np.ascontiguousarray(y - (x @ coef + intercept))
-        points = np.ascontiguousarray(x * weights)
+        # From here on x is the tree's points: scaled and reordered in place (one copy).
+        tree, outputs = training_tree(x, y, weights, coef, intercept, bool(self.linear_part))
+        del x
 
         curve: GammaCurve | None = None
         gamma_star_at = np.full(n_out, np.nan)
         if epsilon is not None:
-            _check_duplicates(points, residual, epsilon, names)
+            check_duplicates(tree, epsilon, names)
         if gamma is None or self.epsilons is not None:
-            grid = _epsilon_grid(self.epsilons, residual)
+            grid = _epsilon_grid(self.epsilons, tree.targets)
             if epsilon is not None:
                 grid = np.sort(np.vstack([grid, epsilon[None, :]]), axis=0)
             logger.debug(
@@ -415,16 +402,18 @@ class SetMembership(NarxModel):
                 n_rows * (n_rows - 1) // 2,
                 grid.shape[0],
             )
-            curve = GammaCurve(
-                grid, _gamma_star(points, residual, grid, self.progress), names, n_rows
-            )
-        tree = SMTree(points, residual)
+            values = _gamma_star(tree.points, tree.targets, grid, self.progress, tree)
+            curve = GammaCurve(grid, values, names, n_rows)
+        # The prior holds by construction when γ or ε is derived from the other; only a (ε, γ)
+        # given together is checked (γ >= γ*(ε), by branch and bound from γ).
+        valid = np.ones(n_out, dtype=bool)
+        check = epsilon is not None and gamma is not None
         if epsilon is None:
             if gamma is not None:
-                epsilon = _smallest_epsilon(tree, gamma)
+                epsilon = smallest_epsilon(tree, gamma)
             elif curve is not None:
                 epsilon = curve.knee()
-                _check_duplicates(points, residual, epsilon, names)
+                check_duplicates(tree, epsilon, names)
             else:  # pragma: no cover - the curve is computed whenever gamma is None
                 raise RuntimeError("internal error: no way to choose epsilon")
         if curve is not None:
@@ -442,18 +431,16 @@ class SetMembership(NarxModel):
                     f" {epsilon[c]:.6g}: every pair of outputs differs by at most 2ε, so any"
                     " constant fits; use a smaller epsilon or give gamma"
                 )
-        valid = _prior_valid(tree, epsilon, gamma)
-        if not valid.all():
-            c = int(np.flatnonzero(~valid)[0])
-            star = gamma_star_at[c]
-            if not np.isfinite(star):
-                star = float(gamma_star(points, residual[:, [c]], epsilon[None, [c]])[0, 0])
-            raise ValueError(
-                f"gamma = {gamma[c]:.6g} is below gamma*(epsilon) = {star:.6g} for output"
-                f" {names[c]!r} at epsilon = {epsilon[c]:.6g}: no Lipschitz function with that"
-                " constant fits the data to within ±epsilon (the prior is invalid); use"
-                f" gamma >= {star:.6g} or a larger epsilon"
-            )
+        if check:
+            valid, star = prior_holds(tree, epsilon, gamma)
+            if not valid.all():
+                c = int(np.flatnonzero(~valid)[0])
+                raise ValueError(
+                    f"gamma = {gamma[c]:.6g} is below gamma*(epsilon) = {star[c]:.6g} for output"
+                    f" {names[c]!r} at epsilon = {epsilon[c]:.6g}: no Lipschitz function with"
+                    " that constant fits the data to within ±epsilon (the prior is invalid); use"
+                    f" gamma >= {star[c]:.6g} or a larger epsilon"
+                )
         self.weights_ = weights
         self.coef_ = np.ascontiguousarray(coef)
         self.intercept_ = np.asarray(intercept, dtype=np.float64)
@@ -462,21 +449,28 @@ class SetMembership(NarxModel):
         self.gamma_star_ = gamma_star_at
         self.gamma_curve_ = curve
         self.prior_valid_ = valid
-        self._x_train = np.ascontiguousarray(x)
-        self._y_train = np.ascontiguousarray(y)
         self._tree = tree
+        self._outputs = outputs
         logger.info(
             "SetMembership fitted on %d regressors: epsilon=%s gamma=%s",
             n_rows, self.epsilon_.tolist(), self.gamma_.tolist(),
         )  # fmt: skip
 
+    @property
+    def _x_train(self) -> FloatArray:
+        """The training regressors (unscaled) in tree order, recovered from the tree's points."""
+        return unscale(self._tree.points, self.weights_)
+
+    @property
+    def _y_train(self) -> FloatArray:
+        """The measured training outputs in tree order (the SM targets without a linear part)."""
+        return self._tree.targets if self._outputs is None else self._outputs
+
     # ------------------------------------------------------------------ evaluation
     def _bounds_rows(self, x: FloatArray) -> SMBounds:
         # The linear part summed as the compiled free run does, intercept first then term by
         # term, so that the simulator and ``simulate`` agree to the last bit.
-        linear = np.broadcast_to(self.intercept_, (x.shape[0], self.intercept_.size)).copy()
-        for k in range(x.shape[1]):
-            linear += x[:, k : k + 1] * self.coef_[k]
+        linear = linear_sum(x, self.coef_, self.intercept_)
         lower, upper = self._tree.bounds(x * self.weights_, self.epsilon_, self.gamma_)
         return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
 
@@ -629,33 +623,38 @@ class SetMembership(NarxModel):
         experiments = update_experiments(self, data)
         invalidation = self.invalidation(experiments)
         x_new, y_new = update_rows(self, experiments)
-        x = np.ascontiguousarray(np.vstack([self._x_train, x_new]))
+        n_old = self.n_samples_
+        x = np.empty((n_old + x_new.shape[0], x_new.shape[1]))
+        unscale(self._tree.points, self.weights_, out=x[:n_old])
+        x[n_old:] = x_new
         y = np.ascontiguousarray(np.vstack([self._y_train, y_new]))
         coef, intercept = self.coef_, self.intercept_
         if self.linear_part:
             coef, intercept = least_squares(x, y, fit_intercept=True)
-        residual = np.ascontiguousarray(y - (x @ coef + intercept))
-        points = np.ascontiguousarray(x * self.weights_)
-        tree = SMTree(points, residual)
+        tree, outputs = training_tree(x, y, self.weights_, coef, intercept, bool(self.linear_part))
         self.gamma_, self.gamma_star_, self.prior_valid_ = revise_prior(
-            points, residual, self.n_samples_, self.epsilon_, self.gamma_,
-            _prior_valid(tree, self.epsilon_, self.gamma_), self.gamma_star_,
+            tree, np.flatnonzero(tree.perm >= n_old), self.epsilon_, self.gamma_,
+            prior_holds(tree, self.epsilon_, self.gamma_)[0], self.gamma_star_,
             bool(self.linear_part), prior, float(self.gamma_margin), self.output_names_,
         )  # fmt: skip
         self.coef_, self.intercept_ = np.ascontiguousarray(coef), intercept
-        self._x_train, self._y_train, self._tree = x, y, tree
-        self.n_samples_ = int(x.shape[0])
+        self._tree, self._outputs = tree, outputs
+        self.n_samples_ = int(tree.points.shape[0])
         self.last_invalidation_ = invalidation
         extend_training_ranges(self, experiments)
         return self
 
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:
+        self._check_learned(self._tree.points, self._tree.targets)
+
+    def _check_learned(self, x: FloatArray, y: FloatArray) -> None:
+        """:meth:`_check_state` with the training rows given (before the tree is built)."""
         super()._check_state()
         n_terms, n_out, n_rows = self.lags_.n_terms, self.n_outputs_, self.n_samples_
         for name, value, shape in (
-            ("x_train", self._x_train, (n_rows, n_terms)),
-            ("y_train", self._y_train, (n_rows, n_out)),
+            ("x_train", x, (n_rows, n_terms)),
+            ("y_train", y, (n_rows, n_out)),
             ("weights", self.weights_, (n_terms,)),
             ("coef", self.coef_, (n_terms, n_out)),
             ("intercept", self.intercept_, (n_out,)),
@@ -713,8 +712,9 @@ class SetMembership(NarxModel):
     ) -> SetMembership:
         model = cls(None, **meta["params"])
         model._restore_narx_meta(meta)
-        x = np.ascontiguousarray(arrays["x_train"], dtype=np.float64)
-        y = np.ascontiguousarray(arrays["y_train"], dtype=np.float64)
+        # Own copies: the tree scales and reorders the rows in place.
+        x = np.array(arrays["x_train"], dtype=np.float64, order="C")
+        y = np.array(arrays["y_train"], dtype=np.float64, order="C")
         model.weights_ = np.asarray(arrays["weights"], dtype=np.float64)
         model.coef_ = np.ascontiguousarray(arrays["coef"], dtype=np.float64)
         model.intercept_ = np.asarray(arrays["intercept"], dtype=np.float64)
@@ -732,28 +732,11 @@ class SetMembership(NarxModel):
             if "curve_epsilons" in arrays
             else None
         )
-        model._x_train = x
-        model._y_train = y
-        model._check_state()  # before the tree is built on the arrays
-        residual = np.ascontiguousarray(y - (x @ model.coef_ + model.intercept_))
-        model._tree = SMTree(np.ascontiguousarray(x * model.weights_), residual)
+        model._check_learned(x, y)  # before the tree is built on the arrays
+        model._tree, model._outputs = training_tree(
+            x, y, model.weights_, model.coef_, model.intercept_, bool(model.linear_part)
+        )
         return model
-
-
-def _prior_valid(tree: SMTree, epsilon: FloatArray, gamma: FloatArray) -> NDArray[np.bool_]:
-    """Per output, whether ``f_u(w̃_k) >= ỹ_k − ε`` at every training regressor (to rounding)."""
-    lower, upper = tree.bounds(tree.points, epsilon, gamma)
-    y = tree.targets
-    tolerance = 1e-9 * (1.0 + np.max(np.abs(y), axis=0) + epsilon)
-    ok_upper = np.all(upper >= y - epsilon - tolerance, axis=0)
-    ok_lower = np.all(lower <= y + epsilon + tolerance, axis=0)
-    return np.asarray(ok_upper & ok_lower, dtype=bool)
-
-
-def _smallest_epsilon(tree: SMTree, gamma: FloatArray) -> FloatArray:
-    """ε*(γ) = ½ max_{i,j} (|ỹ_i − ỹ_j| − γ‖w̃_i − w̃_j‖)⁺, with the tree (f_u at ε = 0)."""
-    _, upper = tree.bounds(tree.points, np.zeros_like(gamma), gamma)
-    return np.maximum(0.5 * np.max(tree.targets - upper, axis=0), 0.0)
 
 
 class SetMembershipSimulator(NarxSimulator):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid.models._sm_kernels import gamma_star
+from neckid.models._sm_kernels import SMTree, gamma_star
 
 __all__ = ["DEFAULT_GRID_POINTS", "DEFAULT_GRID_SPAN", "GammaCurve", "choose_epsilon"]
 
@@ -181,10 +181,15 @@ def _progress_callback(
 
 
 def _gamma_star(
-    points: FloatArray, targets: FloatArray, grid: FloatArray, progress: ProgressOption
+    points: FloatArray,
+    targets: FloatArray,
+    grid: FloatArray,
+    progress: ProgressOption,
+    tree: SMTree | None = None,
 ) -> FloatArray:
+    """:func:`~neckid.models._sm_kernels.gamma_star` with the progress option (and a tree)."""
     callback, close = _progress_callback(progress, points.shape[0])
     try:
-        return gamma_star(points, targets, grid, callback=callback)
+        return gamma_star(points, targets, grid, callback=callback, tree=tree)
     finally:
         close()

@@ -15,7 +15,9 @@ warning says so), ``"raise"`` refuses the update.
 γ*(ε) of the grown set is the largest of γ*(ε) of the old set and the quotients of the pairs
 that hold a new point; when the old γ*(ε) is known and the old targets did not change (no linear
 part), only those pairs are computed (``n_new × n`` distances); otherwise γ*(ε) of the whole set
-is computed again (:func:`~neckid.models._sm_kernels.gamma_star`, the kd-tree branch and bound).
+is computed again (:func:`~neckid.models._sm_kernels.gamma_star`, the kd-tree branch and bound,
+on the model's tree). Whether the grown set is consistent with (ε, γ) is checked first, by the
+same branch and bound started at γ (:func:`~neckid.models.sm_training.prior_holds`).
 
 References
 ----------
@@ -30,13 +32,14 @@ from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from neckid.models._sm_kernels import gamma_star
+from neckid.models._sm_kernels import SMTree, gamma_star
 
 __all__ = ["PRIOR_RULES", "PriorRule", "cross_gamma_star", "revise_prior"]
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 PriorRule = Literal["adapt", "keep", "raise"]
 
 #: What ``partial_fit`` does when new data falsify the prior (see the module docstring).
@@ -47,17 +50,17 @@ _BLOCK_ROWS = 128
 
 
 def cross_gamma_star(
-    points: FloatArray, targets: FloatArray, n_old: int, epsilon: FloatArray
+    points: FloatArray, targets: FloatArray, new_rows: ArrayLike, epsilon: FloatArray
 ) -> FloatArray:
-    r"""``max (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖`` over the pairs that hold a point ``i >= n_old``.
+    r"""``max (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖`` over the pairs that hold a new row ``i``.
 
     Parameters
     ----------
     points : ndarray, shape (n, n_terms)
-        Scaled regressors, the old ones first.
+        Scaled regressors, old and new (in any order).
     targets : ndarray, shape (n, n_outputs)
-    n_old : int
-        How many of the rows are old.
+    new_rows : array_like of int
+        Indices of the new rows.
     epsilon : ndarray, shape (n_outputs,)
 
     Returns
@@ -71,19 +74,19 @@ def cross_gamma_star(
     >>> import numpy as np
     >>> points = np.array([[0.0], [1.0], [3.0]])
     >>> targets = np.array([[0.0], [1.0], [5.0]])
-    >>> cross_gamma_star(points, targets, 2, np.array([0.0]))  # the pair (1, 3): 4 / 2
+    >>> cross_gamma_star(points, targets, [2], np.array([0.0]))  # the pair (1, 3): 4 / 2
     array([2.])
     """
-    n, n_out = targets.shape
+    new = np.asarray(new_rows, dtype=np.int64).reshape(-1)
+    n_out = targets.shape[1]
     best = np.zeros(n_out)
-    for start in range(n_old, n, _BLOCK_ROWS):
-        stop = min(start + _BLOCK_ROWS, n)
-        difference = points[start:stop, None, :] - points[None, :, :]
+    for start in range(0, new.size, _BLOCK_ROWS):
+        rows = new[start : start + _BLOCK_ROWS]
+        difference = points[rows, None, :] - points[None, :, :]
         distance = np.sqrt(np.einsum("ijk,ijk->ij", difference, difference))
-        rows = np.arange(start, stop)
         for c in range(n_out):
-            gap = np.abs(targets[start:stop, c, None] - targets[None, :, c]) - 2.0 * epsilon[c]
-            gap[rows - start, rows] = 0.0  # a point with itself
+            gap = np.abs(targets[rows, c, None] - targets[None, :, c]) - 2.0 * epsilon[c]
+            gap[np.arange(rows.size), rows] = 0.0  # a point with itself
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.where(gap > 0, gap / distance, 0.0)
             best[c] = max(best[c], float(ratio.max()))
@@ -91,9 +94,8 @@ def cross_gamma_star(
 
 
 def revise_prior(
-    points: FloatArray,
-    targets: FloatArray,
-    n_old: int,
+    tree: SMTree,
+    new_rows: IntArray,
     epsilon: FloatArray,
     gamma: FloatArray,
     valid: NDArray[np.bool_],
@@ -107,10 +109,10 @@ def revise_prior(
 
     Parameters
     ----------
-    points, targets : ndarray
-        The grown data set (scaled regressors, targets of the SM part), old rows first.
-    n_old : int
-        Rows of the data set before the update.
+    tree : SMTree
+        The grown data set (scaled regressors, targets of the SM part).
+    new_rows : ndarray of int
+        Positions of the new rows in ``tree.points``.
     epsilon, gamma : ndarray, shape (n_outputs,)
         The prior in force.
     valid : ndarray of bool, shape (n_outputs,)
@@ -140,7 +142,8 @@ def revise_prior(
     incremental = not targets_changed and bool(np.all(np.isfinite(old_gamma_star)))
     star = np.full(epsilon.shape, np.nan)
     if incremental:  # exact and cheap: only the pairs with a new point
-        star = np.maximum(old_gamma_star, cross_gamma_star(points, targets, n_old, epsilon))
+        cross = cross_gamma_star(tree.points, tree.targets, new_rows, epsilon)
+        star = np.maximum(old_gamma_star, cross)
     if valid.all():
         return gamma, star, valid
     bad = np.flatnonzero(~valid)
@@ -162,7 +165,9 @@ def revise_prior(
         return gamma, star, valid
     if not incremental:
         star = np.asarray(
-            gamma_star(points, targets, np.ascontiguousarray(epsilon[None, :]))[0],
+            gamma_star(
+                tree.points, tree.targets, np.ascontiguousarray(epsilon[None, :]), tree=tree
+            )[0],
             dtype=np.float64,
         )
     if not np.all(np.isfinite(star[bad])):
