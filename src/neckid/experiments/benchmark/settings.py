@@ -253,6 +253,37 @@ def _set_membership_grid(
     return grid
 
 
+def _parallel_candidates(
+    make: Callable[..., Any],
+    lags: Lags,
+    quick: bool,
+    regressors: Sequence[tuple[tuple[int, ...], tuple[int, ...]]],
+    factors: Sequence[float | None],
+    scale: float,
+    extra: str,
+) -> list[Candidate]:
+    """SM parallel candidates on ``lags``: SM regressor × ε (``factor × scale``)."""
+    out: list[Candidate] = []
+    for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
+        epsilon, label = _epsilon(factor, scale)
+        settings = make(
+            lags,
+            quick=quick,
+            linear_lags=linear_lags,
+            input_lags=input_lags,
+            epsilon=epsilon,
+            progress=False,
+        )
+        out.append(
+            (
+                f"lags={lags!r}{extra}, linear_lags={list(linear_lags)},"
+                f" input_lags={list(input_lags)}, epsilon={label}",
+                settings,
+            )
+        )
+    return out
+
+
 def _parallel_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     make = methods()["sm-parallel"].make
     regressors = SM_PARALLEL_REGRESSORS[1:2] if quick else SM_PARALLEL_REGRESSORS
@@ -269,22 +300,7 @@ def _parallel_grid(benchmark: str, train: Training, quick: bool, seed: int) -> l
             scale = arx_error_scale(lags, train, free_run=True)
         except ValueError:
             continue  # an unstable linear model cannot run in parallel
-        for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
-            epsilon, label = _epsilon(factor, scale)
-            out.append(
-                (
-                    f"lags={lags!r}, linear_lags={list(linear_lags)},"
-                    f" input_lags={list(input_lags)}, epsilon={label}",
-                    make(
-                        lags,
-                        quick=quick,
-                        linear_lags=linear_lags,
-                        input_lags=input_lags,
-                        epsilon=epsilon,
-                        progress=False,
-                    ),
-                )
-            )
+        out += _parallel_candidates(make, lags, quick, regressors, factors, scale, "")
     return out
 
 
@@ -320,22 +336,9 @@ def _parallel_polynomial_grid(
                 continue  # too few rows for the monomials of this regressor
             scale = float(np.sqrt(np.mean(np.square(polynomial.fit_report_["rmse"]))))
             factors = SM_PARALLEL_POLY_EPSILON_FACTORS
-        for (linear_lags, input_lags), factor in itertools.product(regressors, factors):
-            epsilon, label = _epsilon(factor, scale)
-            out.append(
-                (
-                    f"lags={lags!r}, degree={POLYNOMIAL_DEGREE}, linear_lags={list(linear_lags)},"
-                    f" input_lags={list(input_lags)}, epsilon={label}",
-                    method.make(
-                        lags,
-                        quick=quick,
-                        linear_lags=linear_lags,
-                        input_lags=input_lags,
-                        epsilon=epsilon,
-                        progress=False,
-                    ),
-                )
-            )
+        out += _parallel_candidates(
+            method.make, lags, quick, regressors, factors, scale, f", degree={POLYNOMIAL_DEGREE}"
+        )
     return out
 
 
