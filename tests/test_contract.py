@@ -215,6 +215,19 @@ def test_save_load_round_trip(fitted, tmp_path) -> None:
     assert type(model).load(path).max_lag_ == model.max_lag_
 
 
+@pytest.mark.parametrize("name", METHODS)
+def test_fit_leaves_the_data_it_is_given_unchanged(name: str) -> None:
+    import warnings
+
+    data = _data()
+    u, y = data.u.copy(), data.y.copy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        neckid.methods()[name].make(LAGS, quick=True).fit(data)
+    np.testing.assert_array_equal(data.u, u)
+    np.testing.assert_array_equal(data.y, y)
+
+
 def test_clone_and_set_params_lags(fitted) -> None:
     _name, model = fitted
     copy = clone(model)

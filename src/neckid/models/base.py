@@ -536,8 +536,11 @@ class NarxModel(Estimator):
         resolved = lags.resolve(experiments)
         self._check_training(experiments)
         parts = [resolved.build_one(d) for d in experiments]
-        x = np.vstack([p[0] for p in parts])
-        y = np.vstack([p[1] for p in parts])
+        if len(parts) == 1:  # one experiment: the regressor rows as built (a new array), no copy;
+            x, y = parts[0][0], parts[0][1].copy()  # the targets may be a view of the data
+        else:
+            x = np.vstack([p[0] for p in parts])
+            y = np.vstack([p[1] for p in parts])
         self.lags_ = resolved
         self._set_channels(experiments[0])
         self.n_samples_ = int(x.shape[0])
