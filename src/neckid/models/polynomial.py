@@ -231,11 +231,12 @@ class PolynomialNARX(NarxModel):
         n_out = self.n_outputs_
         free = (np.flatnonzero(self.active_)[:, None] * n_out + np.arange(n_out)).ravel()
         n_params = free.size
-        if n_rows * n_out * n_params * 8 > MAX_JACOBIAN_BYTES:
+        size = n_rows * n_out * self.coef_.size * 8  # the sensitivities of every coefficient
+        if size > MAX_JACOBIAN_BYTES:
             raise ValueError(
-                f"the simulation fit needs a {n_rows} x {n_out * n_params} Jacobian"
-                f" ({n_rows * n_out * n_params * 8 / 1024**3:.1f} GiB, above 2 GiB); fit on fewer"
-                " samples, a lower degree or fewer lags, or use fit_for='prediction'"
+                f"the simulation fit needs a {n_rows * n_out} x {self.coef_.size} Jacobian"
+                f" ({size / 1024**3:.1f} GiB, above 2 GiB); fit on fewer samples, a lower degree"
+                " or fewer lags, or use fit_for='prediction'"
             )
         y_all = np.vstack([d.y for d in experiments])
         weight = 1.0 / np.where(y_all.std(axis=0) > 0, y_all.std(axis=0), 1.0)
@@ -268,8 +269,16 @@ class PolynomialNARX(NarxModel):
                 row += n
             return np.concatenate(errors).ravel()
 
+        evaluations = [0]
+
         def residuals(theta: FloatArray) -> FloatArray:
-            return run(theta, None)
+            errors = run(theta, None)
+            evaluations[0] += 1
+            logger.info(
+                "polynomial NARX simulation fit: free run %d of at most %d, weighted RMS error %.4g",
+                evaluations[0], budget, float(np.sqrt(np.mean(errors**2))),
+            )  # fmt: skip
+            return errors
 
         def jacobian(theta: FloatArray) -> FloatArray:
             jac = np.zeros((n_rows, n_out, self.coef_.size))
