@@ -425,3 +425,12 @@ def test_cli_lists_registry_names_and_maps_deprecated_ones(data_dir, tmp_path):
     assert "deprecated" in result.output and "'nn'" in result.output
     table = pd.read_csv(tmp_path / "out" / "benchmark.csv")
     assert set(table["method"]) == {"nn"}
+
+
+def test_the_default_methods_leave_out_only_the_opt_in_ones():
+    from neckid.experiments.benchmark.runner import _method_names
+    from neckid.experiments.benchmark.settings import DEFAULT_METHODS, OPT_IN_METHODS
+
+    assert set(DEFAULT_METHODS) == set(BENCHMARK_METHODS) - OPT_IN_METHODS
+    assert "sm-parallel-poly" not in _method_names(None) and "poly" in _method_names(None)
+    assert _method_names(["sm-parallel-poly"]) == ["sm-parallel-poly"]

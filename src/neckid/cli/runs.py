@@ -184,8 +184,7 @@ def benchmark(
         "--methods",
         help=(
             "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel, sm-parallel-poly, nn,"
-            " scheduled"
-            " (default all)."
+            " scheduled (default all but sm-parallel-poly)."
         ),
     ),
     only: str = typer.Option(
@@ -216,9 +215,9 @@ def benchmark(
     With --scheduler, the hyper-parameter candidates are fitted on the workers of a Dask cluster
     (the final fit and the test simulations stay here); the table is that of a local run.
     """
-    from neckid.experiments.benchmark import BENCHMARK_METHODS, run_benchmark
+    from neckid.experiments.benchmark import DEFAULT_METHODS, run_benchmark
 
-    names = [_method_name(n) for n in dict.fromkeys(_split(methods) or BENCHMARK_METHODS)]
+    names = [_method_name(n) for n in dict.fromkeys(_split(methods) or DEFAULT_METHODS)]
     # Long work reports progress: one line per data set and method, in a terminal or a log file.
     logging.getLogger("neckid.experiments.benchmark").setLevel(logging.INFO)
     with _on_scheduler(scheduler):

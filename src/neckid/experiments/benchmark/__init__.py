@@ -59,6 +59,7 @@ from neckid.experiments.benchmark.runner import BenchmarkReport, run_benchmark
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
     CROSS_RUN_BENCHMARKS,
+    DEFAULT_METHODS,
     LAG_GRIDS,
     SELECTION_FRACTION,
     candidates,
@@ -68,6 +69,7 @@ __all__ = [
     "BENCHMARKS",
     "BENCHMARK_METHODS",
     "CROSS_RUN_BENCHMARKS",
+    "DEFAULT_METHODS",
     "LAG_GRIDS",
     "PROTOCOLS",
     "SELECTION_FRACTION",

@@ -34,6 +34,7 @@ from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_be
 from neckid.experiments.benchmark.published import published_frame
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
+    DEFAULT_METHODS,
     SELECTION_FOLDS,
     SELECTION_FRACTION,
     Candidate,
@@ -371,7 +372,7 @@ def _mean_over_tests(
 def _method_names(names: str | Sequence[str] | None) -> list[str]:
     """Registry names of the methods asked for; an earlier spelling warns (``FutureWarning``)."""
     if names is None:
-        return list(BENCHMARK_METHODS)
+        return list(DEFAULT_METHODS)
     asked = [names] if isinstance(names, str) else list(names)
     unknown = [m for m in asked if m not in BENCHMARK_METHODS and m not in DEPRECATED_NAMES]
     if unknown:
@@ -404,7 +405,8 @@ def run_benchmark(
         Registry names (:func:`neckid.methods`) among
         :data:`~neckid.experiments.benchmark.settings.BENCHMARK_METHODS`: ``"arx"``, ``"sm"``,
         ``"sm-linear"``, ``"sm-parallel"``, ``"sm-parallel-poly"``, ``"poly"``, ``"nn"``,
-        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only); default all. The spellings of the previous release
+        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only); default all but
+        ``"sm-parallel-poly"`` (:data:`~neckid.experiments.benchmark.settings.OPT_IN_METHODS`). The spellings of the previous release
         (``"sm_linear"``, ``"sm_parallel"``, ``"neural"``) still work for one release, with a
         ``FutureWarning``.
     benchmarks : sequence of str, optional
