@@ -58,7 +58,7 @@ def neck_log(rng: np.random.Generator, n: int, offset: float, t0: float) -> np.n
 
 
 @pytest.fixture
-def data_dir(tmp_path: Path) -> Path:
+def data_dir(tmp_path: Path, write_cascaded_tanks) -> Path:
     rng = np.random.default_rng(3)
     root = tmp_path / "data"
     (root / "softneck" / "stair").mkdir(parents=True)
@@ -75,18 +75,7 @@ def data_dir(tmp_path: Path) -> Path:
     np.savetxt(root / "softneck" / "step" / "int000stepresponse.csv", six, delimiter=", ")
     three = neck_log(rng, 100, 1.0, 20.0)[:, :3]  # no raw inclination: not a validation log
     np.savetxt(root / "softneck" / "step" / "200stepresponse.csv", three, delimiter=", ")
-    tanks = root / "benchmarks" / "cascaded_tanks"
-    tanks.mkdir(parents=True)
-    u = rng.uniform(2, 8, size=(300, 2))
-    y = np.zeros((300, 2))
-    for t in range(1, 300):
-        y[t] = 0.9 * y[t - 1] + 0.1 * np.sqrt(u[t - 1])
-    frame = pd.DataFrame(
-        {"uEst": u[:, 0], "uVal": u[:, 1], "yEst": y[:, 0], "yVal": y[:, 1], "Ts": np.nan}
-    )
-    frame.loc[0, "Ts"] = 4.0
-    frame.to_csv(tanks / "dataBenchmark.csv", index=False)
-    return root
+    return write_cascaded_tanks(root, rng)
 
 
 # ---------------------------------------------------------------------------- a quick run

@@ -43,21 +43,10 @@ def arx_system(n: int, seed: int) -> IOData:
     return IOData(u, y, ts=0.02, input_names=["cmd"], output_names=["incl"])
 
 
-def tanks_folder(root: Path) -> Path:
-    """A data folder holding only a small cascaded-tanks benchmark file."""
-    rng = np.random.default_rng(3)
-    tanks = root / "benchmarks" / "cascaded_tanks"
-    tanks.mkdir(parents=True)
-    u = rng.uniform(2, 8, size=(300, 2))
-    y = np.zeros((300, 2))
-    for t in range(1, 300):
-        y[t] = 0.9 * y[t - 1] + 0.1 * np.sqrt(u[t - 1])
-    frame = pd.DataFrame(
-        {"uEst": u[:, 0], "uVal": u[:, 1], "yEst": y[:, 0], "yVal": y[:, 1], "Ts": np.nan}
-    )
-    frame.loc[0, "Ts"] = 4.0
-    frame.to_csv(tanks / "dataBenchmark.csv", index=False)
-    return root
+@pytest.fixture
+def tanks_folder(write_cascaded_tanks):
+    """``tanks_folder(root)``: a data folder holding only a small cascaded-tanks benchmark file."""
+    return lambda root: write_cascaded_tanks(root, np.random.default_rng(3))
 
 
 def without_wall_times(table: pd.DataFrame) -> pd.DataFrame:
@@ -124,7 +113,7 @@ def test_a_joblib_context_moves_a_seeded_sweep_to_dask(client: Any) -> None:
     assert local["fit_simulation"].nunique() > 1
 
 
-def test_benchmark_on_dask_equals_the_local_run(client: Any, tmp_path: Path) -> None:
+def test_benchmark_on_dask_equals_the_local_run(client: Any, tmp_path: Path, tanks_folder) -> None:
     from distributed import get_task_stream
 
     root = tanks_folder(tmp_path / "data")
@@ -139,7 +128,7 @@ def test_benchmark_on_dask_equals_the_local_run(client: Any, tmp_path: Path) -> 
     assert remote.details == local.details
 
 
-def test_cli_runs_the_benchmark_on_a_scheduler(cluster: Any, tmp_path: Path) -> None:
+def test_cli_runs_the_benchmark_on_a_scheduler(cluster: Any, tmp_path: Path, tanks_folder) -> None:
     import distributed
 
     root = tanks_folder(tmp_path / "data")
@@ -205,7 +194,9 @@ def test_results_come_back_in_the_order_given() -> None:
     assert run_jobs(jobs, total=5, n_jobs=2, backend="threading", progress=True) == [0, 1, 2, 3, 4]
 
 
-def test_cli_scheduler_without_distributed(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+def test_cli_scheduler_without_distributed(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, tanks_folder
+) -> None:
     monkeypatch.setitem(sys.modules, "distributed", None)
     root = tanks_folder(tmp_path / "data")
     result = CliRunner().invoke(
@@ -222,7 +213,7 @@ def test_cli_scheduler_without_distributed(monkeypatch: pytest.MonkeyPatch, tmp_
 
 
 @pytest.mark.parametrize("address", ["tcp://127.0.0.1:1", "not-an-address"])
-def test_cli_scheduler_unreachable_is_one_line(address: str, tmp_path: Path) -> None:
+def test_cli_scheduler_unreachable_is_one_line(address: str, tmp_path: Path, tanks_folder) -> None:
     dask = pytest.importorskip("dask", reason=SKIP_REASON)
     pytest.importorskip("distributed", reason=SKIP_REASON)
     root = tanks_folder(tmp_path / "data")
