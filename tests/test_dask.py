@@ -19,7 +19,8 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from neckid import IOData, LinearARX
+from _systems import arx_system
+from neckid import LinearARX
 from neckid._parallel import check_backend, run_jobs
 from neckid.cli import app
 from neckid.experiments.benchmark import run_benchmark
@@ -30,17 +31,6 @@ SKIP_REASON = "the Dask tests need the distributed package: pip install neckid[d
 
 #: Columns that are wall times: the only ones a run elsewhere may change.
 WALL_TIMES = ("fit_time_s", "train_time_s", "simulate_time_s")
-
-
-def arx_system(n: int, seed: int) -> IOData:
-    """y(t) = 1.2 y(t-1) - 0.5 y(t-2) + 0.8 u(t-3) + 0.4 u(t-4) + e(t): na=2, nb=2, delay 3."""
-    rng = np.random.default_rng(seed)
-    u = rng.normal(size=n)
-    e = 0.01 * rng.normal(size=n)
-    y = np.zeros(n)
-    for t in range(4, n):
-        y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.8 * u[t - 3] + 0.4 * u[t - 4] + e[t]
-    return IOData(u, y, ts=0.02, input_names=["cmd"], output_names=["incl"])
 
 
 @pytest.fixture

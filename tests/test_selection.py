@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from _systems import arx_system
 from neckid import IOData, Lags, LinearARX
 from neckid.experiments.benchmark.runner import _select
 from neckid.metrics import fit_percent
@@ -23,17 +24,6 @@ from neckid.selection import (
 )
 
 matplotlib.use("Agg")
-
-
-def arx_system(n: int, seed: int) -> IOData:
-    """y(t) = 1.2 y(t-1) - 0.5 y(t-2) + 0.8 u(t-3) + 0.4 u(t-4) + e(t): na=2, nb=2, delay 3."""
-    rng = np.random.default_rng(seed)
-    u = rng.normal(size=n)
-    e = 0.01 * rng.normal(size=n)
-    y = np.zeros(n)
-    for t in range(4, n):
-        y[t] = 1.2 * y[t - 1] - 0.5 * y[t - 2] + 0.8 * u[t - 3] + 0.4 * u[t - 4] + e[t]
-    return IOData(u, y, ts=0.02, input_names=["cmd"], output_names=["incl"])
 
 
 TRUE_LAGS = Lags.arx(na=2, nb=2, delay=3)
