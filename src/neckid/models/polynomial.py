@@ -46,6 +46,7 @@ from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
+from neckid.models.sm_training import linear_sum
 from neckid.regressors import Lags
 from neckid.validation import Interval, Options
 
@@ -352,12 +353,7 @@ class PolynomialNARX(NarxModel):
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         # Summed monomial by monomial from 0, as the compiled free run does, so that stepping
         # the simulator and ``simulate`` agree to the last bit.
-        phi = self._features(x)
-        y = np.zeros((x.shape[0], self.coef_.shape[1]))
-        y += self.coef_[0]
-        for m in range(phi.shape[1]):
-            y += phi[:, m : m + 1] * self.coef_[m + 1]
-        return y
+        return linear_sum(self._features(x), self.coef_[1:], self.coef_[0])
 
     def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation (compiled loop): the regressor holds the model's own past outputs.
