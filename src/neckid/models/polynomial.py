@@ -288,22 +288,29 @@ class PolynomialNARX(NarxModel):
             return np.ascontiguousarray(jac.reshape(n_rows * n_out, -1)[:, free])
 
         start, label = self.coef_.ravel()[free], "polynomial"
-        cost = float(np.sum(residuals(start) ** 2))
+        errors = residuals(start)
+        cost = float(np.sum(errors**2))
         if linear is not None:
-            linear_cost = float(np.sum(residuals(linear.ravel()[free]) ** 2))
+            linear_errors = residuals(linear.ravel()[free])
+            linear_cost = float(np.sum(linear_errors**2))
             if linear_cost < cost or not np.isfinite(cost):
-                start, label, cost = linear.ravel()[free], "linear", linear_cost
-        rmse_start = self._rmse(residuals(start), weight)
+                start, label, cost, errors = (
+                    linear.ravel()[free],
+                    "linear",
+                    linear_cost,
+                    linear_errors,
+                )
         method = "lm" if n_rows * n_out >= n_params else "trf"
         solution = _levenberg_marquardt(
             residuals, start, jac=jacobian, method=method, x_scale="jac", max_nfev=budget
         )
-        theta = solution.x if 2 * solution.cost <= cost else start
+        improved = 2 * solution.cost <= cost  # least_squares' cost is half the sum of squares
+        theta = solution.x if improved else start
         self.coef_ = full(theta)
         self.fit_report_ = {
             "start": label,
-            "rmse_start": rmse_start,
-            "rmse": self._rmse(residuals(theta), weight),
+            "rmse_start": self._rmse(errors, weight),
+            "rmse": self._rmse(solution.fun if improved else errors, weight),
             "evaluations": int(solution.nfev),
             "message": str(solution.message),
         }
