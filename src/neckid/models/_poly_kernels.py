@@ -27,6 +27,7 @@ L. Ljung, *System Identification: Theory for the User*, 2nd ed., Prentice Hall, 
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -60,6 +61,15 @@ def monomial_tables(n_terms: int, degree: int) -> tuple[IntArray, IntArray, IntA
     >>> parent.tolist(), var.tolist()
     ([-1, 0, 0, 1, 1, 2], [-1, 0, 1, 0, 1, 1])
     """
+    # Built once per (n_terms, degree): the model asks for them at every one-step call (a
+    # simulator step included); the caller gets its own copies.
+    powers, parent, var, lower = _tables(n_terms, degree)
+    return powers.copy(), parent.copy(), var.copy(), lower.copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _tables(n_terms: int, degree: int) -> tuple[IntArray, IntArray, IntArray, IntArray]:
+    """:func:`monomial_tables`, built once per ``(n_terms, degree)`` (never hand these out)."""
     combos: list[tuple[int, ...]] = [()]
     for d in range(1, degree + 1):
         combos.extend(itertools.combinations_with_replacement(range(n_terms), d))
