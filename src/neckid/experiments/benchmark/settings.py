@@ -319,15 +319,12 @@ def _parallel_grid(benchmark: str, train: Training, quick: bool, seed: int) -> l
 
 def _polynomial_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
     make = methods()["poly"].make
-    return [
-        (f"lags={lags!r}, degree={POLYNOMIAL_DEGREE}, fit_for=simulation", make(lags, quick=quick))
-        if quick
-        else (
-            f"lags={lags!r}, degree={POLYNOMIAL_DEGREE}, fit_for=simulation",
-            make(lags, degree=POLYNOMIAL_DEGREE),
-        )
-        for lags in lag_grid(benchmark, quick)
-    ]
+    params = {} if quick else {"degree": POLYNOMIAL_DEGREE}
+    out: list[Candidate] = []
+    for lags in lag_grid(benchmark, quick):
+        model = make(lags, quick=quick, **params)
+        out.append((f"lags={lags!r}, degree={model.degree}, fit_for={model.fit_for}", model))
+    return out
 
 
 def _parallel_polynomial_grid(
@@ -349,8 +346,9 @@ def _parallel_polynomial_grid(
                 continue  # too few rows for the monomials of this regressor
             scale = float(np.sqrt(np.mean(np.square(polynomial.fit_report_["rmse"]))))
             factors = SM_PARALLEL_POLY_EPSILON_FACTORS
+        degree = method.make(lags, quick=quick).parallel_degree  # the registry's (2 when quick)
         out += _parallel_candidates(
-            method.make, lags, quick, regressors, factors, scale, f", degree={POLYNOMIAL_DEGREE}"
+            method.make, lags, quick, regressors, factors, scale, f", degree={degree}"
         )
     return out
 
