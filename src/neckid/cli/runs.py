@@ -183,8 +183,8 @@ def benchmark(
         None,
         "--methods",
         help=(
-            "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel, sm-parallel-poly, nn,"
-            " scheduled (default all but sm-parallel-poly)."
+            "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel,"
+            " sm-parallel-poly, nn, scheduled (default all but sm-parallel-poly)."
         ),
     ),
     only: str = typer.Option(

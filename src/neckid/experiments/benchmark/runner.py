@@ -405,8 +405,10 @@ def run_benchmark(
         Registry names (:func:`neckid.methods`) among
         :data:`~neckid.experiments.benchmark.settings.BENCHMARK_METHODS`: ``"arx"``, ``"sm"``,
         ``"sm-linear"``, ``"sm-parallel"``, ``"sm-parallel-poly"``, ``"poly"``, ``"nn"``,
-        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only); default all but
-        ``"sm-parallel-poly"`` (:data:`~neckid.experiments.benchmark.settings.OPT_IN_METHODS`). The spellings of the previous release
+        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only, the polynomial ones
+        on the public benchmarks only: ``ONLY_ON``); default all but
+        ``"sm-parallel-poly"`` (:data:`~neckid.experiments.benchmark.settings.OPT_IN_METHODS`).
+        The spellings of the previous release
         (``"sm_linear"``, ``"sm_parallel"``, ``"neural"``) still work for one release, with a
         ``FutureWarning``.
     benchmarks : sequence of str, optional
