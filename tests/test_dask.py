@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from _systems import arx_system
+from _synthetic import arx_system
 from neckid import LinearARX
 from neckid._parallel import check_backend, run_jobs
 from neckid.cli import app

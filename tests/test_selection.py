@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from _systems import arx_system
+from _synthetic import arx_system
 from neckid import IOData, Lags, LinearARX
 from neckid.experiments.benchmark.runner import _select
 from neckid.metrics import fit_percent

@@ -1,4 +1,4 @@
-"""Synthetic systems that several test modules identify (imported as ``from _systems import ...``)."""
+"""Synthetic systems that several test modules identify (imported as ``from _synthetic import ...``)."""
 
 from __future__ import annotations
 
