@@ -14,7 +14,7 @@ Protocol (the issue "Guaranteed bounds that mean something"):
 - one-step regressor ``Lags(outputs=[1, 2], inputs=[0, 1])``, the one the soft-neck benchmark's
   selection chose on a training log (``docs/softneck_oracle.py``); the k-step regressors follow
   from it (:func:`~neckid.models.sm_multistep.horizon_lags`);
-- Set Membership settings (``epsilon_factor``, ``input_weight``) per horizon by leave-one-log-out
+- Set Membership settings (``epsilon_factor``, ``input_weight``, ``lipschitz``) per horizon by leave-one-log-out
   cross-validation over the six training logs: the smallest mean width of the guaranteed band
   among the settings whose mean held-out coverage is at least 95 %;
 - conformal bands: each model is fitted on three training logs and calibrated on the other three
@@ -29,6 +29,7 @@ import dataclasses
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,6 +38,7 @@ from neckid import IOData, Lags, LinearARX, ModelResult
 from neckid.experiments.benchmark import softneck_protocol
 from neckid.metrics import coverage, mean_width, rmse
 from neckid.models._sm_kernels import SMTree
+from neckid.models._sm_local import learn_constants, local_bounds
 from neckid.models.arx import least_squares
 from neckid.models.conformal import calibrate
 from neckid.models.set_membership import DEFAULT_GAMMA_MARGIN, _term_weights
@@ -48,8 +50,10 @@ HORIZONS = (10, 40)
 CONTROLLERS = ("ada", "fra", "int")
 TRAIN_PAYLOADS = ("000", "600")
 TEST_PAYLOADS = ("200", "400")
-EPSILON_FACTORS = (2.0, 2.5, 3.0, 4.0, 5.0)
+EPSILON_FACTORS = (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0)
 INPUT_WEIGHTS = (1.0, 0.3)
+LIPSCHITZ = ("global", "local")
+NEIGHBOURS = 10  # the default of ``local_neighbours``, not cross-validated
 TARGET = 0.95
 SPLIT_A = ("ada000", "fra600", "int000")
 
@@ -61,11 +65,12 @@ def load(folder: Path) -> dict[str, IOData]:
 
 
 # ---------------------------------------------------------------------- cross-validation
-def cross_validate(train: dict[str, IOData], steps: int) -> list[dict[str, float]]:
+def cross_validate(train: dict[str, IOData], steps: int) -> list[dict[str, Any]]:
     """Leave-one-training-log-out coverage and width of the guaranteed band, per setting.
 
     The same rule as :class:`MultiStepSetMembership` (ε = factor · 1.4826 · MAD of the k-step
-    least-squares residual, γ = 1.1 γ*(ε)), with every ε of the grid in one γ*(ε) pass per fold.
+    least-squares residual, γ = 1.1 γ*(ε)), with every ε of the grid in one γ*(ε) pass per fold;
+    each setting with one global constant and with local constants (``local_neighbours`` = 10).
     """
     lags_k = horizon_lags(LAGS.resolve(list(train.values())), steps)
     resolved = lags_k.resolve(list(train.values()))
@@ -73,7 +78,7 @@ def cross_validate(train: dict[str, IOData], steps: int) -> list[dict[str, float
     factors = np.asarray(EPSILON_FACTORS)
     rows = []
     for weight in INPUT_WEIGHTS:
-        per_fold = []
+        per_fold: list[tuple[float, str, float, float]] = []
         for held in train:
             x = np.vstack([built[n][0] for n in train if n != held])
             y = np.vstack([built[n][1] for n in train if n != held])
@@ -99,30 +104,42 @@ def cross_validate(train: dict[str, IOData], steps: int) -> list[dict[str, float
                 gamma = DEFAULT_GAMMA_MARGIN * np.where(
                     star_full[i] > 0, star_full[i], star_half[i]
                 )
-                low, high = tree.bounds(query, grid[i], gamma)
-                lower, upper = linear + low - grid[i], linear + high + grid[i]
-                per_fold.append(
-                    (
-                        factor,
-                        coverage(y_held, lower, upper)[0],
-                        mean_width(lower, upper)[0],
+                for lipschitz in LIPSCHITZ:
+                    if lipschitz == "global":
+                        f_l, f_u = tree.bounds(query, grid[i], gamma)
+                    else:
+                        constants = learn_constants(tree, grid[i], gamma, DEFAULT_GAMMA_MARGIN)
+                        f_l, f_u, _ = local_bounds(
+                            tree, constants, query, grid[i], gamma, NEIGHBOURS
+                        )
+                    lower, upper = linear + f_l - grid[i], linear + f_u + grid[i]
+                    per_fold.append(
+                        (
+                            factor,
+                            lipschitz,
+                            coverage(y_held, lower, upper)[0],
+                            mean_width(lower, upper)[0],
+                        )
                     )
+        for lipschitz in LIPSCHITZ:
+            for factor in factors:
+                values = np.array(
+                    [(c, w) for f, g, c, w in per_fold if f == factor and g == lipschitz]
                 )
-        for factor in factors:
-            values = np.array([(c, w) for f, c, w in per_fold if f == factor])
-            rows.append(
-                {
-                    "epsilon_factor": float(factor),
-                    "input_weight": weight,
-                    "coverage": float(values[:, 0].mean()),
-                    "worst_coverage": float(values[:, 0].min()),
-                    "width": float(values[:, 1].mean()),
-                }
-            )
+                rows.append(
+                    {
+                        "epsilon_factor": float(factor),
+                        "input_weight": weight,
+                        "lipschitz": lipschitz,
+                        "coverage": float(values[:, 0].mean()),
+                        "worst_coverage": float(values[:, 0].min()),
+                        "width": float(values[:, 1].mean()),
+                    }
+                )
     return rows
 
 
-def choose(rows: list[dict[str, float]]) -> dict[str, float]:
+def choose(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The narrowest setting whose mean held-out coverage reaches the target (else the widest cover)."""
     good = [r for r in rows if r["coverage"] >= TARGET]
     if good:
@@ -166,14 +183,14 @@ def table(header: list[str], rows: list[list[str]]) -> str:
 
 def guaranteed_bands(
     train: dict[str, IOData], test: dict[str, IOData], quick: bool
-) -> dict[int, dict[str, float]]:
+) -> dict[int, dict[str, Any]]:
     """Choose the SM settings per horizon on the training logs, fit, and measure on the tests."""
     models = {}
     settings = {}
     for steps in HORIZONS:
         started = time.perf_counter()
         if quick and steps > 10:
-            setting = {"epsilon_factor": 3.0, "input_weight": 0.3}
+            setting = {"epsilon_factor": 3.0, "input_weight": 0.3, "lipschitz": "global"}
             print(f"\nk = {steps}: cross-validation skipped (--quick); settings {setting}")
         else:
             rows = cross_validate(train, steps)
@@ -181,9 +198,17 @@ def guaranteed_bands(
             print(f"\nk = {steps}: leave-one-training-log-out (guaranteed band, 6 folds)\n")
             print(
                 table(
-                    ["epsilon_factor", "input_weight", "coverage", "worst log", "width [deg]"],
+                    [
+                        "lipschitz",
+                        "epsilon_factor",
+                        "input_weight",
+                        "coverage",
+                        "worst log",
+                        "width [deg]",
+                    ],
                     [
                         [
+                            r["lipschitz"],
                             f"{r['epsilon_factor']:g}",
                             f"{r['input_weight']:g}",
                             f"{r['coverage']:.3f}",
@@ -200,11 +225,12 @@ def guaranteed_bands(
             horizons=[steps],
             epsilon_factor=setting["epsilon_factor"],
             input_weight=setting["input_weight"],
+            lipschitz=setting["lipschitz"],
         ).fit(list(train.values()))
         models[steps] = model
         settings[steps] = setting
         print(
-            f"\nchosen: epsilon_factor={setting['epsilon_factor']:g},"
+            f"\nchosen: lipschitz={setting['lipschitz']}, epsilon_factor={setting['epsilon_factor']:g},"
             f" input_weight={setting['input_weight']:g}; fitted on the 6 training logs:"
             f" epsilon_{steps} = {model.epsilon_[-1, 0]:.3f} deg, gamma_{steps} ="
             f" {model.gamma_[-1, 0]:.3f} ({time.perf_counter() - started:.0f} s)"
@@ -256,7 +282,7 @@ def guaranteed_bands(
 
 
 def width_vs_horizon(
-    train: dict[str, IOData], test: dict[str, IOData], setting: dict[str, float]
+    train: dict[str, IOData], test: dict[str, IOData], setting: dict[str, Any]
 ) -> None:
     """Guaranteed band and centre against the horizon, pooled over the test logs."""
     started = time.perf_counter()
@@ -267,6 +293,7 @@ def width_vs_horizon(
         horizons=list(horizons),
         epsilon_factor=setting["epsilon_factor"],
         input_weight=setting["input_weight"],
+        lipschitz=setting["lipschitz"],
     ).fit(list(train.values()))
     rows = []
     for i, steps in enumerate(model.horizons_):
@@ -292,7 +319,8 @@ def width_vs_horizon(
             ]
         )
     print(
-        f"\nWidth against the horizon (epsilon_factor={setting['epsilon_factor']:g},"
+        f"\nWidth against the horizon (lipschitz={setting['lipschitz']},"
+        f" epsilon_factor={setting['epsilon_factor']:g},"
         f" input_weight={setting['input_weight']:g}; 6 test logs pooled;"
         f" {time.perf_counter() - started:.0f} s):\n"
     )

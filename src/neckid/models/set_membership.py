@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
 from neckid.models._sm_kernels import free_run
+from neckid.models._sm_local import check_constants, learn_constants, local_bounds
 from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
@@ -206,6 +207,13 @@ class SetMembership(NarxModel):
     progress : bool or callable, optional
         Progress bar (rich) for the γ*(ε) pass: None shows it from 20,000 training regressors;
         a callable gets ``(pairs_done, pairs_total)`` between blocks.
+    lipschitz : {"global", "local"}, default "global"
+        One Lipschitz constant for the whole regressor space (Milanese & Novara), or one per
+        training point (see Notes, *Local constants*): the bounds then widen slowly where the
+        data are smooth and fast only near the steep pairs.
+    local_neighbours : int, default 10
+        With ``lipschitz="local"``: the constant at a query is the largest of its
+        ``local_neighbours`` nearest training points' constants.
 
     Attributes
     ----------
@@ -222,6 +230,10 @@ class SetMembership(NarxModel):
         training k, i.e. γ >= γ*(ε) (checked by branch and bound when both are given, true by
         construction when one is derived from the other); fit raises when it fails, so after
         fit it holds True (``partial_fit`` with ``prior="keep"`` may leave it False).
+    point_gamma_ : ndarray, shape (n_samples, n_outputs) or None
+        With ``lipschitz="local"``, each training point's constant
+        ``min(gamma_margin · γ_i, γ)`` in the tree's order (the order of a model file's
+        ``x_train``); None with one global constant.
     weights_ : ndarray, shape (n_terms,)
         Scaling of the regressor components.
     coef_, intercept_ : ndarray
@@ -278,6 +290,18 @@ class SetMembership(NarxModel):
     on the residual ``ỹ_k − θᵀw̃_k − c``; the bounds are ``θᵀw + c + f_{r,l}`` and
     ``θᵀw + c + f_{r,u}``.
 
+    *Local constants* (``lipschitz="local"``). The prior becomes
+    ``|f(w) − f(w̃_j)| <= max(γ(w), γ_j) ‖w − w̃_j‖``, with ``γ_j`` the constant of training point
+    ``j`` and ``γ(w)`` the largest ``γ_j`` of the ``local_neighbours`` training points nearest to
+    ``w``. Each point's constant is the steepest slope it takes part in,
+    ``γ_i = gamma_margin · max_{j≠i} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖`` (capped at the global
+    ``γ``), which keeps every pair of training points consistent; the largest of them is the
+    global ``γ*(ε)``. A query whose local constant leaves the bounds crossed (the prior would
+    contradict the data there) is evaluated with the global ``γ``. ε is chosen as above; the
+    global ``γ_`` is kept (the fallback, and the largest constant). See
+    :mod:`neckid.models._sm_local`. :meth:`simulate` then steps the simulator (no compiled
+    free run), and :meth:`partial_fit` re-learns every point's constant on all the data.
+
     *Evaluation.* The bounds are evaluated exactly by branch and bound over a kd-tree of the
     training regressors whose nodes keep their bounding box and the min/max of ỹ; they equal a
     brute-force scan to the last bit in the distance sum's order (see
@@ -326,6 +350,8 @@ class SetMembership(NarxModel):
         "epsilons": [None, "array-like"],
         "progress": [None, "boolean", "callable"],
         "input_weight": [Interval("real", 0, None, closed="neither")],
+        "lipschitz": [Options(("global", "local"))],
+        "local_neighbours": [Interval("int", 1, None)],
     }
 
     def __init__(
@@ -340,6 +366,8 @@ class SetMembership(NarxModel):
         epsilons: ArrayLike | None = None,
         progress: ProgressOption = None,
         input_weight: float = 1.0,
+        lipschitz: Literal["global", "local"] = "global",
+        local_neighbours: int = 10,
     ) -> None:
         self.lags = lags
         self.epsilon = epsilon
@@ -350,6 +378,8 @@ class SetMembership(NarxModel):
         self.epsilons = epsilons
         self.progress = progress
         self.input_weight = input_weight
+        self.lipschitz = lipschitz
+        self.local_neighbours = local_neighbours
 
     # ------------------------------------------------------------------ fit
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
@@ -450,6 +480,7 @@ class SetMembership(NarxModel):
         self.gamma_curve_ = curve
         self.prior_valid_ = valid
         self._tree = tree
+        self.point_gamma_ = self._point_gamma()
         self._outputs = outputs
         logger.info(
             "SetMembership fitted on %d regressors: epsilon=%s gamma=%s",
@@ -466,12 +497,25 @@ class SetMembership(NarxModel):
         """The measured training outputs in tree order (the SM targets without a linear part)."""
         return self._tree.targets if self._outputs is None else self._outputs
 
+    def _point_gamma(self) -> FloatArray | None:
+        """Each training point's constant (tree order) under ``lipschitz="local"``, else None."""
+        if self.lipschitz != "local":
+            return None
+        return learn_constants(self._tree, self.epsilon_, self.gamma_, float(self.gamma_margin))
+
     # ------------------------------------------------------------------ evaluation
     def _bounds_rows(self, x: FloatArray) -> SMBounds:
         # The linear part summed as the compiled free run does, intercept first then term by
         # term, so that the simulator and ``simulate`` agree to the last bit.
         linear = linear_sum(x, self.coef_, self.intercept_)
-        lower, upper = self._tree.bounds(x * self.weights_, self.epsilon_, self.gamma_)
+        scaled = x * self.weights_
+        if self.point_gamma_ is not None:
+            lower, upper, _ = local_bounds(
+                self._tree, self.point_gamma_, scaled, self.epsilon_, self.gamma_,
+                int(self.local_neighbours),
+            )  # fmt: skip
+            return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
+        lower, upper = self._tree.bounds(scaled, self.epsilon_, self.gamma_)
         return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
@@ -540,11 +584,25 @@ class SetMembership(NarxModel):
         check_is_fitted(self)
         data = self._with_conditions(data)
         y0 = self._initial_outputs(data, initial)
+        if self.point_gamma_ is not None:
+            return self._simulate_stepping(data, y0)
         r = self.lags_
         y, lower, upper = free_run(
             self._tree, data.u, y0, r.source, r.channel, r.lag, r.max_lag, self.weights_,
             self.coef_, self.intercept_, self.epsilon_, self.gamma_,
         )  # fmt: skip
+        return self._result("simulation", data, y, lower, upper)
+
+    def _simulate_stepping(self, data: IOData, y0: FloatArray) -> ModelResult:
+        """Free run by the simulator, one step at a time (local constants: no compiled loop)."""
+        m = self.lags_.max_lag
+        y = np.array(y0, dtype=np.float64)
+        lower, upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+        simulator = self.simulator()
+        simulator.reset(y0=y[:m] if m else None, u0=data.u[:m] if m else None)
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported by _result
+            for t in range(m, y.shape[0]):
+                y[t], lower[t], upper[t] = simulator.step_bounds(data.u[t])
         return self._result("simulation", data, y, lower, upper)
 
     def simulator(self) -> SetMembershipSimulator:
@@ -639,6 +697,7 @@ class SetMembership(NarxModel):
         )  # fmt: skip
         self.coef_, self.intercept_ = np.ascontiguousarray(coef), intercept
         self._tree, self._outputs = tree, outputs
+        self.point_gamma_ = self._point_gamma()
         self.n_samples_ = int(tree.points.shape[0])
         self.last_invalidation_ = invalidation
         extend_training_ranges(self, experiments)
@@ -647,6 +706,7 @@ class SetMembership(NarxModel):
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:
         self._check_learned(self._tree.points, self._tree.targets)
+        check_constants(self.point_gamma_, self.lipschitz, self.n_samples_, self.gamma_)
 
     def _check_learned(self, x: FloatArray, y: FloatArray) -> None:
         """:meth:`_check_state` with the training rows given (before the tree is built)."""
@@ -683,6 +743,8 @@ class SetMembership(NarxModel):
             "gamma_star": self.gamma_star_,
             "prior_valid": self.prior_valid_,
         }
+        if self.point_gamma_ is not None:
+            arrays["point_gamma"] = self.point_gamma_
         if self.gamma_curve_ is not None:
             arrays["curve_epsilons"] = self.gamma_curve_.epsilons
             arrays["curve_gamma"] = self.gamma_curve_.gamma
@@ -701,6 +763,8 @@ class SetMembership(NarxModel):
                 "linear_part": bool(self.linear_part),
                 "epsilons": plain(self.epsilons),
                 "input_weight": float(self.input_weight),
+                "lipschitz": str(self.lipschitz),
+                "local_neighbours": int(self.local_neighbours),
             },
             **self._narx_meta(),
         }
@@ -733,8 +797,15 @@ class SetMembership(NarxModel):
             else None
         )
         model._check_learned(x, y)  # before the tree is built on the arrays
+        saved = arrays.get("point_gamma")
+        saved = None if saved is None else np.asarray(saved, dtype=np.float64)
+        check_constants(saved, model.lipschitz, model.n_samples_, model.gamma_)
         model._tree, model._outputs = training_tree(
             x, y, model.weights_, model.coef_, model.intercept_, bool(model.linear_part)
+        )
+        # The rows were saved in the old tree's order; the new tree reorders them.
+        model.point_gamma_ = (
+            None if saved is None else np.ascontiguousarray(saved[model._tree.perm])
         )
         return model
 

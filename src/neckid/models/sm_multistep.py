@@ -183,6 +183,12 @@ class MultiStepSetMembership(NarxModel):
         Membership model of its residual.
     progress : bool or callable, optional
         Progress of the γ*(ε) passes (see :class:`~neckid.SetMembership`).
+    lipschitz : {"global", "local"}, default "global"
+        One Lipschitz constant per horizon, or one per training point and horizon (see Notes,
+        *Local constants*).
+    local_neighbours : int, default 10
+        With ``lipschitz="local"``, the number of nearest training points whose largest
+        constant is the constant at a query.
 
     Attributes
     ----------
@@ -235,6 +241,14 @@ class MultiStepSetMembership(NarxModel):
     of one value: a constant fits), ``γ_k = gamma_margin · γ*(ε_k / 2)`` instead, any γ >= 0
     being consistent: the band then still widens away from the data.
 
+    *Local constants.* With ``lipschitz="local"`` each ``f_k`` has one constant per training
+    point, the steepest slope that point takes part in (times ``gamma_margin``), and the
+    constant at a query is the largest of its ``local_neighbours`` nearest points' (the prior
+    of :class:`~neckid.SetMembership` with ``lipschitz="local"``). A few steep pairs (controller
+    switches, hysteresis) then widen the band only near themselves, so a smaller ε_k no longer
+    blows the band up everywhere; ``gamma_`` stays the global constant (the largest one, and the
+    fallback where the local one would contradict the data).
+
     *Free run.* :meth:`simulate` cannot re-anchor on measurements (a free run does not look at
     measured outputs after the initial ones): it chains the predictors in blocks of ``horizon``
     samples, each block anchored on the model's own last outputs. The bands of the first block
@@ -285,6 +299,8 @@ class MultiStepSetMembership(NarxModel):
         "input_weight": [Interval("real", 0, None, closed="neither")],
         "linear_part": ["boolean"],
         "progress": [None, "boolean", "callable"],
+        "lipschitz": [Options(("global", "local"))],
+        "local_neighbours": [Interval("int", 1, None)],
     }
 
     def __init__(
@@ -300,6 +316,8 @@ class MultiStepSetMembership(NarxModel):
         input_weight: float = 1.0,
         linear_part: bool = True,
         progress: ProgressOption = None,
+        lipschitz: Literal["global", "local"] = "global",
+        local_neighbours: int = 10,
     ) -> None:
         self.lags = lags
         self.horizon = horizon
@@ -311,6 +329,8 @@ class MultiStepSetMembership(NarxModel):
         self.input_weight = input_weight
         self.linear_part = linear_part
         self.progress = progress
+        self.lipschitz = lipschitz
+        self.local_neighbours = local_neighbours
 
     # ------------------------------------------------------------------ fit
     def _horizon_set(self) -> NDArray[np.int64]:
@@ -382,6 +402,8 @@ class MultiStepSetMembership(NarxModel):
                 scaling=self.scaling,
                 linear_part=bool(self.linear_part),
                 input_weight=float(self.input_weight),
+                lipschitz=self.lipschitz,
+                local_neighbours=int(self.local_neighbours),
             )
             with warnings.catch_warnings():
                 # Constant regressor terms were reported once, by _gamma.
@@ -702,6 +724,8 @@ class MultiStepSetMembership(NarxModel):
                 "scaling": str(self.scaling),
                 "input_weight": float(self.input_weight),
                 "linear_part": bool(self.linear_part),
+                "lipschitz": str(self.lipschitz),
+                "local_neighbours": int(self.local_neighbours),
             },
             "submodels": submodels,
             **self._narx_meta(),

@@ -1,0 +1,480 @@
+r"""Local Lipschitz constants for Set Membership: one constant per training point.
+
+A single Lipschitz constant γ is a maximum over every pair of training points, so a few close
+pairs with very different targets (a controller switch, a hysteresis jump) set the slope of the
+bounds everywhere. Here each training point ``j`` carries its own constant ``γ_j`` and the prior
+is
+
+.. math:: |f(w) − f(w̃_j)| \le \max(γ(w), γ_j)\,\|w − w̃_j\| \quad \text{for every } w, j,
+
+with ``γ(w)`` the largest ``γ_j`` of the ``K`` training points nearest to ``w``. Under it, and
+``|ỹ_j − f(w̃_j)| <= ε``,
+
+.. math::
+
+    f_u(w) = \min_j \left(ỹ_j + ε + \max(γ(w), γ_j)\,\|w − w̃_j\|\right), \qquad
+    f_l(w) = \max_j \left(ỹ_j − ε − \max(γ(w), γ_j)\,\|w − w̃_j\|\right)
+
+bound ``f`` at ``w`` (each term is the prior applied to the pair ``(w, w̃_j)``). The data are
+consistent with the prior at the training points iff ``|ỹ_i − ỹ_j| <= 2ε + max(γ_i, γ_j) d_ij``
+for every pair; :func:`point_gamma` gives each point the steepest slope it takes part in,
+
+.. math:: γ_i = \max_{j \ne i} \frac{(|ỹ_i − ỹ_j| − 2ε)^+}{\|w̃_i − w̃_j\|},
+
+which satisfies every pair (the largest ``γ_i`` is the global γ*(ε) of Milanese & Novara). A
+point in a smooth region gets a small constant, and a steep pair raises only its own two points'
+constants. At a query between a steep point and a flat region the local ``γ(w)`` can be too small
+for the two cones to meet (``f_u(w) < f_l(w)``: the prior, as stated, contradicts the data
+there); the query is then evaluated with the global constant, which is always consistent, and
+the constant used is returned.
+
+The evaluation is the exact branch and bound of :mod:`neckid.models._sm_kernels` with the node
+test made with ``γ(w)``, a lower bound of every ``max(γ(w), γ_j)`` in the node, so no point that
+could change a bound is skipped.
+
+References
+----------
+M. Milanese and C. Novara, "Set Membership identification of nonlinear systems", Automatica
+40(6), 957-975, 2004 (the global prior, its validation and the optimal bounds).
+J. Calliess, S. Roberts, C. Rasmussen and J. Maciejowski, "Lazily adapted constant kinky
+inference for nonparametric regression and model-reference adaptive control", Automatica 122,
+109216, 2020 (Lipschitz interpolation with constants learnt from data).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numba import njit, prange
+from numpy.typing import NDArray
+
+from neckid.models._sm_kernels import _STACK_DEPTH, _box_distance
+
+if TYPE_CHECKING:
+    from neckid.models._sm_kernels import SMTree
+
+__all__ = ["check_constants", "learn_constants", "local_bounds", "point_gamma"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Below this many queries the bounds are evaluated without threads (as in ``_sm_kernels``).
+_SERIAL_QUERIES = 64
+
+
+# ---------------------------------------------------------------------------------- constants
+@njit(cache=True)
+def _steepest(
+    i: int,
+    c: int,
+    twice_eps: float,
+    points: FloatArray,
+    targets: FloatArray,
+    start: IntArray,
+    end: IntArray,
+    left: IntArray,
+    right: IntArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    ymin: FloatArray,
+    ymax: FloatArray,
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+) -> float:
+    """max_{j≠i} (|t_i − t_j| − 2ε)⁺ / d_ij for the point ``i`` (tree order), by branch and bound."""
+    w = points[i]
+    t = targets[i, c]
+    n_dims = points.shape[1]
+    best = 0.0
+    node_stack[0] = 0
+    dist_stack[0] = _box_distance(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        gap = max(t - ymin[node, c], ymax[node, c] - t) - twice_eps
+        if gap <= 0.0 or gap <= best * dist_stack[top]:
+            continue
+        child = left[node]
+        if child < 0:
+            for p in range(start[node], end[node]):
+                if p == i:
+                    continue
+                rise = abs(t - targets[p, c]) - twice_eps
+                if rise <= 0.0:
+                    continue
+                acc = 0.0
+                for k in range(n_dims):
+                    diff = w[k] - points[p, k]
+                    acc += diff * diff
+                d = math.sqrt(acc)
+                if rise > best * d:
+                    if d == 0.0:
+                        return np.inf
+                    best = rise / d
+        else:
+            other = right[node]
+            d_left = _box_distance(w, lo, hi, child)
+            d_right = _box_distance(w, lo, hi, other)
+            if d_left <= d_right:
+                node_stack[top], dist_stack[top] = other, d_right
+                node_stack[top + 1], dist_stack[top + 1] = child, d_left
+            else:
+                node_stack[top], dist_stack[top] = child, d_left
+                node_stack[top + 1], dist_stack[top + 1] = other, d_right
+            top += 2
+    return best
+
+
+@njit(cache=True, parallel=True)
+def _point_gamma_kernel(
+    rows: IntArray,
+    twice_eps: FloatArray,
+    points: FloatArray,
+    targets: FloatArray,
+    start: IntArray,
+    end: IntArray,
+    left: IntArray,
+    right: IntArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    ymin: FloatArray,
+    ymax: FloatArray,
+    out: FloatArray,
+) -> None:
+    for r in prange(rows.shape[0]):
+        node_stack = np.empty(_STACK_DEPTH, np.int64)
+        dist_stack = np.empty(_STACK_DEPTH)
+        for c in range(targets.shape[1]):
+            out[r, c] = _steepest(
+                rows[r], c, twice_eps[c], points, targets, start, end, left, right, lo, hi,
+                ymin, ymax, node_stack, dist_stack,
+            )  # fmt: skip
+
+
+def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None) -> FloatArray:
+    """The steepest slope each training point takes part in, per output.
+
+    Parameters
+    ----------
+    tree : SMTree
+        The training points (scaled) and targets.
+    epsilon : ndarray, shape (n_outputs,)
+        Noise bound ε per output.
+    rows : ndarray of int, optional
+        Points (tree order) to compute; default all.
+
+    Returns
+    -------
+    ndarray, shape (n_rows, n_outputs)
+        ``γ_i = max_{j≠i} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖`` (inf for a point with an
+        identical regressor whose target is more than 2ε away).
+    """
+    n = tree.points.shape[0]
+    rows = np.arange(n, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+    out = np.empty((rows.shape[0], tree.targets.shape[1]))
+    twice = np.ascontiguousarray(2.0 * np.asarray(epsilon, dtype=np.float64))
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree.kernel_arrays()
+    _point_gamma_kernel(
+        rows, twice, points, targets, start, end, left, right, lo, hi, ymin, ymax, out
+    )
+    return out
+
+
+# ---------------------------------------------------------------------------------- bounds
+@njit(cache=True)
+def _neighbour_gamma(
+    w: FloatArray,
+    k_near: int,
+    gammas: FloatArray,
+    c: int,
+    points: FloatArray,
+    start: IntArray,
+    end: IntArray,
+    left: IntArray,
+    right: IntArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    near_d: FloatArray,
+    near_i: IntArray,
+) -> float:
+    """The largest constant of the ``k_near`` training points nearest to ``w``."""
+    n_dims = points.shape[1]
+    k_near = min(k_near, points.shape[0])
+    for k in range(k_near):
+        near_d[k] = np.inf
+        near_i[k] = -1
+    node_stack[0] = 0
+    dist_stack[0] = _box_distance(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        if dist_stack[top] * dist_stack[top] >= near_d[k_near - 1]:
+            continue
+        child = left[node]
+        if child < 0:
+            for p in range(start[node], end[node]):
+                acc = 0.0
+                for k in range(n_dims):
+                    diff = w[k] - points[p, k]
+                    acc += diff * diff
+                if acc < near_d[k_near - 1]:
+                    slot = k_near - 1
+                    while slot > 0 and near_d[slot - 1] > acc:
+                        near_d[slot] = near_d[slot - 1]
+                        near_i[slot] = near_i[slot - 1]
+                        slot -= 1
+                    near_d[slot] = acc
+                    near_i[slot] = p
+        else:
+            other = right[node]
+            d_left = _box_distance(w, lo, hi, child)
+            d_right = _box_distance(w, lo, hi, other)
+            if d_left <= d_right:
+                node_stack[top], dist_stack[top] = other, d_right
+                node_stack[top + 1], dist_stack[top + 1] = child, d_left
+            else:
+                node_stack[top], dist_stack[top] = child, d_left
+                node_stack[top + 1], dist_stack[top + 1] = other, d_right
+            top += 2
+    best = 0.0
+    for k in range(k_near):
+        best = max(best, gammas[near_i[k], c])
+    return best
+
+
+@njit(cache=True)
+def _local_query(
+    w: FloatArray,
+    g: float,
+    gammas: FloatArray,
+    c: int,
+    points: FloatArray,
+    targets: FloatArray,
+    start: IntArray,
+    end: IntArray,
+    left: IntArray,
+    right: IntArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    ymin: FloatArray,
+    ymax: FloatArray,
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+) -> tuple[float, float]:
+    """``(max_j ỹ_j − L_j d_j, min_j ỹ_j + L_j d_j)`` with ``L_j = max(g, γ_j)`` (ε not included)."""
+    n_dims = points.shape[1]
+    best_upper = np.inf
+    best_lower = -np.inf
+    node_stack[0] = 0
+    dist_stack[0] = _box_distance(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        reach = g * dist_stack[top]
+        if ymin[node, c] + reach >= best_upper and ymax[node, c] - reach <= best_lower:
+            continue
+        child = left[node]
+        if child < 0:
+            for p in range(start[node], end[node]):
+                acc = 0.0
+                for k in range(n_dims):
+                    diff = w[k] - points[p, k]
+                    acc += diff * diff
+                gd = max(g, gammas[p, c]) * math.sqrt(acc)
+                v = targets[p, c]
+                if v + gd < best_upper:
+                    best_upper = v + gd
+                if v - gd > best_lower:
+                    best_lower = v - gd
+        else:
+            other = right[node]
+            d_left = _box_distance(w, lo, hi, child)
+            d_right = _box_distance(w, lo, hi, other)
+            if d_left <= d_right:
+                node_stack[top], dist_stack[top] = other, d_right
+                node_stack[top + 1], dist_stack[top + 1] = child, d_left
+            else:
+                node_stack[top], dist_stack[top] = child, d_left
+                node_stack[top + 1], dist_stack[top + 1] = other, d_right
+            top += 2
+    return best_lower, best_upper
+
+
+@njit(cache=True)
+def _local_one(
+    w: FloatArray,
+    i: int,
+    k_near: int,
+    gammas: FloatArray,
+    epsilon: FloatArray,
+    fallback: FloatArray,
+    tree: tuple[NDArray, ...],
+    lower: FloatArray,
+    upper: FloatArray,
+    used: FloatArray,
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    near_d: FloatArray,
+    near_i: IntArray,
+) -> None:
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    for c in range(targets.shape[1]):
+        g = _neighbour_gamma(
+            w, k_near, gammas, c, points, start, end, left, right, lo, hi, node_stack,
+            dist_stack, near_d, near_i,
+        )  # fmt: skip
+        low, high = _local_query(
+            w, g, gammas, c, points, targets, start, end, left, right, lo, hi, ymin, ymax,
+            node_stack, dist_stack,
+        )  # fmt: skip
+        if low - high > 2.0 * epsilon[c] and fallback[c] > g:
+            g = fallback[c]
+            low, high = _local_query(
+                w, g, gammas, c, points, targets, start, end, left, right, lo, hi, ymin, ymax,
+                node_stack, dist_stack,
+            )  # fmt: skip
+        lower[i, c] = low - epsilon[c]
+        upper[i, c] = high + epsilon[c]
+        used[i, c] = g
+
+
+@njit(cache=True, parallel=True)
+def _local_many_kernel(
+    queries: FloatArray,
+    k_near: int,
+    gammas: FloatArray,
+    epsilon: FloatArray,
+    fallback: FloatArray,
+    tree: tuple[NDArray, ...],
+    lower: FloatArray,
+    upper: FloatArray,
+    used: FloatArray,
+) -> None:
+    for i in prange(queries.shape[0]):
+        node_stack = np.empty(_STACK_DEPTH, np.int64)
+        dist_stack = np.empty(_STACK_DEPTH)
+        near_d = np.empty(max(k_near, 1))
+        near_i = np.empty(max(k_near, 1), np.int64)
+        _local_one(
+            queries[i], i, k_near, gammas, epsilon, fallback, tree, lower, upper, used,
+            node_stack, dist_stack, near_d, near_i,
+        )  # fmt: skip
+
+
+@njit(cache=True)
+def _local_few_kernel(
+    queries: FloatArray,
+    k_near: int,
+    gammas: FloatArray,
+    epsilon: FloatArray,
+    fallback: FloatArray,
+    tree: tuple[NDArray, ...],
+    lower: FloatArray,
+    upper: FloatArray,
+    used: FloatArray,
+) -> None:  # pragma: no cover - compiled; tested against the parallel kernel
+    node_stack = np.empty(_STACK_DEPTH, np.int64)
+    dist_stack = np.empty(_STACK_DEPTH)
+    near_d = np.empty(max(k_near, 1))
+    near_i = np.empty(max(k_near, 1), np.int64)
+    for i in range(queries.shape[0]):
+        _local_one(
+            queries[i], i, k_near, gammas, epsilon, fallback, tree, lower, upper, used,
+            node_stack, dist_stack, near_d, near_i,
+        )  # fmt: skip
+
+
+def local_bounds(
+    tree: SMTree,
+    gammas: FloatArray,
+    queries: FloatArray,
+    epsilon: FloatArray,
+    fallback: FloatArray,
+    neighbours: int,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Bounds ``(f_l, f_u)`` under the local prior, and the constant ``γ(w)`` used per query.
+
+    Parameters
+    ----------
+    tree : SMTree
+        Training points (scaled) and targets.
+    gammas : ndarray, shape (n_points, n_outputs)
+        Constant of each training point, tree order (:func:`point_gamma` times a margin).
+    queries : ndarray, shape (n_queries, n_dims)
+        Scaled regressors.
+    epsilon, fallback : ndarray, shape (n_outputs,)
+        Noise bound, and the global constant used where the local one leaves the bounds crossed.
+    neighbours : int
+        ``K``: ``γ(w)`` is the largest constant of the ``K`` nearest training points.
+
+    Returns
+    -------
+    lower, upper, used : ndarray, each (n_queries, n_outputs)
+    """
+    queries = np.ascontiguousarray(queries, dtype=np.float64)
+    n_out = tree.targets.shape[1]
+    shape = (queries.shape[0], n_out)
+    lower, upper, used = np.empty(shape), np.empty(shape), np.empty(shape)
+    args = (
+        queries,
+        int(neighbours),
+        np.ascontiguousarray(gammas, dtype=np.float64),
+        np.ascontiguousarray(epsilon, dtype=np.float64),
+        np.ascontiguousarray(fallback, dtype=np.float64),
+        tree.kernel_arrays(),
+        lower,
+        upper,
+        used,
+    )
+    if queries.shape[0] < _SERIAL_QUERIES:
+        _local_few_kernel(*args)
+    else:
+        _local_many_kernel(*args)
+    return lower, upper, used
+
+
+def learn_constants(
+    tree: SMTree, epsilon: FloatArray, gamma: FloatArray, margin: float
+) -> FloatArray:
+    """Each training point's constant, ``min(margin · γ_i, γ)`` (tree order), for a model.
+
+    Raises
+    ------
+    ValueError
+        If two identical regressors have targets more than 2ε apart (no constant fits them).
+    """
+    steepest = point_gamma(tree, epsilon)
+    if not np.all(np.isfinite(steepest)):
+        raise ValueError(
+            "identical training regressors have outputs more than 2·epsilon apart: no Lipschitz"
+            " constant fits them; use a larger epsilon"
+        )
+    return np.ascontiguousarray(np.minimum(margin * steepest, gamma))
+
+
+def check_constants(
+    value: FloatArray | None, lipschitz: str, n_samples: int, gamma: FloatArray
+) -> None:
+    """Refuse per-point constants that do not match the setting or the model (a model file)."""
+    if (value is None) != (lipschitz != "local"):
+        state = "missing" if value is None else "given"
+        raise ValueError(
+            f"point_gamma must be given exactly when lipschitz='local'; lipschitz is"
+            f" {lipschitz!r} and point_gamma is {state}"
+        )
+    if value is None:
+        return
+    if value.shape != (n_samples, gamma.shape[0]):
+        raise ValueError(
+            f"point_gamma must have shape {(n_samples, gamma.shape[0])} (one constant per"
+            f" training point and output); got {value.shape}"
+        )
+    if not np.all((value >= 0) & (value <= gamma)):
+        raise ValueError("point_gamma must lie in [0, gamma] (each training point's constant)")
