@@ -134,6 +134,28 @@ def test_identify_reports_bad_lags(neck_logs: tuple[Path, Path], tmp_path: Path)
     assert "OUTPUT_LAGS/INPUT_LAGS" in _plain(result.output)
 
 
+def test_identify_passes_method_settings(neck_logs: tuple[Path, Path], tmp_path: Path) -> None:
+    train, _ = neck_logs
+    base = ["identify", str(train), "--inputs", "motor_position", "--outputs", "inclination"]
+    base += ["--method", "sm-multistep", "--lags", "1-2/1-2"]
+    path = tmp_path / "k.npz"
+    settings = ["--set", "lipschitz=local", "--set", "horizon=2", "--set", "horizons=[5]"]
+    result = runner.invoke(app, [*base, *settings, "--save", str(path)])
+    assert result.exit_code == 0, result.output
+    model = load_model(path)
+    assert model.lipschitz == "local" and model.horizons_.tolist() == [1, 2, 5]
+    assert all(m.point_gamma_ is not None for m in model.estimators_)
+
+    result = runner.invoke(app, [*base, "--set", "lipschits=local", "--save", str(tmp_path / "x")])
+    assert result.exit_code == 2
+    assert "lipschits" in result.output and "lipschitz" in _plain(result.output)
+    result = runner.invoke(app, [*base, "--set", "lipschitz", "--save", str(tmp_path / "x")])
+    assert result.exit_code == 2 and "NAME=VALUE" in result.output
+    result = runner.invoke(app, [*base, "--set", "lipschitz=cell", "--save", str(tmp_path / "x")])
+    assert result.exit_code == 2 and "lipschitz" in result.output and "cell" in result.output
+    assert not (tmp_path / "x.npz").exists()
+
+
 def test_bandwidth_of_a_chirp_log(tmp_path: Path) -> None:
     neck = SoftNeck(seed=0)
     t = np.arange(3000) * neck.ts

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +75,14 @@ def identify(
         " each log must have them (file name, sidecar or --condition).",
     ),
     tilt: bool = TILT_OPTION,
+    settings: list[str] = typer.Option(
+        None,
+        "--set",
+        metavar="NAME=VALUE",
+        help="A setting of the method (a keyword of its class), e.g. --set lipschitz=local or"
+        " --set horizons=[40]; VALUE is read as JSON (numbers, true/false, lists), else as"
+        " text (repeat the option).",
+    ),
     force: bool = FORCE_OPTION,
 ) -> None:
     """Identify a model from one log or several (one experiment each) and save it.
@@ -102,9 +111,10 @@ def identify(
         for log in logs
     ]
     method = _method_name(method)
+    options = _method_settings(method, settings or ())
     parsed = parse_lags(lags)
     regressor = Lags(parsed.outputs, parsed.inputs, conditions=_split(use_conditions) or ())
-    estimator = make_estimator(method, regressor, random_state=seed)
+    estimator = make_estimator(method, regressor, random_state=seed, **options)
     estimator.fit(experiments if len(experiments) > 1 else experiments[0])
     rows: list[dict[str, Any]] = []
     for log, data in zip(logs, experiments, strict=True):
@@ -124,6 +134,31 @@ def identify(
         _metrics_table(f"{_describe_model(estimator)} on {where} (free run, training data)", rows)
     )
     console.print(f"model saved to {path}")
+
+
+def _method_settings(method: str, items: Sequence[str]) -> dict[str, Any]:
+    """``--set NAME=VALUE`` items as keyword arguments of the method's class (names checked)."""
+    import json
+
+    from neckid.registry import get_method
+
+    known = sorted(set(get_method(method).estimator_class()._parameter_constraints) - {"lags"})
+    options: dict[str, Any] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ValueError(f"--set takes NAME=VALUE (e.g. lipschitz=local); got {item!r}")
+        if name not in known:
+            raise ValueError(
+                f"--set {name}: method {method!r} has no setting {name!r}; its settings are"
+                f" {', '.join(known)}"
+            )
+        try:
+            options[name] = json.loads(text)
+        except json.JSONDecodeError:
+            options[name] = text
+    return options
 
 
 def _load_for_model(
