@@ -302,6 +302,21 @@ def test_save_load_keeps_every_horizon(model: MultiStepSetMembership, test_log, 
         load_model(tmp_path / "edited2.npz")
 
 
+def test_rule_epsilon_is_raised_to_fit_identical_regressors() -> None:
+    # A quantised sensor at rest: identical regressors whose outputs differ by one step.
+    rng = np.random.default_rng(0)
+    u = np.repeat(rng.choice([0.0, 1.0, 2.0], 60), 20)
+    y = np.zeros(u.size)
+    for t in range(1, u.size):
+        y[t] = 0.7 * y[t - 1] + 0.3 * u[t - 1]
+    y = np.round(y + rng.uniform(-0.06, 0.06, u.size), 1)
+    data = IOData(u, y, ts=0.02)
+    with pytest.warns(UserWarning, match="identical regressors"):
+        model = MultiStepSetMembership(Lags.arx(1, 1), horizon=2, epsilon_factor=0.1).fit(data)
+    assert np.all(model.epsilon_ >= 0.05 - 1e-12)
+    assert np.all(np.isfinite(model.gamma_))
+
+
 # ---------------------------------------------------------------------------- errors
 @pytest.mark.parametrize(
     ("params", "error", "match"),

@@ -43,6 +43,7 @@ from neckid.models.base import (
 from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.set_membership import DEFAULT_GAMMA_MARGIN, SetMembership, _term_weights
 from neckid.models.sm_prior import ProgressOption, _gamma_star
+from neckid.models.sm_training import duplicate_spread
 from neckid.models.sm_update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval, Options
@@ -58,12 +59,19 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+#: Fractions of ε_k at which γ* is tried, smallest first, where γ*(ε_k) = 0 (see ``_gamma``).
+_FALLBACK_FRACTIONS = (0.5, 0.75, 0.9, 0.99)
+
 FloatArray = NDArray[np.float64]
 
 #: 1.4826 · MAD estimates the standard deviation of Gaussian data (1 / Φ⁻¹(3/4)).
 MAD_TO_STD = 1.482602218505602
 #: Largest horizon accepted, in samples.
 MAX_HORIZON = 1000
+
+
+def _numbers(values: FloatArray) -> str:
+    return ", ".join(f"{v:.4g}" for v in np.ravel(values))
 
 
 def robust_scale(residual: ArrayLike) -> FloatArray:
@@ -239,7 +247,12 @@ class MultiStepSetMembership(NarxModel):
     consistent with the training data (:func:`~neckid.gamma_curve`), computed exactly on the
     residual of the linear part. Where γ*(ε_k) = 0 (every training residual lies within ±ε_k
     of one value: a constant fits), ``γ_k = gamma_margin · γ*(ε_k / 2)`` instead, any γ >= 0
-    being consistent: the band then still widens away from the data.
+    being consistent: the band then still widens away from the data (if identical regressors
+    make γ*(ε_k / 2) infinite, the first finite one of γ*(0.75 ε_k), γ*(0.9 ε_k), γ*(0.99 ε_k)).
+
+    *ε_k floor.* No Lipschitz function fits two identical regressors whose targets differ by more
+    than 2ε (a quantised sensor at rest gives many); the rule's ε_k is raised, with a warning,
+    to half the widest such spread.
 
     *Local constants.* With ``lipschitz="local"`` each ``f_k`` has one constant per training
     point, the steepest slope that point takes part in (times ``gamma_margin``), and the
@@ -391,7 +404,13 @@ class MultiStepSetMembership(NarxModel):
             coef, intercept = least_squares(x, y, fit_intercept=True)
             residual = y - (x @ coef + intercept)
             scale[i] = robust_scale(residual)
-            epsilon[i] = given[i] if given is not None else float(self.epsilon_factor) * scale[i]
+            epsilon[i] = (
+                given[i]
+                if given is not None
+                else self._rule_epsilon(
+                    x, residual if self.linear_part else y, resolved, scale[i], int(k)
+                )
+            )
             gamma, gamma_star_at[i] = self._gamma(
                 x, residual if self.linear_part else y, resolved, epsilon[i]
             )
@@ -418,25 +437,53 @@ class MultiStepSetMembership(NarxModel):
         self._mark_fitted()
         return self
 
+    def _rule_epsilon(
+        self, x: FloatArray, target: FloatArray, resolved: ResolvedLags, scale: FloatArray, k: int
+    ) -> FloatArray:
+        """``epsilon_factor`` × the robust scale, raised where identical regressors need more."""
+        rule = float(self.epsilon_factor) * scale
+        with warnings.catch_warnings():  # constant terms are reported once, by _gamma
+            warnings.simplefilter("ignore", UserWarning)
+            weights = _term_weights(self.scaling, self.input_weight, x, resolved)
+        # A relative 1e-9 above half the spread: the estimator recomputes the targets from the
+        # scaled points, which can move them by an ulp.
+        floor = 0.5 * duplicate_spread(x * weights, target) * (1.0 + 1e-9)
+        if np.any(floor > rule):
+            warnings.warn(
+                f"horizon {k}: epsilon_factor x the residual scale = {_numbers(rule)} is below"
+                f" half the spread of the outputs at identical regressors, {_numbers(floor)};"
+                " epsilon is raised to it (no Lipschitz function fits a smaller one)",
+                UserWarning,
+                stacklevel=3,
+            )
+        return np.maximum(rule, floor)
+
     def _gamma(
         self, x: FloatArray, target: FloatArray, resolved: ResolvedLags, epsilon: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
-        """γ_k = margin · γ*(ε_k) (or γ*(ε_k / 2) where γ*(ε_k) = 0), and γ*(ε_k)."""
+        """γ_k = margin · γ*(ε_k) (or at a smaller ε where γ*(ε_k) = 0), and γ*(ε_k).
+
+        Where γ*(ε_k) = 0 the fallback is γ*(f ε_k) at the smallest f of ``_FALLBACK_FRACTIONS``
+        for which it is finite and positive (identical regressors can make it infinite below ε_k).
+        """
         weights = _term_weights(self.scaling, self.input_weight, x, resolved)
         points = np.ascontiguousarray(x * weights)
-        grid = np.vstack([0.5 * epsilon, epsilon])
+        grid = np.vstack([f * epsilon for f in (*_FALLBACK_FRACTIONS, 1.0)])
         star = _gamma_star(points, np.ascontiguousarray(target), grid, self.progress)
-        gamma = float(self.gamma_margin) * np.where(star[1] > 0, star[1], star[0])
+        usable = np.where(np.isfinite(star[:-1]) & (star[:-1] > 0), star[:-1], np.nan)
+        first = np.argmax(~np.isnan(usable), axis=0)
+        fallback = usable[first, np.arange(usable.shape[1])]
+        gamma = float(self.gamma_margin) * np.where(star[-1] > 0, star[-1], fallback)
         flat = np.flatnonzero(~(gamma > 0))
         if flat.size:
             c = int(flat[0])
             raise ValueError(
                 f"output {self.output_names_[c]!r}: every training target of horizon"
                 f" {resolved.max_lag - self.lags_.max_lag + 1} lies within ±{epsilon[c] / 2:.6g}"
-                " of one value, so γ*(ε) = 0 and no Lipschitz constant can be learned; give a"
-                " smaller epsilon"
+                " of one value (γ*(ε) = 0) and no smaller ε gives a finite positive γ*, so no"
+                " Lipschitz constant can be learned; give a smaller epsilon"
             )
-        return gamma, star[1].copy()
+        return gamma, star[-1].copy()
 
     def partial_fit(
         self, data: IOData | Sequence[IOData], *, prior: PriorRule = "adapt"

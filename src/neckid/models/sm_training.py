@@ -37,6 +37,7 @@ __all__ = [
     "PRIOR_TOLERANCE",
     "check_duplicates",
     "linear_sum",
+    "duplicate_spread",
     "prior_holds",
     "prior_holds_by_query",
     "prior_tolerance",
@@ -281,6 +282,21 @@ def check_duplicates(tree: SMTree, epsilon: FloatArray, output_names: Sequence[s
                 f" epsilon >= {spread[c] / 2:.6g} for that output or add regressor terms that"
                 " tell the two samples apart"
             )
+
+
+def duplicate_spread(points: FloatArray, targets: FloatArray) -> FloatArray:
+    """The widest spread of the targets among identical rows of ``points``, per output.
+
+    Half of it is the smallest ε for which any Lipschitz function fits the data (0 when no two
+    rows are identical).
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    if points.shape[0] < 2:
+        return np.zeros(targets.shape[1])
+    hashes = _row_hashes(points.view(np.uint64))
+    order = np.argsort(hashes, kind="stable")
+    return np.asarray(_widest_duplicates(points, targets, order, hashes)[0], dtype=np.float64)
 
 
 # ====================================================================================== prior
