@@ -36,8 +36,8 @@ from neckid.models._sm_kernels import TREE_MIN_POINTS, SMTree, gamma_star
 __all__ = [
     "PRIOR_TOLERANCE",
     "check_duplicates",
-    "linear_sum",
     "duplicate_spread",
+    "linear_sum",
     "prior_holds",
     "prior_holds_by_query",
     "prior_tolerance",
