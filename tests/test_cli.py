@@ -135,7 +135,7 @@ def test_identify_reports_bad_lags(neck_logs: tuple[Path, Path], tmp_path: Path)
 
 
 def test_identify_passes_method_settings(neck_logs: tuple[Path, Path], tmp_path: Path) -> None:
-    train, _ = neck_logs
+    train, valid = neck_logs
     base = ["identify", str(train), "--inputs", "motor_position", "--outputs", "inclination"]
     base += ["--method", "sm-multistep", "--lags", "1-2/1-2"]
     path = tmp_path / "k.npz"
@@ -145,6 +145,10 @@ def test_identify_passes_method_settings(neck_logs: tuple[Path, Path], tmp_path:
     model = load_model(path)
     assert model.lipschitz == "local" and model.horizons_.tolist() == [1, 2, 5]
     assert all(m.point_gamma_ is not None for m in model.estimators_)
+    result = runner.invoke(app, ["validate", str(path), str(valid)])
+    assert result.exit_code == 0, result.output
+    text = _plain(result.output)
+    assert "guaranteed k-step bands" in text and "holds [%]" in text
 
     result = runner.invoke(app, [*base, "--set", "lipschits=local", "--save", str(tmp_path / "x")])
     assert result.exit_code == 2

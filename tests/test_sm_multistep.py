@@ -317,6 +317,34 @@ def test_rule_epsilon_is_raised_to_fit_identical_regressors() -> None:
     assert np.all(np.isfinite(model.gamma_))
 
 
+def test_invalidation_per_horizon_and_the_smallest_epsilon_that_holds_everything(
+    train: IOData, test_log: IOData
+) -> None:
+    bounds = [NeckLike.error_bound(k) for k in (1, 2, 3)]
+    model = MultiStepSetMembership(LAGS, horizon=3, epsilon=bounds).fit(train)
+    # The neck with a different payload: its outputs sit 1 degree higher.
+    test_log = IOData(
+        test_log.u, test_log.y + 1.0, ts=test_log.ts, input_names=test_log.input_names,
+        output_names=test_log.output_names,
+    )  # fmt: skip
+    report = model.invalidation(test_log)
+    assert sorted(report) == [1, 2, 3]
+    for k, found in report.items():
+        ahead = model.predict_ahead(test_log, steps=k)
+        held = coverage(test_log.y, ahead.lower, ahead.upper, skip=ahead.n_initial)
+        np.testing.assert_allclose(1 - found.fraction, held)
+        # With the smallest epsilon (gamma kept) every sample is held, and not with less.
+        predictor = model.estimators_[k - 1]
+        lags_k, gamma = predictor.lags_.to_lags(), predictor.gamma_
+        needed = found.smallest_epsilon
+        assert found.falsified and np.all(needed > bounds[k - 1])
+        refit = SetMembership(lags_k, epsilon=needed, gamma=gamma, linear_part=True).fit(train)
+        assert refit.invalidation(test_log).excess.max() < 1e-12  # on the edge, to rounding
+        below = SetMembership(lags_k, epsilon=needed - 1e-6, gamma=gamma, linear_part=True)
+        assert below.fit(train).invalidation(test_log).falsified
+    assert isinstance(model.invalidation([test_log, test_log])[2], list)
+
+
 # ---------------------------------------------------------------------------- errors
 @pytest.mark.parametrize(
     ("params", "error", "match"),

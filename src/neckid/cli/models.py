@@ -237,6 +237,47 @@ def _print_band(result: Any, data: Any) -> None:
         )
 
 
+def _print_horizons(model: Any, data: Any) -> None:
+    """For a multi-step SM model: the guaranteed k-step band on the log, per named horizon.
+
+    The horizons shown are 1, the block ``horizon`` and the extra ``horizons``; for each, the
+    band of ``predict_ahead`` (its mean width and the share of the measured samples it holds),
+    ε_k, and the smallest ε_k that would hold every sample (γ_k kept).
+    """
+    if not (hasattr(model, "horizons_") and hasattr(model, "invalidation")):
+        return
+    from neckid.metrics import coverage, mean_width
+
+    named = sorted({1, int(model.horizon), *(int(k) for k in model.horizons or ())})
+    report = model.invalidation(data)
+    rows: list[dict[str, Any]] = []
+    for k in named:
+        if k not in report:
+            continue
+        ahead = model.predict_ahead(data, steps=k)
+        skip = ahead.n_initial
+        widths = mean_width(ahead.lower, ahead.upper, skip=skip)
+        held = coverage(data.y, ahead.lower, ahead.upper, skip=skip)
+        i = model.horizons_.tolist().index(k)
+        for j, name in enumerate(data.output_names):
+            unit = data.output_units[j] or "-"
+            rows.append(
+                {
+                    "k [samples]": str(k),
+                    "k [s]": f"{k * data.ts:.3g}",
+                    "output": name,
+                    f"mean width [{unit}]": float(widths[j]),
+                    "holds [%]": float(100 * held[j]),
+                    f"eps_k [{unit}]": float(model.epsilon_[i, j]),
+                    f"eps_k to hold all [{unit}]": float(report[k].smallest_epsilon[j]),
+                }
+            )
+    if rows:
+        console.print(
+            _metrics_table("guaranteed k-step bands (predicted k samples ahead from the log)", rows)
+        )
+
+
 def _report_extrapolation(result: Any) -> None:
     from neckid.models.base import EXTRAPOLATION_WARNING
 
@@ -305,6 +346,7 @@ def validate(
     console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
     _print_prior(model)
     _print_band(result, data)
+    _print_horizons(model, data)
     _report_extrapolation(result)
     if plot is not None:
         from neckid.report.plots import plot_simulation

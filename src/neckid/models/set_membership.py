@@ -84,12 +84,15 @@ class Invalidation:
         How far outside the band, in output units (0 inside).
     n_initial : int
     output_names : tuple of str
+    epsilon : ndarray, shape (n_outputs,)
+        The noise bound ε of the band.
     """
 
     outside: NDArray[np.bool_]
     excess: FloatArray
     n_initial: int
     output_names: tuple[str, ...]
+    epsilon: FloatArray
 
     @property
     def falsified(self) -> bool:
@@ -100,6 +103,19 @@ class Invalidation:
     def fraction(self) -> FloatArray:
         """Fraction of the (non-initial) samples outside the band, per output."""
         return np.asarray(self.outside[self.n_initial :].mean(axis=0), dtype=np.float64)
+
+    @property
+    def smallest_epsilon(self) -> FloatArray:
+        """The smallest ε (the Lipschitz constants kept) that puts every new sample in its band.
+
+        A sample ``q`` is in ``[f_l − ε, f_u + ε]`` iff ``|ỹ_q − ỹ_j| <= 2ε + L_j ‖w_q − w̃_j‖``
+        for every training point ``j`` (``L_j`` the constant of the pair), so the smallest such ε
+        is ``ε + excess_q / 2``; the maximum over the new samples, per output (ε itself when none
+        is outside). It makes the new data consistent with the training data under the prior;
+        pairs of new samples are not compared with each other.
+        """
+        worst = self.excess[self.n_initial :].max(axis=0, initial=0.0)
+        return np.asarray(self.epsilon + 0.5 * worst, dtype=np.float64)
 
 
 # ====================================================================================== helpers
@@ -639,7 +655,7 @@ class SetMembership(NarxModel):
             m = self.lags_.max_lag
             excess = np.zeros(d.y.shape)
             excess[m:] = excess_rows
-            results.append(Invalidation(excess > 0, excess, m, d.output_names))
+            results.append(Invalidation(excess > 0, excess, m, d.output_names, self.epsilon_))
         return results[0] if isinstance(data, IOData) else results
 
     def partial_fit(

@@ -41,7 +41,12 @@ from neckid.models.base import (
     check_is_fitted,
 )
 from neckid.models.online import extend_training_ranges, update_experiments
-from neckid.models.set_membership import DEFAULT_GAMMA_MARGIN, SetMembership, _term_weights
+from neckid.models.set_membership import (
+    DEFAULT_GAMMA_MARGIN,
+    Invalidation,
+    SetMembership,
+    _term_weights,
+)
 from neckid.models.sm_prior import ProgressOption, _gamma_star
 from neckid.models.sm_training import duplicate_spread
 from neckid.models.sm_update import PriorRule
@@ -484,6 +489,34 @@ class MultiStepSetMembership(NarxModel):
                 " Lipschitz constant can be learned; give a smaller epsilon"
             )
         return gamma, star[-1].copy()
+
+    def invalidation(
+        self, data: IOData | Sequence[IOData]
+    ) -> dict[int, Invalidation | list[Invalidation]]:
+        """Per horizon, which samples of new data fall outside their guaranteed k-step band.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements with the training channels.
+
+        Returns
+        -------
+        dict
+            ``{k: Invalidation}`` for every fitted horizon (a list per horizon when a list was
+            given): ``.fraction`` is the share of samples outside the band of
+            :meth:`predict_ahead`, ``.smallest_epsilon`` the smallest ε_k that would hold them
+            all (γ_k kept). Experiments too short for a horizon's regressor are skipped there.
+        """
+        check_is_fitted(self)
+        experiments = as_experiments(self._with_conditions(data))
+        report: dict[int, Invalidation | list[Invalidation]] = {}
+        for k, model in zip(self.horizons_.tolist(), self.estimators_, strict=True):
+            usable = [d for d in experiments if d.n_samples > model.lags_.max_lag]
+            if usable:
+                found = model.invalidation(usable)
+                report[int(k)] = found[0] if isinstance(data, IOData) else found
+        return report
 
     def partial_fit(
         self, data: IOData | Sequence[IOData], *, prior: PriorRule = "adapt"
