@@ -197,3 +197,15 @@ def test_bad_local_settings_are_refused(neck) -> None:
         SetMembership(Lags.arx(1, 1), epsilon=0.01, lipschitz="local", local_neighbours=0).fit(
             train
         )
+
+
+def test_parallel_sm_passes_local_constants_to_its_map(neck, tmp_path) -> None:
+    from neckid.models.sm_parallel import ParallelSetMembership
+
+    train, test = neck
+    model = ParallelSetMembership(Lags.arx(1, 1), lipschitz="local", local_neighbours=4).fit(train)
+    assert model.sm_.lipschitz == "local" and model.sm_.point_gamma_ is not None
+    free = model.simulate(test)
+    loaded = load_model(model.save(tmp_path / "parallel"))
+    assert loaded.lipschitz == "local" and loaded.local_neighbours == 4
+    np.testing.assert_array_equal(loaded.simulate(test).y, free.y)

@@ -100,6 +100,9 @@ class ParallelSetMembership(Estimator):
         (``linear_part`` adds a least-squares linear map of ``v`` under the SM residual; by
         default the SM map is the whole correction; ``input_weight`` weighs the measured-input
         terms of ``v`` against the linear model's outputs).
+    lipschitz, local_neighbours
+        One Lipschitz constant for the SM map, or one per training point (as for
+        :class:`~neckid.SetMembership`).
 
     Attributes
     ----------
@@ -159,6 +162,8 @@ class ParallelSetMembership(Estimator):
         "gamma_margin",
         "scaling",
         "input_weight",
+        "lipschitz",
+        "local_neighbours",
         "linear_part",
         "epsilons",
         "progress",
@@ -189,6 +194,8 @@ class ParallelSetMembership(Estimator):
         linear_part: bool = False,
         epsilons: ArrayLike | None = None,
         progress: Any = None,
+        lipschitz: str = "global",
+        local_neighbours: int = 10,
     ) -> None:
         self.lags = lags
         self.linear_lags = linear_lags
@@ -203,6 +210,8 @@ class ParallelSetMembership(Estimator):
         self.linear_part = linear_part
         self.epsilons = epsilons
         self.progress = progress
+        self.lipschitz = lipschitz
+        self.local_neighbours = local_neighbours
 
     # ------------------------------------------------------------------ fit
     def _sm_lags(self, input_names: Sequence[str], output_names: Sequence[str]) -> Lags:

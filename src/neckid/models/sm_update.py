@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -36,9 +37,58 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.models._sm_kernels import SMTree, gamma_star
 
-__all__ = ["PRIOR_RULES", "PriorRule", "cross_gamma_star", "revise_prior"]
+__all__ = ["PRIOR_RULES", "Invalidation", "PriorRule", "cross_gamma_star", "revise_prior"]
 
 FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Invalidation:
+    """Which samples of new data fall outside ``[f_l − ε, f_u + ε]`` and so falsify the prior.
+
+    Attributes
+    ----------
+    outside : ndarray of bool, shape (n_samples, n_outputs)
+        True where the measured output is outside the band (False in the first ``n_initial``
+        rows, the initial conditions).
+    excess : ndarray, shape (n_samples, n_outputs)
+        How far outside the band, in output units (0 inside).
+    n_initial : int
+    output_names : tuple of str
+    epsilon : ndarray, shape (n_outputs,)
+        The noise bound ε of the band.
+    """
+
+    outside: NDArray[np.bool_]
+    excess: FloatArray
+    n_initial: int
+    output_names: tuple[str, ...]
+    epsilon: FloatArray
+
+    @property
+    def falsified(self) -> bool:
+        """True if any sample of any output falsifies the prior (ε, γ, the regressor)."""
+        return bool(self.outside.any())
+
+    @property
+    def fraction(self) -> FloatArray:
+        """Fraction of the (non-initial) samples outside the band, per output."""
+        return np.asarray(self.outside[self.n_initial :].mean(axis=0), dtype=np.float64)
+
+    @property
+    def smallest_epsilon(self) -> FloatArray:
+        """The smallest ε (the Lipschitz constants kept) that puts every new sample in its band.
+
+        A sample ``q`` is in ``[f_l − ε, f_u + ε]`` iff ``|ỹ_q − ỹ_j| <= 2ε + L_j ‖w_q − w̃_j‖``
+        for every training point ``j`` (``L_j`` the constant of the pair), so the smallest such ε
+        is ``ε + excess_q / 2``; the maximum over the new samples, per output (ε itself when none
+        is outside). It makes the new data consistent with the training data under the prior;
+        pairs of new samples are not compared with each other.
+        """
+        worst = self.excess[self.n_initial :].max(axis=0, initial=0.0)
+        return np.asarray(self.epsilon + 0.5 * worst, dtype=np.float64)
+
+
 IntArray = NDArray[np.int64]
 PriorRule = Literal["adapt", "keep", "raise"]
 
