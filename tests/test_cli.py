@@ -195,6 +195,19 @@ def test_version() -> None:
     assert result.output.startswith("neckid ")
 
 
+def test_warmup_compiles_in_a_temporary_folder_it_removes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR
+    result = runner.invoke(app, ["warmup"])
+    assert result.exit_code == 0, result.output
+    assert "kernels compiled and cached" in _plain(result.output)
+    assert list(tmp_path.glob("neckid-warmup-*")) == []  # the demo's folder is gone
+
+
 def test_demo_quick_writes_report_metrics_figures_models(tmp_path: Path) -> None:
     out = tmp_path / "demo"
     result = runner.invoke(app, ["demo", "--quick", "--out", str(out)])
