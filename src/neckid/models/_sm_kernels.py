@@ -273,6 +273,32 @@ def _box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> f
     return math.sqrt(acc)
 
 
+@njit(cache=True, inline="always")
+def _push_children(
+    w: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    left: IntArray,
+    right: IntArray,
+    node: int,
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    top: int,
+) -> int:
+    """Push the two children of ``node`` with their box distances, the nearer one on top."""
+    child = left[node]
+    other = right[node]
+    d_left = _box_distance(w, lo, hi, child)
+    d_right = _box_distance(w, lo, hi, other)
+    if d_left <= d_right:
+        node_stack[top], dist_stack[top] = other, d_right
+        node_stack[top + 1], dist_stack[top + 1] = child, d_left
+    else:
+        node_stack[top], dist_stack[top] = child, d_left
+        node_stack[top + 1], dist_stack[top + 1] = other, d_right
+    return top + 2
+
+
 @njit(cache=True)
 def _query_one(
     w: FloatArray,
@@ -290,9 +316,17 @@ def _query_one(
     ymax: FloatArray,
     node_stack: IntArray,
     dist_stack: FloatArray,
+    point_gamma: FloatArray,
 ) -> tuple[float, float]:
-    """Return ``(max_k ỹ_k − γ d_k, min_k ỹ_k + γ d_k)`` for one query (ε not included)."""
+    """Return ``(max_k ỹ_k − L_k d_k, min_k ỹ_k + L_k d_k)`` for one query (ε not included).
+
+    ``L_k = γ`` with an empty ``point_gamma`` (shape ``(0, n_outputs)``: one global constant),
+    else ``max(γ, point_gamma[k, col])`` (local constants, :mod:`neckid.models._sm_local`,
+    where ``γ`` is the query's own constant); the node test uses ``γ``, a lower bound of every
+    ``L_k``.
+    """
     n_dims = points.shape[1]
+    local = point_gamma.shape[0] > 0
     best_upper = np.inf
     best_lower = -np.inf
     node_stack[0] = 0
@@ -311,28 +345,15 @@ def _query_one(
                 for k in range(n_dims):
                     diff = w[k] - points[p, k]
                     acc += diff * diff
-                gd = gamma * math.sqrt(acc)
+                slope = max(gamma, point_gamma[p, col]) if local else gamma
+                gd = slope * math.sqrt(acc)
                 v = targets[p, col]
                 if v + gd < best_upper:
                     best_upper = v + gd
                 if v - gd > best_lower:
                     best_lower = v - gd
-        else:
-            other = right[node]
-            d_left = _box_distance(w, lo, hi, child)
-            d_right = _box_distance(w, lo, hi, other)
-            # Push the farther child first so that the nearer one is explored first.
-            if d_left <= d_right:
-                node_stack[top] = other
-                dist_stack[top] = d_right
-                node_stack[top + 1] = child
-                dist_stack[top + 1] = d_left
-            else:
-                node_stack[top] = child
-                dist_stack[top] = d_left
-                node_stack[top + 1] = other
-                dist_stack[top + 1] = d_right
-            top += 2
+        else:  # the nearer child is explored first
+            top = _push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
     return best_lower, best_upper
 
 
@@ -354,6 +375,7 @@ def _bounds_many_kernel(
     upper: FloatArray,
 ) -> None:
     n_out = targets.shape[1]
+    no_points = np.empty((0, n_out))
     for i in prange(queries.shape[0]):
         node_stack = np.empty(_STACK_DEPTH, np.int64)
         dist_stack = np.empty(_STACK_DEPTH)
@@ -361,7 +383,7 @@ def _bounds_many_kernel(
         for c in range(n_out):
             low, high = _query_one(
                 w, points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin, ymax,
-                node_stack, dist_stack,
+                node_stack, dist_stack, no_points,
             )  # fmt: skip
             lower[i, c] = low
             upper[i, c] = high
@@ -379,11 +401,12 @@ def _bounds_few_kernel(
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree  # SMTree.kernel_arrays()
     node_stack = np.empty(_STACK_DEPTH, np.int64)
     dist_stack = np.empty(_STACK_DEPTH)
+    no_points = np.empty((0, targets.shape[1]))
     for i in range(queries.shape[0]):
         for c in range(targets.shape[1]):
             lower[i, c], upper[i, c] = _query_one(
                 queries[i], points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin,
-                ymax, node_stack, dist_stack,
+                ymax, node_stack, dist_stack, no_points,
             )  # fmt: skip
 
 
@@ -423,6 +446,7 @@ def _free_run_kernel(
     ws = np.empty(n_terms)
     node_stack = np.empty(_STACK_DEPTH, np.int64)
     dist_stack = np.empty(_STACK_DEPTH)
+    no_points = np.empty((0, n_out))
     for t in range(max_lag, y.shape[0]):
         for k in range(n_terms):
             if source[k] == 0:
@@ -436,7 +460,7 @@ def _free_run_kernel(
                 linear += w[k] * coef[k, c]
             low, high = _query_one(
                 ws, points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin, ymax,
-                node_stack, dist_stack,
+                node_stack, dist_stack, no_points,
             )  # fmt: skip
             f_lower = low - epsilon[c]
             f_upper = high + epsilon[c]

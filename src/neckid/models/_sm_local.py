@@ -28,9 +28,9 @@ for the two cones to meet (``f_u(w) < f_l(w)``: the prior, as stated, contradict
 there); the query is then evaluated with the global constant, which is always consistent, and
 the constant used is returned.
 
-The evaluation is the exact branch and bound of :mod:`neckid.models._sm_kernels` with the node
-test made with ``γ(w)``, a lower bound of every ``max(γ(w), γ_j)`` in the node, so no point that
-could change a bound is skipped.
+The evaluation is the exact branch and bound of :mod:`neckid.models._sm_kernels` (its
+``_query_one`` with per-point constants), the node test made with ``γ(w)``, a lower bound of
+every ``max(γ(w), γ_j)`` in the node, so no point that could change a bound is skipped.
 
 References
 ----------
@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models._sm_kernels import _STACK_DEPTH, _box_distance
+from neckid.models._sm_kernels import _STACK_DEPTH, _box_distance, _push_children, _query_one
 
 if TYPE_CHECKING:
     from neckid.models._sm_kernels import SMTree
@@ -70,20 +70,15 @@ def _steepest(
     i: int,
     c: int,
     twice_eps: float,
-    points: FloatArray,
-    targets: FloatArray,
-    start: IntArray,
-    end: IntArray,
-    left: IntArray,
-    right: IntArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    ymin: FloatArray,
-    ymax: FloatArray,
+    tree: tuple[NDArray, ...],
     node_stack: IntArray,
     dist_stack: FloatArray,
 ) -> float:
-    """max_{j≠i} (|t_i − t_j| − 2ε)⁺ / d_ij for the point ``i`` (tree order), by branch and bound."""
+    """max_{j≠i} (|t_i − t_j| − 2ε)⁺ / d_ij for the point ``i`` (tree order), by branch and bound.
+
+    ``tree`` is :meth:`SMTree.kernel_arrays`.
+    """
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
     w = points[i]
     t = targets[i, c]
     n_dims = points.shape[1]
@@ -115,43 +110,19 @@ def _steepest(
                         return np.inf
                     best = rise / d
         else:
-            other = right[node]
-            d_left = _box_distance(w, lo, hi, child)
-            d_right = _box_distance(w, lo, hi, other)
-            if d_left <= d_right:
-                node_stack[top], dist_stack[top] = other, d_right
-                node_stack[top + 1], dist_stack[top + 1] = child, d_left
-            else:
-                node_stack[top], dist_stack[top] = child, d_left
-                node_stack[top + 1], dist_stack[top + 1] = other, d_right
-            top += 2
+            top = _push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
     return best
 
 
 @njit(cache=True, parallel=True)
 def _point_gamma_kernel(
-    rows: IntArray,
-    twice_eps: FloatArray,
-    points: FloatArray,
-    targets: FloatArray,
-    start: IntArray,
-    end: IntArray,
-    left: IntArray,
-    right: IntArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    ymin: FloatArray,
-    ymax: FloatArray,
-    out: FloatArray,
+    rows: IntArray, twice_eps: FloatArray, tree: tuple[NDArray, ...], out: FloatArray
 ) -> None:
     for r in prange(rows.shape[0]):
         node_stack = np.empty(_STACK_DEPTH, np.int64)
         dist_stack = np.empty(_STACK_DEPTH)
-        for c in range(targets.shape[1]):
-            out[r, c] = _steepest(
-                rows[r], c, twice_eps[c], points, targets, start, end, left, right, lo, hi,
-                ymin, ymax, node_stack, dist_stack,
-            )  # fmt: skip
+        for c in range(out.shape[1]):
+            out[r, c] = _steepest(rows[r], c, twice_eps[c], tree, node_stack, dist_stack)
 
 
 def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None) -> FloatArray:
@@ -176,10 +147,7 @@ def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None)
     rows = np.arange(n, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
     out = np.empty((rows.shape[0], tree.targets.shape[1]))
     twice = np.ascontiguousarray(2.0 * np.asarray(epsilon, dtype=np.float64))
-    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree.kernel_arrays()
-    _point_gamma_kernel(
-        rows, twice, points, targets, start, end, left, right, lo, hi, ymin, ymax, out
-    )
+    _point_gamma_kernel(rows, twice, tree.kernel_arrays(), out)
     return out
 
 
@@ -190,19 +158,14 @@ def _neighbour_gamma(
     k_near: int,
     gammas: FloatArray,
     c: int,
-    points: FloatArray,
-    start: IntArray,
-    end: IntArray,
-    left: IntArray,
-    right: IntArray,
-    lo: FloatArray,
-    hi: FloatArray,
+    tree: tuple[NDArray, ...],
     node_stack: IntArray,
     dist_stack: FloatArray,
     near_d: FloatArray,
     near_i: IntArray,
 ) -> float:
     """The largest constant of the ``k_near`` training points nearest to ``w``."""
+    points, _, start, end, left, right, lo, hi, _, _ = tree
     n_dims = points.shape[1]
     k_near = min(k_near, points.shape[0])
     for k in range(k_near):
@@ -232,79 +195,11 @@ def _neighbour_gamma(
                     near_d[slot] = acc
                     near_i[slot] = p
         else:
-            other = right[node]
-            d_left = _box_distance(w, lo, hi, child)
-            d_right = _box_distance(w, lo, hi, other)
-            if d_left <= d_right:
-                node_stack[top], dist_stack[top] = other, d_right
-                node_stack[top + 1], dist_stack[top + 1] = child, d_left
-            else:
-                node_stack[top], dist_stack[top] = child, d_left
-                node_stack[top + 1], dist_stack[top + 1] = other, d_right
-            top += 2
+            top = _push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
     best = 0.0
     for k in range(k_near):
         best = max(best, gammas[near_i[k], c])
     return best
-
-
-@njit(cache=True)
-def _local_query(
-    w: FloatArray,
-    g: float,
-    gammas: FloatArray,
-    c: int,
-    points: FloatArray,
-    targets: FloatArray,
-    start: IntArray,
-    end: IntArray,
-    left: IntArray,
-    right: IntArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    ymin: FloatArray,
-    ymax: FloatArray,
-    node_stack: IntArray,
-    dist_stack: FloatArray,
-) -> tuple[float, float]:
-    """``(max_j ỹ_j − L_j d_j, min_j ỹ_j + L_j d_j)`` with ``L_j = max(g, γ_j)`` (ε not included)."""
-    n_dims = points.shape[1]
-    best_upper = np.inf
-    best_lower = -np.inf
-    node_stack[0] = 0
-    dist_stack[0] = _box_distance(w, lo, hi, 0)
-    top = 1
-    while top > 0:
-        top -= 1
-        node = node_stack[top]
-        reach = g * dist_stack[top]
-        if ymin[node, c] + reach >= best_upper and ymax[node, c] - reach <= best_lower:
-            continue
-        child = left[node]
-        if child < 0:
-            for p in range(start[node], end[node]):
-                acc = 0.0
-                for k in range(n_dims):
-                    diff = w[k] - points[p, k]
-                    acc += diff * diff
-                gd = max(g, gammas[p, c]) * math.sqrt(acc)
-                v = targets[p, c]
-                if v + gd < best_upper:
-                    best_upper = v + gd
-                if v - gd > best_lower:
-                    best_lower = v - gd
-        else:
-            other = right[node]
-            d_left = _box_distance(w, lo, hi, child)
-            d_right = _box_distance(w, lo, hi, other)
-            if d_left <= d_right:
-                node_stack[top], dist_stack[top] = other, d_right
-                node_stack[top + 1], dist_stack[top + 1] = child, d_left
-            else:
-                node_stack[top], dist_stack[top] = child, d_left
-                node_stack[top + 1], dist_stack[top + 1] = other, d_right
-            top += 2
-    return best_lower, best_upper
 
 
 @njit(cache=True)
@@ -326,19 +221,16 @@ def _local_one(
 ) -> None:
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
     for c in range(targets.shape[1]):
-        g = _neighbour_gamma(
-            w, k_near, gammas, c, points, start, end, left, right, lo, hi, node_stack,
-            dist_stack, near_d, near_i,
-        )  # fmt: skip
-        low, high = _local_query(
-            w, g, gammas, c, points, targets, start, end, left, right, lo, hi, ymin, ymax,
-            node_stack, dist_stack,
+        g = _neighbour_gamma(w, k_near, gammas, c, tree, node_stack, dist_stack, near_d, near_i)
+        low, high = _query_one(
+            w, points, targets, c, g, start, end, left, right, lo, hi, ymin, ymax, node_stack,
+            dist_stack, gammas,
         )  # fmt: skip
         if low - high > 2.0 * epsilon[c] and fallback[c] > g:
             g = fallback[c]
-            low, high = _local_query(
-                w, g, gammas, c, points, targets, start, end, left, right, lo, hi, ymin, ymax,
-                node_stack, dist_stack,
+            low, high = _query_one(
+                w, points, targets, c, g, start, end, left, right, lo, hi, ymin, ymax,
+                node_stack, dist_stack, gammas,
             )  # fmt: skip
         lower[i, c] = low - epsilon[c]
         upper[i, c] = high + epsilon[c]
