@@ -182,3 +182,31 @@ def test_gamma_star_with_a_repeated_epsilon_matches_the_reference(seed: int) -> 
     np.testing.assert_allclose(
         gamma_star(x, y, grid)[:, 0], gamma_star_reference(x, y[:, 0], grid[:, 0]), rtol=1e-12
     )
+
+
+def test_gamma_star_values_are_cached_per_data_and_epsilon(monkeypatch) -> None:
+    from neckid.models import sm_prior
+
+    rng = np.random.default_rng(11)
+    points = rng.normal(size=(300, 3))
+    targets = np.column_stack([np.sin(points[:, 0]), points[:, 1] ** 2])
+    first = np.array([[0.0, 0.0], [0.01, 0.02], [0.1, 0.05]])
+    second = np.array([[0.01, 0.02], [0.2, 0.3], [0.1, 0.05]])
+    fresh = gamma_star(points, targets, second)
+    sm_prior._CURVE_CACHE.clear()
+    calls = []
+    real = sm_prior.gamma_star
+
+    def spy(p, t, grid, **kwargs):
+        calls.append(grid.copy())
+        return real(p, t, grid, **kwargs)
+
+    monkeypatch.setattr(sm_prior, "gamma_star", spy)
+    sm_prior._gamma_star(points, targets, first, False)
+    got = sm_prior._gamma_star(points, targets, second, False)
+    np.testing.assert_array_equal(got, fresh)
+    np.testing.assert_array_equal(calls[1], second[[1]])  # only the new ε was computed
+    sm_prior._gamma_star(points.copy(), targets.copy(), second, False)
+    assert len(calls) == 2  # the same bytes: nothing computed
+    sm_prior._gamma_star(points + 1e-9, targets, second, False)
+    assert len(calls) == 3  # other data: computed again
