@@ -50,7 +50,13 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models._sm_kernels import _STACK_DEPTH, _box_distance, _push_children, _query_one
+from neckid.models._sm_kernels import (
+    _STACK_DEPTH,
+    SERIAL_QUERIES,
+    _box_distance,
+    _push_children,
+    _query_one,
+)
 
 if TYPE_CHECKING:
     from neckid.models._sm_kernels import SMTree
@@ -59,9 +65,6 @@ __all__ = ["check_constants", "learn_constants", "local_bounds", "point_gamma"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-#: Below this many queries the bounds are evaluated without threads (as in ``_sm_kernels``).
-_SERIAL_QUERIES = 64
 
 
 # ---------------------------------------------------------------------------------- constants
@@ -325,7 +328,7 @@ def local_bounds(
         upper,
         used,
     )
-    if queries.shape[0] < _SERIAL_QUERIES:
+    if queries.shape[0] < SERIAL_QUERIES:
         _local_few_kernel(*args)
     else:
         _local_many_kernel(*args)
