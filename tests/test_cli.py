@@ -77,6 +77,12 @@ def test_identify_validate_simulate_round_trip(
         assert "deprecated" in result.output and "'sm-linear'" in result.output
     model = load_model(model_path)
     assert model.n_inputs_ == 1
+    result = runner.invoke(app, ["info", str(model_path)])
+    assert result.exit_code == 0, result.output
+    assert "training range of motor_position" in _plain(result.output) or method in (
+        "rls",
+        "scheduled",
+    )
 
     plot = tmp_path / "val.png"
     result = runner.invoke(app, ["validate", str(model_path), str(valid), "--plot", str(plot)])

@@ -401,6 +401,16 @@ def describe_model(model: Any) -> dict[str, Any]:
     }
     sm = getattr(model, "sm_", model)
     if hasattr(sm, "gamma_"):
-        info["epsilon"] = [float(v) for v in sm.epsilon_]
-        info["gamma"] = [float(v) for v in sm.gamma_]
+        horizons = getattr(model, "horizons_", None)
+        if horizons is not None:  # one prior per horizon: {horizon: [value per output]}
+            info["horizons"] = [int(k) for k in horizons]
+            for key, values in (("epsilon", sm.epsilon_), ("gamma", sm.gamma_)):
+                info[key] = {
+                    str(int(k)): [float(v) for v in row]
+                    for k, row in zip(horizons, values, strict=True)
+                }
+        else:
+            info["epsilon"] = [float(v) for v in sm.epsilon_]
+            info["gamma"] = [float(v) for v in sm.gamma_]
+        info["lipschitz"] = str(getattr(sm, "lipschitz", "global"))
     return info

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.table import Table
@@ -112,6 +113,15 @@ def bandwidth(
         console.print(f"figure written to {plot}")
 
 
+def _shown(value: Any) -> str:
+    """A value of ``describe_model`` for the table: numbers to 4 significant digits."""
+    if isinstance(value, dict):  # per horizon
+        return "; ".join(f"k={k}: {_shown(v)}" for k, v in value.items())
+    if isinstance(value, list) and value and all(isinstance(v, float) for v in value):
+        return ", ".join(f"{v:.4g}" for v in value)
+    return str(value)
+
+
 @app.command()
 @handled
 def info(
@@ -147,10 +157,11 @@ def info(
             return
         table = Table(title=f"{path.name}: {described['method']}", show_header=False)
         for key in ("class", "lags", "inputs", "outputs", "output_units", "ts_s",
-                    "initial_samples", "training_samples", "epsilon", "gamma"):  # fmt: skip
+                    "initial_samples", "training_samples", "horizons", "epsilon", "gamma",
+                    "lipschitz"):  # fmt: skip
             if key in described:
                 table.add_row(
-                    key.replace("_s", " [s]") if key == "ts_s" else key, str(described[key])
+                    key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
                 )
         for name, (low, high) in described["training_ranges"].items():
             table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
