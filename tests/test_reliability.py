@@ -178,6 +178,7 @@ def _unknown_setting(tmp: Path) -> None:
     refused(tmp, *base, "--set", "lipschits=local", match="has no setting 'lipschits'.*lipschitz")
     refused(tmp, *base, "--set", "lipschitz", match="--set takes NAME=VALUE")
     refused(tmp, *base, "--set", "lipschitz=cell", match="lipschitz must be .*'cell'")
+    refused(tmp, *base, "--set", "random_state=3", match="--set random_state: give it with --seed")
     assert not (tmp / "m.npz").exists()
 
 
@@ -445,7 +446,7 @@ CASES = [
     Case("C4", "CLI", "`--out` / `--plot` into a missing folder", "refused before the run: folder ... does not exist", "clear", _missing_folder),
     Case("C5", "CLI", "`--plot` into a read-only folder", "refused before the run: folder ... is not writable", "clear", _read_only_folder),
     Case("C6", "CLI", "`identify --save` onto an existing model", "refused: exists already; the old model is unchanged", "clear", _identify_existing_model),
-    Case("C32", "CLI", "`identify --set` with a misspelt setting, no `=`, or a bad value", "refused: method 'sm' has no setting 'lipschits'; its settings are ... / --set takes NAME=VALUE / lipschitz must be ...; no model written", "clear", _unknown_setting),
+    Case("C32", "CLI", "`identify --set` with a misspelt setting, no `=`, or a bad value", "refused: method 'sm' has no setting 'lipschits'; its settings are ... / --set takes NAME=VALUE / lipschitz must be ... / give random_state with --seed; no model written", "clear", _unknown_setting),
     Case("C7", "CLI", "constant output with arx, nn, rls, sm", "refused: output 'inclination' is constant; no model file written", "clear", _constant_output),
     Case("C8", "CLI", "values of 1e300 with arx, nn", "refused: input 'command' reaches 3e+300 ... rescale the channel", "clear", _huge_values),
     Case("C9", "CLI", "`simulate` / `validate` of an unstable model", "exit 3, diverged at sample N (t = ... s); no file unless --keep-diverged", "clear", _diverging_free_run),

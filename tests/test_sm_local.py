@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -23,12 +25,14 @@ def _slopes(points: np.ndarray, targets: np.ndarray, epsilon: np.ndarray) -> np.
 
 
 def _brute_bounds(points, targets, gammas, queries, epsilon, fallback, k):
+    """The local bounds by a scan: γ(w) over every point within the k-th distance (ties in)."""
     lower = np.empty((len(queries), targets.shape[1]))
     upper = np.empty_like(lower)
     used = np.empty_like(lower)
     for i, w in enumerate(queries):
-        d = np.sqrt(((points - w) ** 2).sum(1))
-        near = np.argsort(d, kind="stable")[:k]
+        d2 = ((points - w) ** 2).sum(1)
+        d = np.sqrt(d2)
+        near = d2 <= np.sort(d2)[k - 1]
         for c in range(targets.shape[1]):
             g = gammas[near, c].max()
             for attempt in (g, fallback[c]):
@@ -91,21 +95,50 @@ def test_local_bounds_equal_a_brute_force_scan(cloud, neighbours: int, n_queries
     assert np.all(lower <= upper)
 
 
-def test_crossed_local_bounds_fall_back_to_the_global_constant() -> None:
-    # Two steep points far from a flat cluster: a query near the cluster but between the steep
-    # points gets a small local constant that cannot reconcile them.
-    flat = np.column_stack([np.linspace(-1, 1, 40), np.zeros(40)])
-    points = np.vstack([flat, [[0.0, 3.0], [0.0, 3.2]]])
-    targets = np.concatenate([np.zeros(40), [10.0, -10.0]])[:, None]
-    epsilon = np.array([0.01])
+def test_local_bounds_never_cross() -> None:
+    # Steep jumps next to flat stretches: both ends of every pair carry its slope, so the
+    # bounds cannot cross whatever the neighbourhood; the global constant is never needed.
+    rng = np.random.default_rng(8)
+    points = rng.uniform(-1, 1, size=(2000, 2))
+    targets = np.where(points[:, :1] > 0.3, 5.0, 0.0) + 0.01 * rng.normal(size=(2000, 1))
+    epsilon = np.array([0.02])
     tree = SMTree(points, targets)
-    gammas = point_gamma(tree, epsilon)
+    gammas = 1.1 * point_gamma(tree, epsilon)
     fallback = gammas.max(axis=0)
-    lower, upper, used = local_bounds(
-        tree, gammas, np.array([[0.0, 3.1], [0.0, 0.0]]), epsilon, fallback, 1
+    queries = rng.uniform(-1.5, 1.5, size=(3000, 2))
+    for neighbours in (1, 5):
+        lower, upper, used = local_bounds(tree, gammas, queries, epsilon, fallback, neighbours)
+        assert np.all(lower <= upper)
+        without = local_bounds(tree, gammas, queries, epsilon, np.zeros(1), neighbours)
+        for a, b in zip((lower, upper, used), without, strict=True):
+            np.testing.assert_array_equal(a, b)  # the fallback never changed a query
+
+
+def test_ties_do_not_depend_on_the_order_of_the_points() -> None:
+    # A quantised signal at rest: many identical regressors with different constants. The tree
+    # built on the same points in another order gives the same bounds (every tie counts).
+    rng = np.random.default_rng(9)
+    points = np.round(rng.uniform(-1, 1, size=(600, 2)), 1)
+    targets = np.round(np.sin(3 * points[:, :1]) + 0.05 * rng.normal(size=(600, 1)), 2)
+    epsilon = np.array([0.06])
+    queries = np.round(rng.uniform(-1, 1, size=(400, 2)), 1)
+    results = []
+    for order in (np.arange(600), rng.permutation(600)):
+        tree = SMTree(points[order], targets[order])
+        gammas = 1.1 * point_gamma(tree, epsilon)
+        results.append(local_bounds(tree, gammas, queries, epsilon, gammas.max(axis=0), 3))
+    for a, b in zip(*results, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_a_query_with_no_neighbour_gets_an_infinite_constant() -> None:
+    points = np.random.default_rng(1).normal(size=(50, 2))
+    tree = SMTree(points, points[:, :1])
+    gammas = point_gamma(tree, np.array([0.01]))
+    _, _, used = local_bounds(
+        tree, gammas, np.array([[np.nan, 0.0]]), np.array([0.01]), gammas.max(0), 3
     )
-    assert used[0, 0] == fallback[0] and used[1, 0] < fallback[0]
-    assert np.all(lower <= upper)
+    assert np.isinf(used[0, 0])
 
 
 def _two_slopes(n: int, seed: int) -> IOData:
@@ -209,3 +242,57 @@ def test_parallel_sm_passes_local_constants_to_its_map(neck, tmp_path) -> None:
     loaded = load_model(model.save(tmp_path / "parallel"))
     assert loaded.lipschitz == "local" and loaded.local_neighbours == 4
     np.testing.assert_array_equal(loaded.simulate(test).y, free.y)
+
+
+def test_a_failed_local_update_leaves_the_model_as_it_was(neck) -> None:
+    train, test = neck
+    model = SetMembership(Lags.arx(1, 1), epsilon=0.01, lipschitz="local").fit(train)
+    before = model.predict(test).upper.copy()
+    n = model.n_samples_
+    # The first training rows again, with outputs 1 higher: identical regressors, outputs more
+    # than 2ε apart; prior="keep" lets revise_prior pass, the constants cannot be learned.
+    clash = IOData(
+        train.u[:50], train.y[:50] + np.r_[0.0, np.ones(49)][:, None], ts=train.ts,
+        input_names=train.input_names, output_names=train.output_names,
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="identical"), pytest.warns(UserWarning):
+        model.partial_fit(clash, prior="keep")
+    assert model.n_samples_ == n and model.point_gamma_.shape == (n, 1)
+    np.testing.assert_array_equal(model.predict(test).upper, before)
+
+
+def test_set_params_after_fit_changes_neither_the_model_nor_its_file(neck, tmp_path) -> None:
+    train, test = neck
+    model = SetMembership(Lags.arx(1, 1), epsilon=0.01, lipschitz="local").fit(train)
+    before = model.predict(test).upper.copy()
+    model.set_params(lipschitz="global", local_neighbours=1)
+    np.testing.assert_array_equal(model.predict(test).upper, before)
+    loaded = load_model(model.save(tmp_path / "m"))
+    np.testing.assert_array_equal(loaded.predict(test).upper, before)
+    assert loaded.lipschitz == "local" and loaded.local_neighbours == 10
+
+
+def test_local_band_still_widens_where_a_constant_fits_every_target() -> None:
+    # ε_k above every residual: γ*(ε_k) = 0, the multi-step model falls back to γ*(f·ε_k) > 0,
+    # and the local constants follow it instead of being all 0.
+    rng = np.random.default_rng(2)
+    u = np.repeat(rng.uniform(0, 1, 60), 10)
+    y = np.zeros(u.size)
+    for t in range(1, u.size):
+        y[t] = 0.5 * y[t - 1] + 0.2 * u[t - 1] + rng.uniform(-0.01, 0.01)
+    data = IOData(u, y, ts=0.02)
+    near = IOData(u[:200], y[:200], ts=0.02)
+    far = IOData(u[:200] + 30.0, y[:200] + 30.0, ts=0.02)
+    widths = {}
+    for form in ("global", "local"):
+        model = MultiStepSetMembership(Lags.arx(1, 1), horizon=1, epsilon=0.011, lipschitz=form)
+        with warnings.catch_warnings():  # the far log extrapolates, on purpose
+            warnings.simplefilter("ignore")
+            model.fit(data)
+            assert model.gamma_star_[0, 0] == 0 and model.gamma_[0, 0] > 0
+            widths[form] = [
+                np.nanmean(model.predict_ahead(d, 1).upper - model.predict_ahead(d, 1).lower)
+                for d in (near, far)
+            ]
+    for form, (w_near, w_far) in widths.items():
+        assert w_far > 3 * w_near, (form, widths)

@@ -343,6 +343,9 @@ def test_invalidation_per_horizon_and_the_smallest_epsilon_that_holds_everything
         below = SetMembership(lags_k, epsilon=needed - 1e-6, gamma=gamma, linear_part=True)
         assert below.fit(train).invalidation(test_log).falsified
     assert isinstance(model.invalidation([test_log, test_log])[2], list)
+    short = test_log[:2]  # long enough for horizon 1 (regressor of 1 sample), not for 2 and 3
+    both = model.invalidation([short, test_log])
+    assert sorted(both) == [1] and len(both[1]) == 2  # positions match the list given
 
 
 # ---------------------------------------------------------------------------- errors

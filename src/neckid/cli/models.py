@@ -142,6 +142,7 @@ def _method_settings(method: str, items: Sequence[str]) -> dict[str, Any]:
 
     from neckid.registry import get_method
 
+    own_option = {"random_state": "--seed", "lags": "--lags"}
     known = sorted(set(get_method(method).estimator_class()._parameter_constraints) - {"lags"})
     options: dict[str, Any] = {}
     for item in items:
@@ -149,6 +150,8 @@ def _method_settings(method: str, items: Sequence[str]) -> dict[str, Any]:
         name = name.strip()
         if not sep or not name:
             raise ValueError(f"--set takes NAME=VALUE (e.g. lipschitz=local); got {item!r}")
+        if name in own_option:
+            raise ValueError(f"--set {name}: give it with {own_option[name]} instead")
         if name not in known:
             raise ValueError(
                 f"--set {name}: method {method!r} has no setting {name!r}; its settings are"
@@ -269,7 +272,7 @@ def _print_horizons(model: Any, data: Any) -> None:
                     f"mean width [{unit}]": float(widths[j]),
                     "holds [%]": float(100 * held[j]),
                     f"eps_k [{unit}]": float(model.epsilon_[i, j]),
-                    f"eps_k to hold all [{unit}]": float(report[k].smallest_epsilon[j]),
+                    f"eps_k to hold all, gamma kept [{unit}]": float(report[k].smallest_epsilon[j]),
                 }
             )
     if rows:

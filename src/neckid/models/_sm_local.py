@@ -16,21 +16,27 @@ with ``γ(w)`` the largest ``γ_j`` of the ``K`` training points nearest to ``w`
     f_l(w) = \max_j \left(ỹ_j − ε − \max(γ(w), γ_j)\,\|w − w̃_j\|\right)
 
 bound ``f`` at ``w`` (each term is the prior applied to the pair ``(w, w̃_j)``). The data are
-consistent with the prior at the training points iff ``|ỹ_i − ỹ_j| <= 2ε + max(γ_i, γ_j) d_ij``
+consistent with the prior at the training points when ``|ỹ_i − ỹ_j| <= 2ε + max(γ_i, γ_j) d_ij``
 for every pair; :func:`point_gamma` gives each point the steepest slope it takes part in,
 
 .. math:: γ_i = \max_{j \ne i} \frac{(|ỹ_i − ỹ_j| − 2ε)^+}{\|w̃_i − w̃_j\|},
 
-which satisfies every pair (the largest ``γ_i`` is the global γ*(ε) of Milanese & Novara). A
-point in a smooth region gets a small constant, and a steep pair raises only its own two points'
-constants. At a query between a steep point and a flat region the local ``γ(w)`` can be too small
-for the two cones to meet (``f_u(w) < f_l(w)``: the prior, as stated, contradicts the data
-there); the query is then evaluated with the global constant, which is always consistent, and
-the constant used is returned.
+so *both* ends of a pair carry at least its slope ``s_ij`` (the largest ``γ_i`` is the global
+γ*(ε) of Milanese & Novara). A point in a smooth region gets a small constant, and a steep pair
+raises only its own two points' constants. The bounds never cross: for any two training points,
+``ỹ_i − ỹ_j <= 2ε + s_ij d_ij <= 2ε + s_ij (d_i + d_j) <= 2ε + L_i d_i + L_j d_j`` with
+``d_i = ‖w − w̃_i‖`` and ``L_i = max(γ(w), γ_i) >= s_ij``, so ``f_l(w) <= f_u(w)``. Only rounding
+can make them cross by an ulp (with ``gamma_margin = 1``); such a query is evaluated with the
+global constant, and the constant used is returned. ``γ(w)`` takes every training point within
+the ``K``-th smallest distance (ties included), so it does not depend on the tree's layout.
 
 The evaluation is the exact branch and bound of :mod:`neckid.models._sm_kernels` (its
 ``_query_one`` with per-point constants), the node test made with ``γ(w)``, a lower bound of
 every ``max(γ(w), γ_j)`` in the node, so no point that could change a bound is skipped.
+
+Developers: numba's on-disk cache of these kernels is keyed on this file; after editing the
+kernels they call in :mod:`neckid.models._sm_kernels` in a checkout, delete the cache (see
+:mod:`neckid._numba_setup`) or touch this file.
 
 References
 ----------
@@ -155,54 +161,103 @@ def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None)
 
 
 # ---------------------------------------------------------------------------------- bounds
+@njit(cache=True, inline="always")
+def _box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
+    """Squared distance from ``w`` to the bounding box of ``node`` (0 inside)."""
+    acc = 0.0
+    for k in range(w.shape[0]):
+        v = w[k]
+        if v < lo[node, k]:
+            diff = lo[node, k] - v
+            acc += diff * diff
+        elif v > hi[node, k]:
+            diff = v - hi[node, k]
+            acc += diff * diff
+    return acc
+
+
+@njit(cache=True, inline="always")
+def _squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
+    acc = 0.0
+    for k in range(w.shape[0]):
+        diff = w[k] - points[p, k]
+        acc += diff * diff
+    return acc
+
+
 @njit(cache=True)
 def _neighbour_gamma(
     w: FloatArray,
     k_near: int,
     gammas: FloatArray,
-    c: int,
     tree: tuple[NDArray, ...],
     node_stack: IntArray,
     dist_stack: FloatArray,
     near_d: FloatArray,
-    near_i: IntArray,
-) -> float:
-    """The largest constant of the ``k_near`` training points nearest to ``w``."""
+    out: FloatArray,
+) -> None:
+    """``out[c]``: the largest ``γ_j`` over the training points within the ``k_near``-th distance.
+
+    Every point tied at that distance counts, so the result does not depend on the tree's
+    layout (a quantised signal at rest gives many identical regressors). Distances are compared
+    squared, as they are summed, with no square root in between. A query with no neighbour (NaN)
+    gets ``inf``.
+    """
     points, _, start, end, left, right, lo, hi, _, _ = tree
-    n_dims = points.shape[1]
     k_near = min(k_near, points.shape[0])
     for k in range(k_near):
         near_d[k] = np.inf
-        near_i[k] = -1
+    # 1. the k_near-th smallest squared distance
     node_stack[0] = 0
-    dist_stack[0] = _box_distance(w, lo, hi, 0)
+    dist_stack[0] = _box_distance2(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
         node = node_stack[top]
-        if dist_stack[top] * dist_stack[top] >= near_d[k_near - 1]:
+        if dist_stack[top] > near_d[k_near - 1]:
             continue
-        child = left[node]
-        if child < 0:
+        if left[node] < 0:
             for p in range(start[node], end[node]):
-                acc = 0.0
-                for k in range(n_dims):
-                    diff = w[k] - points[p, k]
-                    acc += diff * diff
+                acc = _squared_distance(w, points, p)
                 if acc < near_d[k_near - 1]:
                     slot = k_near - 1
                     while slot > 0 and near_d[slot - 1] > acc:
                         near_d[slot] = near_d[slot - 1]
-                        near_i[slot] = near_i[slot - 1]
                         slot -= 1
                     near_d[slot] = acc
-                    near_i[slot] = p
+        else:  # the nearer child on top
+            d_left = _box_distance2(w, lo, hi, left[node])
+            d_right = _box_distance2(w, lo, hi, right[node])
+            near, far = (
+                (left[node], right[node]) if d_left <= d_right else (right[node], left[node])
+            )
+            node_stack[top], dist_stack[top] = far, max(d_left, d_right)
+            node_stack[top + 1], dist_stack[top + 1] = near, min(d_left, d_right)
+            top += 2
+    radius2 = near_d[k_near - 1]
+    if not radius2 < np.inf:
+        out[:] = np.inf
+        return
+    # 2. the largest constant within that distance, ties included
+    out[:] = 0.0
+    node_stack[0] = 0
+    dist_stack[0] = _box_distance2(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        if dist_stack[top] > radius2:
+            continue
+        if left[node] < 0:
+            for p in range(start[node], end[node]):
+                if _squared_distance(w, points, p) <= radius2:
+                    for c in range(out.shape[0]):
+                        out[c] = max(out[c], gammas[p, c])
         else:
-            top = _push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
-    best = 0.0
-    for k in range(k_near):
-        best = max(best, gammas[near_i[k], c])
-    return best
+            for child in (left[node], right[node]):
+                node_stack[top] = child
+                dist_stack[top] = _box_distance2(w, lo, hi, child)
+                top += 1
 
 
 @njit(cache=True)
@@ -220,16 +275,17 @@ def _local_one(
     node_stack: IntArray,
     dist_stack: FloatArray,
     near_d: FloatArray,
-    near_i: IntArray,
+    near_g: FloatArray,
 ) -> None:
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    _neighbour_gamma(w, k_near, gammas, tree, node_stack, dist_stack, near_d, near_g)
     for c in range(targets.shape[1]):
-        g = _neighbour_gamma(w, k_near, gammas, c, tree, node_stack, dist_stack, near_d, near_i)
+        g = near_g[c]
         low, high = _query_one(
             w, points, targets, c, g, start, end, left, right, lo, hi, ymin, ymax, node_stack,
             dist_stack, gammas,
         )  # fmt: skip
-        if low - high > 2.0 * epsilon[c] and fallback[c] > g:
+        if low - high > 2.0 * epsilon[c] and fallback[c] > g:  # rounding only (module notes)
             g = fallback[c]
             low, high = _query_one(
                 w, points, targets, c, g, start, end, left, right, lo, hi, ymin, ymax,
@@ -256,10 +312,10 @@ def _local_many_kernel(
         node_stack = np.empty(_STACK_DEPTH, np.int64)
         dist_stack = np.empty(_STACK_DEPTH)
         near_d = np.empty(max(k_near, 1))
-        near_i = np.empty(max(k_near, 1), np.int64)
+        near_g = np.empty(lower.shape[1])
         _local_one(
             queries[i], i, k_near, gammas, epsilon, fallback, tree, lower, upper, used,
-            node_stack, dist_stack, near_d, near_i,
+            node_stack, dist_stack, near_d, near_g,
         )  # fmt: skip
 
 
@@ -278,11 +334,11 @@ def _local_few_kernel(
     node_stack = np.empty(_STACK_DEPTH, np.int64)
     dist_stack = np.empty(_STACK_DEPTH)
     near_d = np.empty(max(k_near, 1))
-    near_i = np.empty(max(k_near, 1), np.int64)
+    near_g = np.empty(lower.shape[1])
     for i in range(queries.shape[0]):
         _local_one(
             queries[i], i, k_near, gammas, epsilon, fallback, tree, lower, upper, used,
-            node_stack, dist_stack, near_d, near_i,
+            node_stack, dist_stack, near_d, near_g,
         )  # fmt: skip
 
 
@@ -340,6 +396,8 @@ def learn_constants(
 ) -> FloatArray:
     """Each training point's constant, ``min(margin · γ_i, γ)`` (tree order), for a model.
 
+    For an output where every ``γ_i`` is 0 (γ*(ε) = 0), every point gets ``γ``.
+
     Raises
     ------
     ValueError
@@ -351,7 +409,12 @@ def learn_constants(
             "identical training regressors have outputs more than 2·epsilon apart: no Lipschitz"
             " constant fits them; use a larger epsilon"
         )
-    return np.ascontiguousarray(np.minimum(margin * steepest, gamma))
+    constants = np.minimum(margin * steepest, gamma)
+    # Where no pair needs a slope (γ*(ε) = 0: a constant fits), every constant would be 0 and
+    # the bounds would not widen away from the data; the given global γ is used instead.
+    flat = steepest.max(axis=0, initial=0.0) == 0
+    constants[:, flat] = np.asarray(gamma, dtype=np.float64)[flat]
+    return np.ascontiguousarray(constants)
 
 
 def check_constants(

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from neckid.data import IOData, as_experiments
-from neckid.models._sm_kernels import free_run
+from neckid.models._sm_kernels import SMTree, free_run
 from neckid.models._sm_local import check_constants, learn_constants, local_bounds
 from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
@@ -201,7 +201,8 @@ class SetMembership(NarxModel):
     point_gamma_ : ndarray, shape (n_samples, n_outputs) or None
         With ``lipschitz="local"``, each training point's constant
         ``min(gamma_margin · γ_i, γ)`` in the tree's order (the order of a model file's
-        ``x_train``); None with one global constant.
+        ``x_train``); None with one global constant. ``local_neighbours_`` is the number of
+        neighbours fitted with (``set_params`` after ``fit`` changes neither).
     weights_ : ndarray, shape (n_terms,)
         Scaling of the regressor components.
     coef_, intercept_ : ndarray
@@ -448,7 +449,8 @@ class SetMembership(NarxModel):
         self.gamma_curve_ = curve
         self.prior_valid_ = valid
         self._tree = tree
-        self.point_gamma_ = self._point_gamma()
+        self.local_neighbours_ = int(self.local_neighbours)
+        self.point_gamma_ = self._point_gamma(tree, gamma, self.lipschitz == "local")
         self._outputs = outputs
         logger.info(
             "SetMembership fitted on %d regressors: epsilon=%s gamma=%s",
@@ -465,11 +467,11 @@ class SetMembership(NarxModel):
         """The measured training outputs in tree order (the SM targets without a linear part)."""
         return self._tree.targets if self._outputs is None else self._outputs
 
-    def _point_gamma(self) -> FloatArray | None:
-        """Each training point's constant (tree order) under ``lipschitz="local"``, else None."""
-        if self.lipschitz != "local":
+    def _point_gamma(self, tree: SMTree, gamma: FloatArray, local: bool) -> FloatArray | None:
+        """Each training point's constant on ``tree`` (its order) when ``local``, else None."""
+        if not local:
             return None
-        return learn_constants(self._tree, self.epsilon_, self.gamma_, float(self.gamma_margin))
+        return learn_constants(tree, self.epsilon_, gamma, float(self.gamma_margin))
 
     # ------------------------------------------------------------------ evaluation
     def _bounds_rows(self, x: FloatArray) -> SMBounds:
@@ -480,7 +482,7 @@ class SetMembership(NarxModel):
         if self.point_gamma_ is not None:
             lower, upper, _ = local_bounds(
                 self._tree, self.point_gamma_, scaled, self.epsilon_, self.gamma_,
-                int(self.local_neighbours),
+                self.local_neighbours_,
             )  # fmt: skip
             return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
         lower, upper = self._tree.bounds(scaled, self.epsilon_, self.gamma_)
@@ -658,14 +660,16 @@ class SetMembership(NarxModel):
         if self.linear_part:
             coef, intercept = least_squares(x, y, fit_intercept=True)
         tree, outputs = training_tree(x, y, self.weights_, coef, intercept, bool(self.linear_part))
-        self.gamma_, self.gamma_star_, self.prior_valid_ = revise_prior(
+        gamma, star, valid = revise_prior(
             tree, np.flatnonzero(tree.perm >= n_old), self.epsilon_, self.gamma_,
             prior_holds(tree, self.epsilon_, self.gamma_)[0], self.gamma_star_,
             bool(self.linear_part), prior, float(self.gamma_margin), self.output_names_,
         )  # fmt: skip
+        # Everything that can fail runs before the model changes.
+        constants = self._point_gamma(tree, gamma, self.point_gamma_ is not None)
+        self.gamma_, self.gamma_star_, self.prior_valid_ = gamma, star, valid
         self.coef_, self.intercept_ = np.ascontiguousarray(coef), intercept
-        self._tree, self._outputs = tree, outputs
-        self.point_gamma_ = self._point_gamma()
+        self._tree, self._outputs, self.point_gamma_ = tree, outputs, constants
         self.n_samples_ = int(tree.points.shape[0])
         self.last_invalidation_ = invalidation
         extend_training_ranges(self, experiments)
@@ -674,7 +678,12 @@ class SetMembership(NarxModel):
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:
         self._check_learned(self._tree.points, self._tree.targets)
-        check_constants(self.point_gamma_, self.lipschitz, self.n_samples_, self.gamma_)
+        check_constants(self.point_gamma_, self._fitted_lipschitz, self.n_samples_, self.gamma_)
+
+    @property
+    def _fitted_lipschitz(self) -> str:
+        """The form fitted (``set_params`` after ``fit`` changes the setting, not the model)."""
+        return "global" if self.point_gamma_ is None else "local"
 
     def _check_learned(self, x: FloatArray, y: FloatArray) -> None:
         """:meth:`_check_state` with the training rows given (before the tree is built)."""
@@ -731,8 +740,8 @@ class SetMembership(NarxModel):
                 "linear_part": bool(self.linear_part),
                 "epsilons": plain(self.epsilons),
                 "input_weight": float(self.input_weight),
-                "lipschitz": str(self.lipschitz),
-                "local_neighbours": int(self.local_neighbours),
+                "lipschitz": self._fitted_lipschitz,
+                "local_neighbours": self.local_neighbours_,
             },
             **self._narx_meta(),
         }
@@ -771,6 +780,7 @@ class SetMembership(NarxModel):
         model._tree, model._outputs = training_tree(
             x, y, model.weights_, model.coef_, model.intercept_, bool(model.linear_part)
         )
+        model.local_neighbours_ = int(model.local_neighbours)
         # The rows were saved in the old tree's order; the new tree reorders them.
         model.point_gamma_ = (
             None if saved is None else np.ascontiguousarray(saved[model._tree.perm])

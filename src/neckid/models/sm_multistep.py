@@ -483,10 +483,11 @@ class MultiStepSetMembership(NarxModel):
         if flat.size:
             c = int(flat[0])
             raise ValueError(
-                f"output {self.output_names_[c]!r}: every training target of horizon"
-                f" {resolved.max_lag - self.lags_.max_lag + 1} lies within ±{epsilon[c] / 2:.6g}"
-                " of one value (γ*(ε) = 0) and no smaller ε gives a finite positive γ*, so no"
-                " Lipschitz constant can be learned; give a smaller epsilon"
+                f"output {self.output_names_[c]!r}, horizon"
+                f" {resolved.max_lag - self.lags_.max_lag + 1}: γ*(ε) = 0 at epsilon ="
+                f" {epsilon[c]:.6g} (a constant fits every training target to within ±ε) and no"
+                " ε between ε/2 and ε gives a finite positive γ*, so no Lipschitz constant can"
+                " be learned; give a smaller epsilon"
             )
         return gamma, star[-1].copy()
 
@@ -506,15 +507,15 @@ class MultiStepSetMembership(NarxModel):
             ``{k: Invalidation}`` for every fitted horizon (a list per horizon when a list was
             given): ``.fraction`` is the share of samples outside the band of
             :meth:`predict_ahead`, ``.smallest_epsilon`` the smallest ε_k that would hold them
-            all (γ_k kept). Experiments too short for a horizon's regressor are skipped there.
+            all (γ_k kept). A horizon whose regressor is longer than one of the experiments is
+            left out (so a list's positions always match ``data``).
         """
         check_is_fitted(self)
         experiments = as_experiments(self._with_conditions(data))
         report: dict[int, Invalidation | list[Invalidation]] = {}
         for k, model in zip(self.horizons_.tolist(), self.estimators_, strict=True):
-            usable = [d for d in experiments if d.n_samples > model.lags_.max_lag]
-            if usable:
-                found = model.invalidation(usable)
+            if all(d.n_samples > model.lags_.max_lag for d in experiments):
+                found = model.invalidation(experiments)
                 report[int(k)] = found[0] if isinstance(data, IOData) else found
         return report
 

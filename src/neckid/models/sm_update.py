@@ -82,8 +82,10 @@ class Invalidation:
         A sample ``q`` is in ``[f_l − ε, f_u + ε]`` iff ``|ỹ_q − ỹ_j| <= 2ε + L_j ‖w_q − w̃_j‖``
         for every training point ``j`` (``L_j`` the constant of the pair), so the smallest such ε
         is ``ε + excess_q / 2``; the maximum over the new samples, per output (ε itself when none
-        is outside). It makes the new data consistent with the training data under the prior;
-        pairs of new samples are not compared with each other.
+        is outside). It makes the new data consistent with the training data under the prior
+        with γ (and any per-point constants) as they are; pairs of new samples are not compared
+        with each other. A refit at that ε derives γ*(ε) again, which can be smaller, so a
+        sample may then fall outside again.
         """
         worst = self.excess[self.n_initial :].max(axis=0, initial=0.0)
         return np.asarray(self.epsilon + 0.5 * worst, dtype=np.float64)
