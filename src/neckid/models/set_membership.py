@@ -261,13 +261,13 @@ class SetMembership(NarxModel):
 
     *Local constants* (``lipschitz="local"``). The prior becomes
     ``|f(w) − f(w̃_j)| <= max(γ(w), γ_j) ‖w − w̃_j‖``, with ``γ_j`` the constant of training point
-    ``j`` and ``γ(w)`` the largest ``γ_j`` of the ``local_neighbours`` training points nearest to
-    ``w``. Each point's constant is the steepest slope it takes part in,
+    ``j`` and ``γ(w)`` the largest ``γ_j`` of the training points within the
+    ``local_neighbours``-th smallest distance to ``w`` (ties included). Each point's constant is
+    the steepest slope it takes part in,
     ``γ_i = gamma_margin · max_{j≠i} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖`` (capped at the global
-    ``γ``), which keeps every pair of training points consistent; the largest of them is the
-    global ``γ*(ε)``. A query whose local constant leaves the bounds crossed (the prior would
-    contradict the data there) is evaluated with the global ``γ``. ε is chosen as above; the
-    global ``γ_`` is kept (the fallback, and the largest constant). See
+    ``γ``; ``γ`` itself where γ*(ε) = 0), so both ends of every training pair carry its slope, the
+    bounds never cross, and the largest constant is the global ``γ*(ε)``. ε is chosen as above;
+    the global ``γ_`` is kept (the largest constant). See
     :mod:`neckid.models._sm_local`. :meth:`simulate` then steps the simulator (no compiled
     free run), and :meth:`partial_fit` re-learns every point's constant on all the data.
 

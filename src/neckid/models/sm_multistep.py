@@ -261,11 +261,11 @@ class MultiStepSetMembership(NarxModel):
 
     *Local constants.* With ``lipschitz="local"`` each ``f_k`` has one constant per training
     point, the steepest slope that point takes part in (times ``gamma_margin``), and the
-    constant at a query is the largest of its ``local_neighbours`` nearest points' (the prior
-    of :class:`~neckid.SetMembership` with ``lipschitz="local"``). A few steep pairs (controller
-    switches, hysteresis) then widen the band only near themselves, so a smaller ε_k no longer
-    blows the band up everywhere; ``gamma_`` stays the global constant (the largest one, and the
-    fallback where the local one would contradict the data).
+    constant at a query is the largest of its ``local_neighbours`` nearest points' (ties
+    included; the prior of :class:`~neckid.SetMembership` with ``lipschitz="local"``). A few
+    steep pairs (controller switches, hysteresis) then widen the band only near themselves, so a
+    smaller ε_k no longer blows the band up everywhere; ``gamma_`` stays the global constant (the
+    largest one; every point's constant where γ*(ε_k) = 0).
 
     *Free run.* :meth:`simulate` cannot re-anchor on measurements (a free run does not look at
     measured outputs after the initial ones): it chains the predictors in blocks of ``horizon``
