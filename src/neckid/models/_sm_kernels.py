@@ -258,7 +258,8 @@ def build_tree(points: FloatArray, leaf_size: int = LEAF_SIZE) -> dict[str, NDAr
 
 # ---------------------------------------------------------------------------------- queries
 @njit(cache=True, inline="always")
-def _box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
+def _box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
+    """Squared distance from ``w`` to the bounding box of ``node`` (0 inside)."""
     acc = 0.0
     for k in range(w.shape[0]):
         v = w[k]
@@ -268,9 +269,12 @@ def _box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> f
         elif v > hi[node, k]:
             diff = v - hi[node, k]
             acc += diff * diff
-        else:
-            acc += 0.0
-    return math.sqrt(acc)
+    return acc
+
+
+@njit(cache=True, inline="always")
+def _box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
+    return math.sqrt(_box_distance2(w, lo, hi, node))
 
 
 @njit(cache=True, inline="always")

@@ -60,6 +60,7 @@ from neckid.models._sm_kernels import (
     _STACK_DEPTH,
     SERIAL_QUERIES,
     _box_distance,
+    _box_distance2,
     _push_children,
     _query_one,
 )
@@ -161,21 +162,6 @@ def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None)
 
 
 # ---------------------------------------------------------------------------------- bounds
-@njit(cache=True, inline="always")
-def _box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
-    """Squared distance from ``w`` to the bounding box of ``node`` (0 inside)."""
-    acc = 0.0
-    for k in range(w.shape[0]):
-        v = w[k]
-        if v < lo[node, k]:
-            diff = lo[node, k] - v
-            acc += diff * diff
-        elif v > hi[node, k]:
-            diff = v - hi[node, k]
-            acc += diff * diff
-    return acc
-
-
 @njit(cache=True, inline="always")
 def _squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
     acc = 0.0
