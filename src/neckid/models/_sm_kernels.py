@@ -273,6 +273,16 @@ def _box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> 
 
 
 @njit(cache=True, inline="always")
+def _squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
+    """Squared distance from ``w`` to ``points[p]``, summed in component order."""
+    acc = 0.0
+    for k in range(w.shape[0]):
+        diff = w[k] - points[p, k]
+        acc += diff * diff
+    return acc
+
+
+@njit(cache=True, inline="always")
 def _box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
     return math.sqrt(_box_distance2(w, lo, hi, node))
 
@@ -329,7 +339,6 @@ def _query_one(
     where ``γ`` is the query's own constant); the node test uses ``γ``, a lower bound of every
     ``L_k``.
     """
-    n_dims = points.shape[1]
     local = point_gamma.shape[0] > 0
     best_upper = np.inf
     best_lower = -np.inf
@@ -345,12 +354,8 @@ def _query_one(
         child = left[node]
         if child < 0:
             for p in range(start[node], end[node]):
-                acc = 0.0
-                for k in range(n_dims):
-                    diff = w[k] - points[p, k]
-                    acc += diff * diff
                 slope = max(gamma, point_gamma[p, col]) if local else gamma
-                gd = slope * math.sqrt(acc)
+                gd = slope * math.sqrt(_squared_distance(w, points, p))
                 v = targets[p, col]
                 if v + gd < best_upper:
                     best_upper = v + gd

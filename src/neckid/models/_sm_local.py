@@ -63,6 +63,7 @@ from neckid.models._sm_kernels import (
     _box_distance2,
     _push_children,
     _query_one,
+    _squared_distance,
 )
 
 if TYPE_CHECKING:
@@ -91,7 +92,6 @@ def _steepest(
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
     w = points[i]
     t = targets[i, c]
-    n_dims = points.shape[1]
     best = 0.0
     node_stack[0] = 0
     dist_stack[0] = _box_distance(w, lo, hi, 0)
@@ -110,11 +110,7 @@ def _steepest(
                 rise = abs(t - targets[p, c]) - twice_eps
                 if rise <= 0.0:
                     continue
-                acc = 0.0
-                for k in range(n_dims):
-                    diff = w[k] - points[p, k]
-                    acc += diff * diff
-                d = math.sqrt(acc)
+                d = math.sqrt(_squared_distance(w, points, p))
                 if rise > best * d:
                     if d == 0.0:
                         return np.inf
@@ -162,15 +158,6 @@ def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None)
 
 
 # ---------------------------------------------------------------------------------- bounds
-@njit(cache=True, inline="always")
-def _squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
-    acc = 0.0
-    for k in range(w.shape[0]):
-        diff = w[k] - points[p, k]
-        acc += diff * diff
-    return acc
-
-
 @njit(cache=True)
 def _neighbour_gamma(
     w: FloatArray,
