@@ -409,16 +409,16 @@ class MultiStepSetMembership(NarxModel):
             coef, intercept = least_squares(x, y, fit_intercept=True)
             residual = y - (x @ coef + intercept)
             scale[i] = robust_scale(residual)
+            target = np.ascontiguousarray(residual if self.linear_part else y)
+            # The estimator's own distance (it warns about constant terms here, once).
+            weights = _term_weights(self.scaling, self.input_weight, x, resolved)
+            points = np.ascontiguousarray(x * weights)
             epsilon[i] = (
                 given[i]
                 if given is not None
-                else self._rule_epsilon(
-                    x, residual if self.linear_part else y, resolved, scale[i], int(k)
-                )
+                else self._rule_epsilon(points, target, scale[i], int(k))
             )
-            gamma, gamma_star_at[i] = self._gamma(
-                x, residual if self.linear_part else y, resolved, epsilon[i]
-            )
+            gamma, gamma_star_at[i] = self._gamma(points, target, epsilon[i], int(k))
             model = SetMembership(
                 lags_k,
                 epsilon=epsilon[i].tolist(),
@@ -430,7 +430,7 @@ class MultiStepSetMembership(NarxModel):
                 local_neighbours=int(self.local_neighbours),
             )
             with warnings.catch_warnings():
-                # Constant regressor terms were reported once, by _gamma.
+                # Constant regressor terms were reported once, above.
                 warnings.simplefilter("ignore", UserWarning)
                 estimators.append(model.fit(experiments))
             logger.info("horizon %d: epsilon=%s gamma=%s", k, epsilon[i].tolist(), gamma.tolist())
@@ -443,16 +443,16 @@ class MultiStepSetMembership(NarxModel):
         return self
 
     def _rule_epsilon(
-        self, x: FloatArray, target: FloatArray, resolved: ResolvedLags, scale: FloatArray, k: int
+        self, points: FloatArray, target: FloatArray, scale: FloatArray, k: int
     ) -> FloatArray:
-        """``epsilon_factor`` × the robust scale, raised where identical regressors need more."""
+        """``epsilon_factor`` × the robust scale, raised where identical regressors need more.
+
+        ``points`` are the scaled k-step regressors, ``target`` what the SM map fits.
+        """
         rule = float(self.epsilon_factor) * scale
-        with warnings.catch_warnings():  # constant terms are reported once, by _gamma
-            warnings.simplefilter("ignore", UserWarning)
-            weights = _term_weights(self.scaling, self.input_weight, x, resolved)
         # A relative 1e-9 above half the spread: the estimator recomputes the targets from the
         # scaled points, which can move them by an ulp.
-        floor = 0.5 * duplicate_spread(x * weights, target) * (1.0 + 1e-9)
+        floor = 0.5 * duplicate_spread(points, target) * (1.0 + 1e-9)
         if np.any(floor > rule):
             warnings.warn(
                 f"horizon {k}: epsilon_factor x the residual scale = {_numbers(rule)} is below"
@@ -464,17 +464,15 @@ class MultiStepSetMembership(NarxModel):
         return np.maximum(rule, floor)
 
     def _gamma(
-        self, x: FloatArray, target: FloatArray, resolved: ResolvedLags, epsilon: FloatArray
+        self, points: FloatArray, target: FloatArray, epsilon: FloatArray, k: int
     ) -> tuple[FloatArray, FloatArray]:
         """γ_k = margin · γ*(ε_k) (or at a smaller ε where γ*(ε_k) = 0), and γ*(ε_k).
 
         Where γ*(ε_k) = 0 the fallback is γ*(f ε_k) at the smallest f of ``_FALLBACK_FRACTIONS``
         for which it is finite and positive (identical regressors can make it infinite below ε_k).
         """
-        weights = _term_weights(self.scaling, self.input_weight, x, resolved)
-        points = np.ascontiguousarray(x * weights)
         grid = np.vstack([f * epsilon for f in (*_FALLBACK_FRACTIONS, 1.0)])
-        star = _gamma_star(points, np.ascontiguousarray(target), grid, self.progress)
+        star = _gamma_star(points, target, grid, self.progress)
         usable = np.where(np.isfinite(star[:-1]) & (star[:-1] > 0), star[:-1], np.nan)
         first = np.argmax(~np.isnan(usable), axis=0)
         fallback = usable[first, np.arange(usable.shape[1])]
@@ -483,8 +481,7 @@ class MultiStepSetMembership(NarxModel):
         if flat.size:
             c = int(flat[0])
             raise ValueError(
-                f"output {self.output_names_[c]!r}, horizon"
-                f" {resolved.max_lag - self.lags_.max_lag + 1}: γ*(ε) = 0 at epsilon ="
+                f"output {self.output_names_[c]!r}, horizon {k}: γ*(ε) = 0 at epsilon ="
                 f" {epsilon[c]:.6g} (a constant fits every training target to within ±ε) and no"
                 " ε between ε/2 and ε gives a finite positive γ*, so no Lipschitz constant can"
                 " be learned; give a smaller epsilon"
