@@ -266,12 +266,9 @@ def check_duplicates(tree: SMTree, epsilon: FloatArray, output_names: Sequence[s
     ValueError
         For the first output whose widest spread exceeds ``2 ε``.
     """
-    points, targets = tree.points, tree.targets
-    if points.shape[0] < 2:
+    if tree.points.shape[0] < 2:
         return
-    hashes = _row_hashes(points.view(np.uint64))
-    order = np.argsort(hashes, kind="stable")
-    spread, pair = _widest_duplicates(points, targets, order, hashes)
+    spread, pair = _duplicates(tree.points, tree.targets)
     for c, name in enumerate(output_names):
         if spread[c] > 2.0 * epsilon[c]:
             i, j = sorted(int(tree.perm[p]) for p in pair[c])
@@ -294,9 +291,17 @@ def duplicate_spread(points: FloatArray, targets: FloatArray) -> FloatArray:
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     if points.shape[0] < 2:
         return np.zeros(targets.shape[1])
+    return np.asarray(_duplicates(points, targets)[0], dtype=np.float64)
+
+
+def _duplicates(points: FloatArray, targets: FloatArray) -> tuple[FloatArray, IntArray]:
+    """Per output, the widest target spread among identical rows and the pair of rows holding it.
+
+    Rows are grouped by a hash of their values and compared exactly within a group.
+    """
     hashes = _row_hashes(points.view(np.uint64))
     order = np.argsort(hashes, kind="stable")
-    return np.asarray(_widest_duplicates(points, targets, order, hashes)[0], dtype=np.float64)
+    return _widest_duplicates(points, targets, order, hashes)
 
 
 # ====================================================================================== prior
