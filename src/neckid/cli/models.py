@@ -247,21 +247,22 @@ def _print_horizons(model: Any, data: Any) -> None:
     band of ``predict_ahead`` (its mean width and the share of the measured samples it holds),
     ε_k, and the smallest ε_k that would hold every sample (γ_k kept).
     """
-    if not (hasattr(model, "horizons_") and hasattr(model, "invalidation")):
+    if not hasattr(model, "horizons_"):
         return
     from neckid.metrics import coverage, mean_width
 
     named = sorted({1, int(model.horizon), *(int(k) for k in model.horizons or ())})
-    report = model.invalidation(data)
     rows: list[dict[str, Any]] = []
     for k in named:
-        if k not in report:
+        i = model.horizons_.tolist().index(k)
+        predictor = model.estimators_[i]  # only the named horizons, not all of invalidation()'s
+        if data.n_samples <= predictor.lags_.max_lag:
             continue
         ahead = model.predict_ahead(data, steps=k)
         skip = ahead.n_initial
         widths = mean_width(ahead.lower, ahead.upper, skip=skip)
         held = coverage(data.y, ahead.lower, ahead.upper, skip=skip)
-        i = model.horizons_.tolist().index(k)
+        needed = predictor.invalidation(data).smallest_epsilon
         for j, name in enumerate(data.output_names):
             unit = data.output_units[j] or "-"
             rows.append(
@@ -272,7 +273,7 @@ def _print_horizons(model: Any, data: Any) -> None:
                     f"mean width [{unit}]": float(widths[j]),
                     "holds [%]": float(100 * held[j]),
                     f"eps_k [{unit}]": float(model.epsilon_[i, j]),
-                    f"eps_k to hold all, gamma kept [{unit}]": float(report[k].smallest_epsilon[j]),
+                    f"eps_k to hold all, gamma kept [{unit}]": float(needed[j]),
                 }
             )
     if rows:
