@@ -264,6 +264,7 @@ def test_free_run_chains_the_predictors_from_its_own_outputs(
 ) -> None:
     result = model.simulate(test_log)
     assert result.kind == "simulation" and result.extras["band"] == "chained"
+    assert result.extras["steps"][:7].tolist() == [0, 1, 2, 3, 1, 2, 3]  # horizon of each row
     # The first block starts from the measured initial outputs: the direct predictions.
     for k in (1, 2, 3):
         direct = model.predict_ahead(test_log, steps=k)

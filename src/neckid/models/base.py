@@ -607,6 +607,23 @@ def _free_run(
     return y
 
 
+def stepped_run(
+    simulator: Any, u: FloatArray, y0: FloatArray, m: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Free run by a simulator with ``step_bounds``: ``(y, lower, upper)`` from the initial rows.
+
+    The simulator is reset on the first ``m`` rows of ``y0`` and ``u``; the bounds of those rows
+    are NaN. Overflow is not reported here (the caller's result checks for divergence).
+    """
+    y = np.array(y0, dtype=np.float64)
+    lower, upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+    simulator.reset(y0=y[:m] if m else None, u0=u[:m] if m else None)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for t in range(m, y.shape[0]):
+            y[t], lower[t], upper[t] = simulator.step_bounds(u[t])
+    return y, lower, upper
+
+
 def history_rows(value: ArrayLike | None, m: int, width: int, argument: str) -> FloatArray:
     """A simulator's initial history: ``(m, width)`` rows, oldest first.
 

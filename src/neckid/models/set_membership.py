@@ -20,7 +20,13 @@ from neckid.data import IOData, as_experiments
 from neckid.models._sm_kernels import SMTree, free_run
 from neckid.models._sm_local import check_constants, learn_constants, local_bounds
 from neckid.models.arx import least_squares
-from neckid.models.base import ModelResult, NarxModel, NarxSimulator, check_is_fitted
+from neckid.models.base import (
+    ModelResult,
+    NarxModel,
+    NarxSimulator,
+    check_is_fitted,
+    stepped_run,
+)
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.sm_prior import (
     GammaCurve,
@@ -555,24 +561,14 @@ class SetMembership(NarxModel):
         data = self._with_conditions(data)
         y0 = self._initial_outputs(data, initial)
         if self.point_gamma_ is not None:
-            return self._simulate_stepping(data, y0)
+            # Local constants: no compiled loop; the simulator steps the same bounds.
+            y, lower, upper = stepped_run(self.simulator(), data.u, y0, self.lags_.max_lag)
+            return self._result("simulation", data, y, lower, upper)
         r = self.lags_
         y, lower, upper = free_run(
             self._tree, data.u, y0, r.source, r.channel, r.lag, r.max_lag, self.weights_,
             self.coef_, self.intercept_, self.epsilon_, self.gamma_,
         )  # fmt: skip
-        return self._result("simulation", data, y, lower, upper)
-
-    def _simulate_stepping(self, data: IOData, y0: FloatArray) -> ModelResult:
-        """Free run by the simulator, one step at a time (local constants: no compiled loop)."""
-        m = self.lags_.max_lag
-        y = np.array(y0, dtype=np.float64)
-        lower, upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
-        simulator = self.simulator()
-        simulator.reset(y0=y[:m] if m else None, u0=data.u[:m] if m else None)
-        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported by _result
-            for t in range(m, y.shape[0]):
-                y[t], lower[t], upper[t] = simulator.step_bounds(data.u[t])
         return self._result("simulation", data, y, lower, upper)
 
     def simulator(self) -> SetMembershipSimulator:

@@ -39,6 +39,7 @@ from neckid.models.base import (
     NarxModel,
     NarxSimulator,
     check_is_fitted,
+    stepped_run,
 )
 from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.set_membership import (
@@ -726,14 +727,9 @@ class MultiStepSetMembership(NarxModel):
         data = self._with_conditions(data)
         y = self._initial_outputs(data, initial)
         m = self.max_lag_
-        simulator = self.simulator()
-        simulator.reset(y0=y[:m] if m else None, u0=data.u[:m] if m else None)
-        lower, upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+        y, lower, upper = stepped_run(self.simulator(), data.u, y, m)
         steps = np.zeros(data.n_samples, dtype=np.int64)
-        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            for t in range(m, data.n_samples):
-                y[t], lower[t], upper[t] = simulator.step_bounds(data.u[t])
-                steps[t] = simulator.steps_since_anchor or int(self.horizon)
+        steps[m:] = (np.arange(m, data.n_samples) - m) % int(self.horizon) + 1
         return self._result(
             "simulation", data, y, lower, upper, {"band": "chained", "steps": steps}
         )
