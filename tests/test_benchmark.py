@@ -418,8 +418,72 @@ def test_cli_lists_registry_names_and_maps_deprecated_ones(data_dir, tmp_path):
 
 def test_the_default_methods_leave_out_only_the_opt_in_ones():
     from neckid.experiments.benchmark.runner import _method_names
-    from neckid.experiments.benchmark.settings import DEFAULT_METHODS, OPT_IN_METHODS
+    from neckid.experiments.benchmark.settings import (
+        DEFAULT_METHODS,
+        OPT_IN_METHODS,
+        PEER_METHODS,
+    )
 
-    assert set(DEFAULT_METHODS) == set(BENCHMARK_METHODS) - OPT_IN_METHODS
+    assert set(DEFAULT_METHODS) == (set(BENCHMARK_METHODS) - OPT_IN_METHODS) | set(PEER_METHODS)
     assert "sm-parallel-poly" not in _method_names(None) and "poly" in _method_names(None)
     assert _method_names(["sm-parallel-poly"]) == ["sm-parallel-poly"]
+
+
+# ---------------------------------------------------------------------------- the peer
+def test_a_peer_that_is_not_installed_gives_rows_that_say_so(data_dir, monkeypatch):
+    from neckid.experiments.benchmark import peers
+
+    real = peers.importlib.util.find_spec
+    monkeypatch.setattr(
+        peers.importlib.util, "find_spec", lambda name: None if name == "sysidentpy" else real(name)
+    )
+    report = run_benchmark(
+        data_dir, methods=["arx", "sysidentpy-frols"], quick=True, errors="raise"
+    )
+    table = report.table
+    peer = table[table["method"] == "sysidentpy-frols"]
+    # The public data set only (the soft neck has two inputs), one row per test record.
+    assert list(peer["benchmark"]) == ["cascaded_tanks"]
+    assert peer["note"].iloc[0] == (
+        'skipped: SysIdentPy is not installed (pip install "neckid[peers]")'
+    )
+    assert peer["rmse"].isna().all()
+    assert report.details["benchmarks"]["cascaded_tanks"]["methods"]["sysidentpy-frols"] == {
+        "skipped": peer["note"].iloc[0]
+    }
+    assert np.isfinite(table[table["method"] == "arx"]["rmse"]).all()
+    with pytest.raises(ImportError, match="SysIdentPy is not installed"):
+        peers.FrolsPeer(Lags.arx(1, 1)).fit(IOData(np.arange(9.0), np.arange(9.0), ts=1.0))
+
+
+def test_the_peer_takes_single_input_single_output_data_only():
+    from neckid.experiments.benchmark.peers import FrolsPeer
+
+    two_inputs = IOData(np.ones((20, 2)), np.arange(20.0), ts=1.0)
+    with pytest.raises(ValueError, match="single-input single-output data; the data have 2 inputs"):
+        FrolsPeer(Lags.arx(1, 1)).fit(two_inputs)
+    with pytest.raises(ValueError, match="FROLS peer fits one training record; got 2"):
+        FrolsPeer(Lags.arx(1, 1)).fit([two_inputs, two_inputs])
+
+
+def test_the_peer_identifies_a_polynomial_narx_with_an_input_at_lag_zero():
+    pytest.importorskip(
+        "sysidentpy", reason='the peer needs SysIdentPy (pip install "neckid[peers]")'
+    )
+    from neckid.experiments.benchmark.peers import FrolsPeer
+
+    def system(u: np.ndarray) -> np.ndarray:
+        y = np.zeros(u.size)
+        for t in range(1, u.size):
+            y[t] = 0.6 * y[t - 1] + 0.8 * u[t] - 0.3 * u[t - 1] + 0.2 * y[t - 1] * u[t - 1] ** 2
+        return y
+
+    rng = np.random.default_rng(0)
+    u_train, u_test = rng.uniform(-1, 1, 2000), rng.uniform(-1, 1, 500)
+    peer = FrolsPeer(Lags(outputs=[1], inputs=[0, 1]), n_info_values=10)
+    peer.fit(IOData(u_train, system(u_train), ts=1.0))
+    test = IOData(u_test, system(u_test), ts=1.0)
+    simulated = peer.simulate(test).y[:, 0]
+    # The input at lag 0 reaches SysIdentPy as its x(t-1): the free run is the system's.
+    assert peer.max_lag_ == 2
+    np.testing.assert_allclose(simulated[2:], test.y[2:, 0], atol=1e-8)

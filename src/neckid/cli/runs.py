@@ -241,9 +241,10 @@ def benchmark(
     With --scheduler, the hyper-parameter candidates are fitted on the workers of a Dask cluster
     (the final fit and the test simulations stay here); the table is that of a local run.
     """
-    from neckid.experiments.benchmark import DEFAULT_METHODS, run_benchmark
+    from neckid.experiments.benchmark import DEFAULT_METHODS, PEER_METHODS, run_benchmark
 
-    names = [_method_name(n) for n in dict.fromkeys(_split(methods) or DEFAULT_METHODS)]
+    asked = dict.fromkeys(_split(methods) or DEFAULT_METHODS)
+    names = [n if n in PEER_METHODS else _method_name(n) for n in asked]
     # Long work reports progress: one line per data set and method, in a terminal or a log file.
     logging.getLogger("neckid.experiments.benchmark").setLevel(logging.INFO)
     with _on_scheduler(scheduler):

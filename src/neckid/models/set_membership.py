@@ -28,6 +28,7 @@ from neckid.models.base import (
     stepped_run,
 )
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
+from neckid.models.sm_metric import learnt_weights
 from neckid.models.sm_prior import (
     GammaCurve,
     ProgressOption,
@@ -105,7 +106,7 @@ def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
     if isinstance(scaling, str):
         if scaling == "none":
             return np.ones(n_terms)
-        if scaling == "std":
+        if scaling in ("std", "gradient"):  # "gradient" multiplies these (_learnt_weights)
             # column by column: a temporary of one column, not of the whole matrix
             std = np.array([x[:, k].std() for k in range(n_terms)])
             constant = std == 0
@@ -117,7 +118,9 @@ def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
                     stacklevel=3,
                 )
             return np.where(constant, 1.0, 1.0 / np.where(constant, 1.0, std))
-        raise ValueError(f"scaling must be 'std', 'none' or an array of weights; got {scaling!r}")
+        raise ValueError(
+            f"scaling must be 'std', 'gradient', 'none' or an array of weights; got {scaling!r}"
+        )
     try:
         weights = np.asarray(scaling, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -162,9 +165,11 @@ class SetMembership(NarxModel):
         ``gamma_margin * γ*(ε)``. A γ below γ*(ε) is refused (the prior would be invalid).
     gamma_margin : float, default 1.1
         Ratio γ / γ*(ε) >= 1 when γ is not given (see :data:`DEFAULT_GAMMA_MARGIN`).
-    scaling : {"std", "none"} or array_like of shape (n_terms,), default "std"
+    scaling : {"std", "gradient", "none"} or array_like of shape (n_terms,), default "std"
         Weights of the regressor components in the distance: ``1 / std`` of each component over
-        the training regressors, all ones, or user weights (> 0).
+        the training regressors; that times each component's relative slope of what SM
+        interpolates (``"gradient"``, a metric learnt from the training data, see
+        :mod:`neckid.models.sm_metric`); all ones; or user weights (> 0).
     input_weight : float, default 1.0
         Factor (> 0) on the weight of every *input* term, on top of ``scaling``. Below 1 the
         distance, and so the SM part, depends mostly on the past outputs: with a linear part, a
@@ -320,7 +325,7 @@ class SetMembership(NarxModel):
         "epsilon": [None, Interval("real", 0, None), "array-like"],
         "gamma": [None, Interval("real", 0, None, closed="neither"), "array-like"],
         "gamma_margin": [Interval("real", 1, None)],
-        "scaling": [Options(("std", "none")), "array-like"],
+        "scaling": [Options(("std", "gradient", "none")), "array-like"],
         "linear_part": ["boolean"],
         "epsilons": [None, "array-like"],
         "progress": [None, "boolean", "callable"],
@@ -336,7 +341,7 @@ class SetMembership(NarxModel):
         epsilon: float | ArrayLike | None = None,
         gamma: float | ArrayLike | None = None,
         gamma_margin: float = DEFAULT_GAMMA_MARGIN,
-        scaling: Literal["std", "none"] | ArrayLike = "std",
+        scaling: Literal["std", "gradient", "none"] | ArrayLike = "std",
         linear_part: bool = False,
         epsilons: ArrayLike | None = None,
         progress: ProgressOption = None,
@@ -390,6 +395,7 @@ class SetMembership(NarxModel):
             coef, intercept = least_squares(x, y, fit_intercept=True)
         else:
             coef, intercept = np.zeros((n_terms, n_out)), np.zeros(n_out)
+        weights = learnt_weights(self.scaling, weights, x, y - (x @ coef + intercept))
         # From here on x is the tree's points: scaled and reordered in place (one copy).
         tree, outputs = training_tree(x, y, weights, coef, intercept, bool(self.linear_part))
         del x
@@ -822,7 +828,7 @@ def gamma_curve(
     data: IOData | Sequence[IOData],
     lags: Lags,
     epsilons: ArrayLike | None = None,
-    scaling: Literal["std", "none"] | ArrayLike = "std",
+    scaling: Literal["std", "gradient", "none"] | ArrayLike = "std",
     linear_part: bool = False,
     progress: ProgressOption = None,
     input_weight: float = 1.0,
@@ -838,7 +844,7 @@ def gamma_curve(
     epsilons : array_like, shape (n_eps,) or (n_eps, n_outputs), optional
         The ε grid (>= 0). Default: 0 and 47 geometrically spaced values in
         ``[1e-4, 0.25] * ptp(ỹ)`` per output.
-    scaling : {"std", "none"} or array_like, default "std"
+    scaling : {"std", "gradient", "none"} or array_like, default "std"
         As in :class:`SetMembership`.
     linear_part : bool, default False
         Compute the curve of the residual of a least-squares linear ARX (as the estimator does).
@@ -886,6 +892,7 @@ def gamma_curve(
     if linear_part:
         coef, intercept = least_squares(x, y, fit_intercept=True)
         y = y - (x @ coef + intercept)
+    weights = learnt_weights(scaling, weights, x, y)
     grid = _epsilon_grid(epsilons, y)
     points = np.ascontiguousarray(x * weights)
     values = _gamma_star(points, np.ascontiguousarray(y), grid, progress)

@@ -27,7 +27,10 @@ The package reads as the benchmark is built:
   grids, as tables; every candidate is made by the method registry;
 - :mod:`~neckid.experiments.benchmark.runner`: selection, fit, free run, :class:`BenchmarkReport`;
 - :mod:`~neckid.experiments.benchmark.published`: the published figures, read from
-  ``published.json`` (package data) with their sources.
+  ``published.json`` (package data) with their sources;
+- :mod:`~neckid.experiments.benchmark.peers`: another toolkit's model on the same split and
+  selection rule (SysIdentPy's FROLS, ``pip install "neckid[peers]"``; without it, a row that
+  says it was skipped).
 
 Examples
 --------
@@ -61,6 +64,7 @@ from neckid.experiments.benchmark.settings import (
     CROSS_RUN_BENCHMARKS,
     DEFAULT_METHODS,
     LAG_GRIDS,
+    PEER_METHODS,
     SELECTION_FRACTION,
     candidates,
 )
@@ -71,6 +75,7 @@ __all__ = [
     "CROSS_RUN_BENCHMARKS",
     "DEFAULT_METHODS",
     "LAG_GRIDS",
+    "PEER_METHODS",
     "PROTOCOLS",
     "SELECTION_FRACTION",
     "SOFTNECK_CROSS_RUN",

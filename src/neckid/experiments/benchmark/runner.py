@@ -31,10 +31,12 @@ from neckid._parallel import check_backend
 from neckid.data import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
+from neckid.experiments.benchmark.peers import peer_candidates, peer_unavailable
 from neckid.experiments.benchmark.published import published_frame
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
     DEFAULT_METHODS,
+    PEER_METHODS,
     SELECTION_FOLDS,
     SELECTION_FRACTION,
     Candidate,
@@ -302,7 +304,10 @@ def _run_method(
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Select, fit and simulate one method on one data set; return table rows and details."""
     start = time.perf_counter()
-    options = candidates(method, bench.name, bench.train, quick=quick, seed=seed)
+    if method in PEER_METHODS:
+        options = peer_candidates(method, bench.name, quick)
+    else:
+        options = candidates(method, bench.name, bench.train, quick=quick, seed=seed)
     (settings, estimator), scores = _select(options, bench.train, bench.n_initial, sweep)
     model = clone(estimator).fit(bench.train)
     train_time = time.perf_counter() - start
@@ -374,10 +379,11 @@ def _method_names(names: str | Sequence[str] | None) -> list[str]:
     if names is None:
         return list(DEFAULT_METHODS)
     asked = [names] if isinstance(names, str) else list(names)
-    unknown = [m for m in asked if m not in BENCHMARK_METHODS and m not in DEPRECATED_NAMES]
+    known = (*BENCHMARK_METHODS, *PEER_METHODS)
+    unknown = [m for m in asked if m not in known and m not in DEPRECATED_NAMES]
     if unknown:
-        raise ValueError(f"methods must be among {list(BENCHMARK_METHODS)}; got {unknown}")
-    return [get_method(m).name for m in asked]
+        raise ValueError(f"methods must be among {list(known)}; got {unknown}")
+    return [m if m in PEER_METHODS else get_method(m).name for m in asked]
 
 
 def run_benchmark(
@@ -521,6 +527,11 @@ def _run(
         bench_rows: list[dict[str, Any]] = []
         for method in names:
             if not runs_on(method, name):
+                continue
+            skipped = peer_unavailable(method) if method in PEER_METHODS else None
+            if skipped is not None:  # a peer that is not installed: say so in its rows
+                bench_rows.extend(_row(bench, test, method, note=skipped) for test in bench.tests)
+                bench_details["methods"][method] = {"skipped": skipped}
                 continue
             logger.info("benchmark %s: %s (%d training samples)", name, method, n_train)
             try:

@@ -36,7 +36,9 @@ __all__ = [
     "NEURAL_PARAMS",
     "ONLY_ON",
     "OPT_IN_METHODS",
+    "PEER_METHODS",
     "POLYNOMIAL_DEGREE",
+    "PUBLIC_BENCHMARKS",
     "SCHEDULED_LAGS",
     "SCHEDULED_PARAMS",
     "SELECTION_FOLDS",
@@ -184,6 +186,7 @@ ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType(
         "scheduled": frozenset({"softneck"}) | CROSS_RUN_BENCHMARKS,
         "poly": PUBLIC_BENCHMARKS,
         "sm-parallel-poly": PUBLIC_BENCHMARKS,
+        "sysidentpy-frols": PUBLIC_BENCHMARKS,
     }
 )
 
@@ -396,8 +399,16 @@ BENCHMARK_METHODS: tuple[str, ...] = tuple(m for m in methods() if m in CANDIDAT
 #: did not improve on the polynomial alone (``docs/benchmarks.md``).
 OPT_IN_METHODS = frozenset({"sm-parallel-poly"})
 
-#: What a benchmark runs when no methods are named.
-DEFAULT_METHODS: tuple[str, ...] = tuple(m for m in BENCHMARK_METHODS if m not in OPT_IN_METHODS)
+#: Other toolkits' models, run beside neckid's on the public data sets with the same lag grid and
+#: selection rule (:mod:`neckid.experiments.benchmark.peers`; ``pip install "neckid[peers]"``).
+PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols",)
+
+#: What a benchmark runs when no methods are named (a peer that is not installed gives a row
+#: that says so).
+DEFAULT_METHODS: tuple[str, ...] = (
+    *(m for m in BENCHMARK_METHODS if m not in OPT_IN_METHODS),
+    *PEER_METHODS,
+)
 
 
 def candidates(
