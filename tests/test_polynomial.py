@@ -191,3 +191,25 @@ def test_outside_the_training_range_only_the_linear_terms_grow() -> None:
         )  # fmt: skip
     wild = IOData(np.full(400, 50.0), np.zeros(400), ts=0.01)  # 50x the training input
     assert np.all(np.isfinite(model.simulate(wild).y))
+
+
+def test_a_second_fit_on_the_same_data_and_parameters_is_taken_from_the_cache(monkeypatch) -> None:
+    data, _ = _cubic_system(400, 5, output_noise=0.01)
+    first = PolynomialNARX(Lags.arx(2, 2, 1), degree=2).fit(data)
+
+    def refit(*args, **kwargs):
+        raise AssertionError("the simulation fit ran again")
+
+    monkeypatch.setattr(PolynomialNARX, "_fit_simulation", refit)
+    again = PolynomialNARX(Lags.arx(2, 2, 1), degree=2).fit(data)
+    np.testing.assert_array_equal(again.coef_, first.coef_)
+    assert again.coef_ is not first.coef_  # a copy: updating one leaves the other
+    assert again.fit_report_ == first.fit_report_
+    # Other data, or other parameters, fit again.
+    for model, other in (
+        (PolynomialNARX(Lags.arx(2, 2, 1), degree=2), data[:300]),
+        (PolynomialNARX(Lags.arx(2, 2, 1), degree=2, hold_margin=0.2), data),
+        (PolynomialNARX(Lags.arx(2, 2, 1), degree=2), data.with_conditions(payload=0.2)),
+    ):
+        with pytest.raises(AssertionError, match="ran again"):
+            model.fit(other)

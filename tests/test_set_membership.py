@@ -300,7 +300,7 @@ def _duplicated() -> IOData:
         (
             {"scaling": "minmax"},
             ValueError,
-            "scaling must be one of 'std', 'none' or an array of finite numbers; got 'minmax'",
+            "scaling must be one of 'std', 'gradient', 'none' or an array of finite numbers; got 'minmax'",
         ),
         ({"scaling": [1.0]}, ValueError, "one value per regressor term"),
         ({"scaling": [1.0, -1.0]}, ValueError, "finite and > 0"),

@@ -32,7 +32,10 @@ Lecture Notes in Mathematics 630, 105-116, 1978.
 
 from __future__ import annotations
 
+import copy
+import hashlib
 import logging
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -63,6 +66,25 @@ RANK_TOLERANCE = 1e-7
 #: A simulated output further than this many output spans from the training range is clipped
 #: while fitting (a diverging trial step shows as a large, finite error).
 CLIP_SPANS = 10.0
+
+
+#: Fitted polynomials :meth:`PolynomialNARX.fit` remembers (the most recently used).
+FIT_CACHE_SIZE = 8
+_FIT_CACHE: OrderedDict[bytes, dict[str, Any]] = OrderedDict()
+
+
+def _fit_key(model: PolynomialNARX, data: IOData | Sequence[IOData]) -> bytes:
+    """A digest of the model's parameters and the training data's values, names and conditions."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(repr(sorted(model.get_params().items())).encode())
+    for record in as_experiments(data, "data"):
+        h.update(repr((record.ts, record.input_names, record.output_names)).encode())
+        h.update(repr(sorted(record.conditions.items())).encode())
+        for array in (record.u, record.y):
+            array = np.ascontiguousarray(array, dtype=np.float64)
+            h.update(np.asarray(array.shape, dtype=np.int64).tobytes())
+            h.update(array.data)
+    return h.digest()
 
 
 class PolynomialNARX(NarxModel):
@@ -164,13 +186,29 @@ class PolynomialNARX(NarxModel):
 
     # ------------------------------------------------------------------ fitting
     def fit(self, data: IOData | Sequence[IOData]) -> PolynomialNARX:
-        """Least squares on the one-step error, then (``fit_for="simulation"``) on the free run."""
+        """Least squares on the one-step error, then (``fit_for="simulation"``) on the free run.
+
+        The simulation fit is deterministic and costs seconds to minutes on a large record; the
+        last :data:`FIT_CACHE_SIZE` results are remembered per parameters and training data
+        (a digest of their values), so a selection that refits the same polynomial on the same
+        data (the candidates of ``ParallelSetMembership(parallel_degree=3)``) gets a copy of it.
+        """
+        key = _fit_key(self, data)
+        cached = _FIT_CACHE.get(key)
+        if cached is not None:
+            _FIT_CACHE.move_to_end(key)
+            self.__dict__.update(copy.deepcopy(cached))
+            logger.debug("PolynomialNARX fit taken from the cache of earlier fits")
+            return self
         x, y = self._prepare_fit(data)
         self._fit_regression(x, y)
         self._mark_fitted()
         if self.fit_for == "simulation":
             experiments = as_experiments(self._with_conditions(data, fitting=True))
             self._fit_simulation(experiments, int(self.max_iter), self._linear_start(x, y))
+        _FIT_CACHE[key] = copy.deepcopy(self.__dict__)
+        while len(_FIT_CACHE) > FIT_CACHE_SIZE:
+            _FIT_CACHE.popitem(last=False)
         return self
 
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:

@@ -46,9 +46,9 @@ MAX_ROWS = 20_000
 
 
 def _powers(n_terms: int, degree: int) -> NDArray[np.int64]:
-    """Exponents of every monomial of degree 1..``degree`` in ``n_terms`` variables."""
+    """Exponents of every monomial of degree 0..``degree`` in ``n_terms`` variables."""
     rows = []
-    for d in range(1, degree + 1):
+    for d in range(degree + 1):
         for combo in itertools.combinations_with_replacement(range(n_terms), d):
             rows.append(np.bincount(combo, minlength=n_terms))
     return np.array(rows, dtype=np.int64)
