@@ -208,3 +208,30 @@ def test_a_log_outside_the_training_range_warns_once_naming_the_parallel_model()
         model.simulate(IOData(3 * u, 3 * y, ts=1.0))
     messages = [str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)]
     assert len(messages) == 1 and "ParallelSetMembership" in messages[0]
+
+
+def test_projection_keeps_the_parallel_output_inside_the_bounds_and_clips_it_outside(
+    records, tmp_path
+):
+    train, test = records
+    central = ParallelSetMembership(Lags.arx(1, 1, 1), linear_lags=[0]).fit(train)
+    projected = clone(central).set_params(estimate="projection").fit(train)
+    result, bounds = projected.simulate(test), central.simulate(test)
+    m = projected.max_lag_
+    # Same SM map, same bounds; only the estimate between them differs.
+    np.testing.assert_array_equal(result.lower, bounds.lower)
+    np.testing.assert_array_equal(result.upper, bounds.upper)
+    linear = projected.linear_.simulate(test).y[m:, 0]
+    low, high, y = result.lower[m:, 0], result.upper[m:, 0], result.y[m:, 0]
+    inside = (linear >= low) & (linear <= high)
+    assert 0 < inside.sum() < inside.size  # the tanks' ARX is wrong at the ends of its range
+    np.testing.assert_array_equal(y[inside], linear[inside])
+    np.testing.assert_array_equal(y[~inside], np.where(linear < low, low, high)[~inside])
+    # The step-by-step simulator and a model file give the same run.
+    sim = projected.simulator()
+    sim.reset(test.y[:m], test.u[:m])
+    steps = np.array([sim.step(u) for u in test.u[m:]])[:, 0]
+    np.testing.assert_allclose(steps, y, rtol=0, atol=1e-12)
+    loaded = load_model(projected.save(tmp_path / "projected"))
+    assert loaded.estimate == "projection"
+    np.testing.assert_array_equal(loaded.simulate(test).y, result.y)

@@ -19,6 +19,14 @@ holds) are bounds on the simulation error, and errors of the nonlinear part are 
 In Narendra & Parthasarathy's terms the NARX SM models are series-parallel; this one is parallel.
 The structure is a Wiener model with a dynamic, nonparametric SM output map.
 
+The estimate at each step is SM's central one, ``(f_u + f_l) / 2`` (optimal in the worst case
+over the feasible functions), or, with ``estimate="projection"``, the parallel model's own output
+moved into ``[f_l, f_u]`` when it leaves them: the feasible function closest to the parametric
+model, which it leaves unchanged wherever the data and the prior do not contradict it. That is
+the form for a good parametric model (a polynomial fitted for simulation): the central estimate
+would replace its output by an interpolation of noisy data, the projection only corrects it where
+it is shown wrong.
+
 References
 ----------
 M. Milanese, C. Novara, "Set Membership identification of nonlinear systems", Automatica 40(6),
@@ -28,6 +36,9 @@ networks", IEEE Trans. Neural Networks 1(1), 4-27, 1990 (series-parallel and par
 M. Lauricella, L. Fagiano, "Set membership identification of linear systems with guaranteed
 simulation accuracy", IEEE Trans. Automatic Control 65(12), 5189-5204, 2020 (why simulation,
 not one-step, bounds matter).
+M. Milanese, C. Novara, "Unified Set Membership theory for identification, prediction and
+filtering of nonlinear systems", Automatica 47(10), 2141-2151, 2011 (every function of the
+feasible set is a valid estimate; the central one is worst-case optimal).
 """
 
 from __future__ import annotations
@@ -59,7 +70,7 @@ from neckid.models.set_membership import (
 )
 from neckid.models.sm_update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import check_lag_list
+from neckid.validation import Options, check_lag_list
 
 __all__ = ["ParallelSetMembership", "ParallelSetMembershipSimulator"]
 
@@ -103,6 +114,10 @@ class ParallelSetMembership(Estimator):
     lipschitz, local_neighbours
         One Lipschitz constant for the SM map, or one per training point (as for
         :class:`~neckid.SetMembership`).
+    estimate : {"central", "projection"}, default "central"
+        The output at each step: SM's central estimate ``(f_u + f_l) / 2``, or the parallel
+        model's output clipped into ``[f_l, f_u]`` (see the module docstring). The bounds are
+        the same either way.
 
     Attributes
     ----------
@@ -174,6 +189,7 @@ class ParallelSetMembership(Estimator):
         "input_lags": ["lag-list"],
         "parallel_degree": PolynomialNARX._parameter_constraints["degree"],
         "parallel_fit": PolynomialNARX._parameter_constraints["fit_for"],
+        "estimate": [Options({"central", "projection"})],
         **{k: SetMembership._parameter_constraints[k] for k in _SM_PARAMETERS},
     }
     predicts_by_simulation = True
@@ -196,6 +212,7 @@ class ParallelSetMembership(Estimator):
         progress: Any = None,
         lipschitz: str = "global",
         local_neighbours: int = 10,
+        estimate: str = "central",
     ) -> None:
         self.lags = lags
         self.linear_lags = linear_lags
@@ -212,6 +229,7 @@ class ParallelSetMembership(Estimator):
         self.progress = progress
         self.lipschitz = lipschitz
         self.local_neighbours = local_neighbours
+        self.estimate = estimate
 
     # ------------------------------------------------------------------ fit
     def _sm_lags(self, input_names: Sequence[str], output_names: Sequence[str]) -> Lags:
@@ -339,14 +357,26 @@ class ParallelSetMembership(Estimator):
             t0=data.t0,
             name=data.name,
         )
-        result = self.sm_.predict(self._linear_run(with_initial, "data"))
+        augmented = self._linear_run(with_initial, "data")
+        result = self.sm_.predict(augmented)
         m = self.max_lag_
         lower = np.full(y.shape, np.nan)
         upper = np.full(y.shape, np.nan)
-        y[m:] = result.y[m:]
         assert result.lower is not None and result.upper is not None
         lower[m:], upper[m:] = result.lower[m:], result.upper[m:]
+        # The simulated outputs of the parallel model are the last inputs of the SM map.
+        y[m:] = self._estimate(
+            result.y[m:], augmented.u[m:, -self.n_outputs_ :], lower[m:], upper[m:]
+        )
         return self._result("simulation", data, y, lower, upper)
+
+    def _estimate(
+        self, central: FloatArray, parallel: FloatArray, lower: FloatArray, upper: FloatArray
+    ) -> FloatArray:
+        """The output: the central estimate, or the parallel model's output clipped to the bounds."""
+        if self.estimate == "projection":
+            return np.minimum(np.maximum(parallel, lower), upper)
+        return central
 
     def predict(self, data: IOData) -> ModelResult:
         """The free run of :meth:`simulate`, with ``kind="simulation"``.
@@ -442,6 +472,7 @@ class ParallelSetMembership(Estimator):
                 "input_lags": list(check_lag_list(self.input_lags, "input_lags")),
                 "parallel_degree": int(self.parallel_degree),
                 "parallel_fit": str(self.parallel_fit),
+                "estimate": str(self.estimate),
             },
             "parallel_class": type(self.linear_).__name__,
             **self._channels_meta(),
@@ -480,7 +511,7 @@ class ParallelSetMembership(Estimator):
 class ParallelSetMembershipSimulator:
     """Step-by-step run of a fitted :class:`ParallelSetMembership`, with each step's bounds.
 
-    ``step(u)`` advances the linear model and returns the SM central estimate; after it,
+    ``step(u)`` advances the linear model and returns the model's estimate; after it,
     :attr:`lower` and :attr:`upper` hold that step's bounds. ``reset(y0, u0)`` sets the initial
     conditions: a single row (repeated) or ``max_lag_`` rows, oldest first, of past outputs and
     inputs; the linear model's simulated output starts equal to the past outputs.
@@ -519,7 +550,8 @@ class ParallelSetMembershipSimulator:
         self._v = self._v[1:]
         self.lower = bounds.lower[0].copy()
         self.upper = bounds.upper[0].copy()
-        return bounds.central[0].copy(), self.lower.copy(), self.upper.copy()
+        y = self._model._estimate(bounds.central[0], y_linear, self.lower, self.upper)
+        return np.array(y, dtype=np.float64), self.lower.copy(), self.upper.copy()
 
     def step(self, u: ArrayLike) -> FloatArray:
         """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y``."""

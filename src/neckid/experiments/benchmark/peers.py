@@ -78,7 +78,7 @@ def _input_ahead(u: FloatArray) -> FloatArray:
     return np.concatenate([u[1:], u[-1:]])[:, None]
 
 
-class FrolsPeer(BaseEstimator):  # type: ignore[misc]
+class FrolsPeer(BaseEstimator):
     """SysIdentPy's FROLS polynomial NARX behind the benchmark's estimator contract.
 
     Parameters

@@ -48,6 +48,7 @@ __all__ = [
     "SM_INPUT_WEIGHTS",
     "SM_PARALLEL_EPSILON_FACTORS",
     "SM_PARALLEL_POLY_EPSILON_FACTORS",
+    "SM_PARALLEL_POLY_ESTIMATES",
     "SM_PARALLEL_POLY_OPTIONS",
     "SM_PARALLEL_POLY_REGRESSORS",
     "SM_PARALLEL_REGRESSORS",
@@ -155,6 +156,11 @@ SM_PARALLEL_POLY_EPSILON_FACTORS: tuple[float | None, ...] = (1.0, 3.0)
 SM_PARALLEL_POLY_OPTIONS: Mapping[str, Any] = MappingProxyType(
     {"scaling": "gradient", "lipschitz": "local"}
 )
+
+#: The estimates tried for SM on the parallel polynomial: the central one, and the polynomial's
+#: output projected into the SM bounds (corrected only where the data and the prior say it is
+#: wrong; ``ParallelSetMembership(estimate=...)``).
+SM_PARALLEL_POLY_ESTIMATES: tuple[str, ...] = ("central", "projection")
 
 #: The neural network of a full run (a quick run takes the registry's ``quick`` settings): 10
 #: networks trained, the 5 with the best free run on the held-out ends of the training records
@@ -362,10 +368,11 @@ def _parallel_polynomial_grid(
             scale = float(np.sqrt(np.mean(np.square(polynomial.fit_report_["rmse"]))))
             factors = SM_PARALLEL_POLY_EPSILON_FACTORS
         degree = method.make(lags, quick=quick).parallel_degree  # the registry's (2 when quick)
-        out += _parallel_candidates(
-            method.make, lags, quick, regressors, factors, scale, f", degree={degree}",
-            SM_PARALLEL_POLY_OPTIONS,
-        )  # fmt: skip
+        for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if quick else SM_PARALLEL_POLY_ESTIMATES:
+            out += _parallel_candidates(
+                method.make, lags, quick, regressors, factors, scale, f", degree={degree}",
+                {**SM_PARALLEL_POLY_OPTIONS, "estimate": estimate},
+            )  # fmt: skip
     return out
 
 
