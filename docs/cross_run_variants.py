@@ -1,0 +1,90 @@
+"""SM parallel across runs of the real neck: the benchmark's grid with other SM distances and estimates.
+
+Run from the repository (about 2-3 min per protocol and variant on 2 cores):
+
+    .venv/bin/python docs/cross_run_variants.py softneck-payload central-std central-grad proj-std proj-grad
+    .venv/bin/python docs/cross_run_variants.py softneck-controller central-grad
+
+For each variant, the candidates of the benchmark's ``sm-parallel`` grid (lags × SM regressor ×
+ε) with the variant's options are ranked by leave-one-run-out free-run RMSE on the training runs
+(the benchmark's rule), the best is refitted on all of them, and the test runs are simulated once.
+Variants: ``central``/``proj`` is the estimate (SM's central one, or the linear model's output
+projected into the SM bounds); ``std``/``grad`` the distance (unit standard deviation per term
+and one γ, or the learnt distance ``scaling="gradient"`` with one constant per training point).
+Prints the chosen candidate, its leave-one-run-out RMSE [deg] and the free-run fit [%] per test
+log.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+from sklearn.base import clone
+
+from neckid.experiments.benchmark import settings
+from neckid.experiments.benchmark.datasets import load_benchmark
+from neckid.experiments.benchmark.runner import _select
+from neckid.metrics import fit_percent
+from neckid.registry import methods
+from neckid.selection import free_run
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+VARIANTS = {
+    "central-std": {},
+    "proj-std": {"estimate": "projection"},
+    "central-grad": {"scaling": "gradient", "lipschitz": "local"},
+    "proj-grad": {"estimate": "projection", "scaling": "gradient", "lipschitz": "local"},
+}
+
+
+def run(protocol: str, variant: str) -> None:
+    """Select, fit and test one variant on one cross-run protocol; print the result."""
+    bench = load_benchmark(protocol, DATA)
+    if bench is None:
+        raise SystemExit(f"{protocol}: the soft-neck staircases are not under {DATA}")
+    make = methods()["sm-parallel"].make
+    started = time.perf_counter()
+    candidates = []
+    for lags in settings.lag_grid(protocol):
+        try:
+            scale = settings.arx_error_scale(lags, bench.train, free_run=True)
+        except ValueError:
+            continue
+        candidates += settings._parallel_candidates(
+            make, lags, False, settings.SM_PARALLEL_REGRESSORS,
+            settings.SM_PARALLEL_EPSILON_FACTORS, scale, "", VARIANTS[variant],
+        )  # fmt: skip
+    (label, estimator), scores = _select(candidates, bench.train, bench.n_initial)
+    model = clone(estimator).fit(bench.train)
+    fits = {}
+    for test, record in bench.tests.items():
+        y, skip = free_run(model, record, bench.n_initial, diverged="keep")
+        fits[Path(test).stem.removesuffix("response")] = float(
+            fit_percent(record.y, y, skip=skip)[0]
+        )
+    best = min(s["holdout_rmse"] for s in scores)
+    print(
+        f"{protocol} {variant}: {len(candidates)} candidates, {time.perf_counter() - started:.0f} s"
+    )
+    print(f"  chosen {label} (leave-one-run-out RMSE {best:.4f} deg)")
+    shown = ", ".join(f"{k} {v:.1f}" for k, v in fits.items())
+    print(f"  fit [%]: {shown}; mean {np.mean(list(fits.values())):.2f}", flush=True)
+
+
+def main() -> None:
+    """Run the variants asked for."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("protocol", choices=sorted(settings.CROSS_RUN_BENCHMARKS))
+    parser.add_argument("variants", nargs="+", choices=sorted(VARIANTS))
+    args = parser.parse_args()
+    warnings.simplefilter("ignore")
+    for variant in args.variants:
+        run(args.protocol, variant)
+
+
+if __name__ == "__main__":
+    main()
