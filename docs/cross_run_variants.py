@@ -4,6 +4,12 @@ Run from the repository (about 2-3 min per protocol and variant on 2 cores):
 
     .venv/bin/python docs/cross_run_variants.py softneck-payload central-std central-grad proj-std proj-grad
     .venv/bin/python docs/cross_run_variants.py softneck-controller central-grad
+    .venv/bin/python docs/cross_run_variants.py adaptive
+
+``adaptive`` runs ``neckid.experiments.adaptive.adaptive_free_run`` (5 s warm-up, the four
+adaptation modes) on the payload split for the ARX the benchmark chooses there and SM parallel on
+it with the learnt distance and local constants (``linear_lags=[0, 1]``, ε by the knee), the
+setting the ``central-grad`` variant chooses.
 
 For each variant, the candidates of the benchmark's ``sm-parallel`` grid (lags × SM regressor ×
 ε) with the variant's options are ranked by leave-one-run-out free-run RMSE on the training runs
@@ -25,6 +31,8 @@ from pathlib import Path
 import numpy as np
 from sklearn.base import clone
 
+from neckid import Lags, LinearARX, ParallelSetMembership
+from neckid.experiments.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.experiments.benchmark import settings
 from neckid.experiments.benchmark.datasets import load_benchmark
 from neckid.experiments.benchmark.runner import _select
@@ -75,13 +83,38 @@ def run(protocol: str, variant: str) -> None:
     print(f"  fit [%]: {shown}; mean {np.mean(list(fits.values())):.2f}", flush=True)
 
 
+def adaptive() -> None:
+    """Adaptive free run of the payload split's ARX and learnt-distance SM parallel; print fits."""
+    bench = load_benchmark("softneck-payload", DATA)
+    if bench is None:
+        raise SystemExit(f"the soft-neck staircases are not under {DATA}")
+    lags = Lags(outputs=[1], inputs=[0], conditions=["payload"])
+    models = {
+        "arx": LinearARX(lags),
+        "sm-parallel, learnt distance": ParallelSetMembership(
+            lags, linear_lags=[0, 1], scaling="gradient", lipschitz="local", progress=False
+        ),
+    }
+    for name, model in models.items():
+        model.fit(bench.train)
+        for adapt in ADAPT_MODES:
+            fits = [
+                float(adaptive_free_run(model, record, 5.0, adapt=adapt).fit[0])
+                for record in bench.tests.values()
+            ]
+            shown = " ".join(f"{f:5.1f}" for f in fits)
+            print(f"{name:30s} {adapt:7s} {shown}  mean {np.mean(fits):.2f}", flush=True)
+
+
 def main() -> None:
     """Run the variants asked for."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("protocol", choices=sorted(settings.CROSS_RUN_BENCHMARKS))
-    parser.add_argument("variants", nargs="+", choices=sorted(VARIANTS))
+    parser.add_argument("protocol", choices=[*sorted(settings.CROSS_RUN_BENCHMARKS), "adaptive"])
+    parser.add_argument("variants", nargs="*", choices=sorted(VARIANTS))
     args = parser.parse_args()
     warnings.simplefilter("ignore")
+    if args.protocol == "adaptive":
+        adaptive()
     for variant in args.variants:
         run(args.protocol, variant)
 
