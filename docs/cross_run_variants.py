@@ -110,8 +110,11 @@ def main() -> None:
     """Run the variants asked for."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("protocol", choices=[*sorted(settings.CROSS_RUN_BENCHMARKS), "adaptive"])
-    parser.add_argument("variants", nargs="*", choices=sorted(VARIANTS))
+    parser.add_argument("variants", nargs="*", help=f"among {sorted(VARIANTS)}")
     args = parser.parse_args()
+    unknown = [v for v in args.variants if v not in VARIANTS]
+    if unknown:
+        parser.error(f"variants must be among {sorted(VARIANTS)}; got {unknown}")
     warnings.simplefilter("ignore")
     if args.protocol == "adaptive":
         adaptive()

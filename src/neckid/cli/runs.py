@@ -210,7 +210,8 @@ def benchmark(
         "--methods",
         help=(
             "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel,"
-            " sm-parallel-poly, nn, scheduled (default all but sm-parallel-poly)."
+            " sm-parallel-poly, nn, scheduled, and the peer sysidentpy-frols (SysIdentPy's"
+            " FROLS; pip install 'neckid[peers]'). Default: all."
         ),
     ),
     only: str = typer.Option(

@@ -412,9 +412,11 @@ def run_benchmark(
         :data:`~neckid.experiments.benchmark.settings.BENCHMARK_METHODS`: ``"arx"``, ``"sm"``,
         ``"sm-linear"``, ``"sm-parallel"``, ``"sm-parallel-poly"``, ``"poly"``, ``"nn"``,
         ``"scheduled"`` (the scheduled model runs on the soft-neck logs only, the polynomial ones
-        on the public benchmarks only: ``ONLY_ON``); default all but
-        ``"sm-parallel-poly"`` (:data:`~neckid.experiments.benchmark.settings.OPT_IN_METHODS`).
-        The spellings of the previous release
+        on the public benchmarks only: ``ONLY_ON``), and the peer ``"sysidentpy-frols"``
+        (:mod:`~neckid.experiments.benchmark.peers`, public benchmarks only; a row that says it
+        was skipped when SysIdentPy is not installed); default all of them
+        (:data:`~neckid.experiments.benchmark.settings.DEFAULT_METHODS`). The spellings of the
+        previous release
         (``"sm_linear"``, ``"sm_parallel"``, ``"neural"``) still work for one release, with a
         ``FutureWarning``.
     benchmarks : sequence of str, optional

@@ -417,10 +417,10 @@ CANDIDATE_GRIDS: Mapping[str, Callable[[str, Training, bool, int], list[Candidat
 #: The registry methods the benchmark can run, in the registry's order.
 BENCHMARK_METHODS: tuple[str, ...] = tuple(m for m in methods() if m in CANDIDATE_GRIDS)
 
-#: Methods run only when asked for by name: SM on a parallel polynomial refits the polynomial
-#: for simulation for every SM candidate (minutes per large data set: 320 s on Silverbox) and
-#: did not improve on the polynomial alone (``docs/benchmarks.md``).
-OPT_IN_METHODS = frozenset({"sm-parallel-poly"})
+#: Methods run only when asked for by name (none at present: SM on a parallel polynomial was one
+#: until its candidates shared one polynomial fit and the projection estimate, see
+#: ``docs/benchmarks.md``).
+OPT_IN_METHODS: frozenset[str] = frozenset()
 
 #: Other toolkits' models, run beside neckid's on the public data sets with the same lag grid and
 #: selection rule (:mod:`neckid.experiments.benchmark.peers`; ``pip install "neckid[peers]"``).
