@@ -106,7 +106,7 @@ def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
     if isinstance(scaling, str):
         if scaling == "none":
             return np.ones(n_terms)
-        if scaling in ("std", "gradient"):  # "gradient" multiplies these (_learnt_weights)
+        if scaling in ("std", "gradient"):  # "gradient": sm_metric.learnt_weights multiplies these
             # column by column: a temporary of one column, not of the whole matrix
             std = np.array([x[:, k].std() for k in range(n_terms)])
             constant = std == 0

@@ -1,7 +1,8 @@
 """Benchmark the identification methods on real data, next to published figures of merit.
 
 :func:`run_benchmark` runs the methods of the registry (:func:`neckid.methods`: ``arx``, ``sm``,
-``sm-linear``, ``sm-parallel``, ``nn`` and, on the soft-neck logs, ``scheduled``) on
+``sm-linear``, ``sm-parallel``, ``nn``, on the public benchmarks ``poly`` and ``sm-parallel-poly``,
+on the soft-neck logs ``scheduled``) and, when installed, the peer ``sysidentpy-frols`` on
 
 - the four public benchmarks of :mod:`neckid.datasets.benchmarks`, with the official protocol of
   each (train on the training record, free-run simulation of every test record, the number of
