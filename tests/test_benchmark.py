@@ -452,6 +452,12 @@ def test_a_peer_that_is_not_installed_gives_rows_that_say_so(data_dir, monkeypat
         "skipped": peer["note"].iloc[0]
     }
     assert np.isfinite(table[table["method"] == "arx"]["rmse"]).all()
+    # The terminal table shows the note as it is (rich markup would eat "[peers]").
+    from rich.console import Console
+
+    console = Console(width=250, record=True)
+    console.print(report.rich_table())
+    assert 'pip install "neckid[peers]"' in console.export_text()
     with pytest.raises(ImportError, match="SysIdentPy is not installed"):
         peers.FrolsPeer(Lags.arx(1, 1)).fit(IOData(np.arange(9.0), np.arange(9.0), ts=1.0))
 

@@ -142,6 +142,7 @@ class BenchmarkReport:
         published figures are in :meth:`published_rich_table`, the wall times and settings in the
         written files.
         """
+        from rich.markup import escape
         from rich.table import Table
 
         table = Table(title="neckid benchmark: free run (RMSE in each data set's unit)")
@@ -160,7 +161,7 @@ class BenchmarkReport:
                 _fmt(row.rmse, f" {row.rmse_unit!s}" if row.rmse_unit else ""),
                 _fmt(row.fit_percent, digits=3),
                 _fmt(row.train_time_s, digits=2),
-                str(row.note or ""),
+                escape(str(row.note or "")),  # a note may hold brackets: neckid[peers]
                 end_section=False,
             )
             previous = where
