@@ -462,6 +462,22 @@ def test_a_peer_that_is_not_installed_gives_rows_that_say_so(data_dir, monkeypat
         peers.FrolsPeer(Lags.arx(1, 1)).fit(IOData(np.arange(9.0), np.arange(9.0), ts=1.0))
 
 
+def test_a_peer_that_does_not_import_says_why(monkeypatch):
+    from neckid.experiments.benchmark import peers
+
+    def broken(name):
+        raise ImportError("numpy.core.multiarray failed to import")
+
+    monkeypatch.setattr(peers.importlib.util, "find_spec", lambda name: object())
+    monkeypatch.setattr(peers.importlib, "import_module", broken)
+    assert peers.peer_unavailable("sysidentpy-frols") == (
+        "skipped: SysIdentPy is installed but does not import: ImportError: numpy.core.multiarray"
+        " failed to import"
+    )
+    with pytest.raises(ValueError, match="peer must be one of"):
+        peers.peer_unavailable("matlab")
+
+
 def test_the_peer_takes_single_input_single_output_data_only():
     from neckid.experiments.benchmark.peers import FrolsPeer
 

@@ -35,6 +35,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import logging
+import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
@@ -71,6 +72,8 @@ CLIP_SPANS = 10.0
 #: Fitted polynomials :meth:`PolynomialNARX.fit` remembers (the most recently used).
 FIT_CACHE_SIZE = 8
 _FIT_CACHE: OrderedDict[bytes, dict[str, Any]] = OrderedDict()
+#: Candidates may be fitted on threads (joblib): the cache changes under this lock.
+_FIT_CACHE_LOCK = threading.Lock()
 
 
 def _fit_key(model: PolynomialNARX, data: IOData | Sequence[IOData]) -> bytes:
@@ -194,9 +197,11 @@ class PolynomialNARX(NarxModel):
         data (the candidates of ``ParallelSetMembership(parallel_degree=3)``) gets a copy of it.
         """
         key = _fit_key(self, data)
-        cached = _FIT_CACHE.get(key)
+        with _FIT_CACHE_LOCK:
+            cached = _FIT_CACHE.get(key)
+            if cached is not None:
+                _FIT_CACHE.move_to_end(key)
         if cached is not None:
-            _FIT_CACHE.move_to_end(key)
             self.__dict__.update(copy.deepcopy(cached))
             logger.debug("PolynomialNARX fit taken from the cache of earlier fits")
             return self
@@ -206,9 +211,11 @@ class PolynomialNARX(NarxModel):
         if self.fit_for == "simulation":
             experiments = as_experiments(self._with_conditions(data, fitting=True))
             self._fit_simulation(experiments, int(self.max_iter), self._linear_start(x, y))
-        _FIT_CACHE[key] = copy.deepcopy(self.__dict__)
-        while len(_FIT_CACHE) > FIT_CACHE_SIZE:
-            _FIT_CACHE.popitem(last=False)
+        fitted = copy.deepcopy(self.__dict__)
+        with _FIT_CACHE_LOCK:
+            _FIT_CACHE[key] = fitted
+            while len(_FIT_CACHE) > FIT_CACHE_SIZE:
+                _FIT_CACHE.popitem(last=False)
         return self
 
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:

@@ -54,6 +54,10 @@ def peer_unavailable(name: str) -> str | None:
         raise ValueError(f"peer must be one of {list(PEER_METHODS)}; got {name!r}")
     if importlib.util.find_spec("sysidentpy") is None:
         return 'skipped: SysIdentPy is not installed (pip install "neckid[peers]")'
+    try:
+        importlib.import_module("sysidentpy.model_structure_selection")
+    except Exception as exc:  # installed but broken (e.g. built against another NumPy)
+        return f"skipped: SysIdentPy is installed but does not import: {type(exc).__name__}: {exc}"
     return None
 
 
