@@ -74,6 +74,12 @@ def test_the_parallel_model_passes_the_metric_to_its_sm_map():
     std = ParallelSetMembership(Lags.arx(1, 1), linear_lags=[0, 1], input_lags=[1, 2]).fit(train)
     assert not np.allclose(model.sm_.weights_, std.sm_.weights_)
     assert np.isfinite(model.simulate(train).y).all()
+    # `neckid info` says which distance and estimate a model file holds.
+    from neckid.workflow import describe_model
+
+    described = describe_model(model.set_params(estimate="projection"))
+    assert described["distance"] == "gradient" and described["estimate"] == "projection"
+    assert describe_model(std)["distance"] == "std"
 
 
 def test_an_unknown_scaling_names_the_options():

@@ -413,4 +413,8 @@ def describe_model(model: Any) -> dict[str, Any]:
             info["epsilon"] = [float(v) for v in sm.epsilon_]
             info["gamma"] = [float(v) for v in sm.gamma_]
         info["lipschitz"] = str(getattr(sm, "lipschitz", "global"))
+        scaling = getattr(sm, "scaling", "std")
+        info["distance"] = scaling if isinstance(scaling, str) else "user weights"
+        if hasattr(model, "estimate"):
+            info["estimate"] = str(model.estimate)
     return info

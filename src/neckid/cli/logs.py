@@ -158,7 +158,7 @@ def info(
         table = Table(title=f"{path.name}: {described['method']}", show_header=False)
         for key in ("class", "lags", "inputs", "outputs", "output_units", "ts_s",
                     "initial_samples", "training_samples", "horizons", "epsilon", "gamma",
-                    "lipschitz"):  # fmt: skip
+                    "lipschitz", "distance", "estimate"):  # fmt: skip
             if key in described:
                 table.add_row(
                     key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
