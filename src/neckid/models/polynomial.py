@@ -50,6 +50,7 @@ from neckid.models.arx import least_squares
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
+from neckid.models.sm_prior import _digest
 from neckid.models.sm_training import linear_sum
 from neckid.regressors import Lags
 from neckid.validation import Interval, Options
@@ -83,10 +84,7 @@ def _fit_key(model: PolynomialNARX, data: IOData | Sequence[IOData]) -> bytes:
     for record in as_experiments(data, "data"):
         h.update(repr((record.ts, record.input_names, record.output_names)).encode())
         h.update(repr(sorted(record.conditions.items())).encode())
-        for array in (record.u, record.y):
-            array = np.ascontiguousarray(array, dtype=np.float64)
-            h.update(np.asarray(array.shape, dtype=np.int64).tobytes())
-            h.update(array.data)
+        h.update(_digest(record.u, record.y))
     return h.digest()
 
 

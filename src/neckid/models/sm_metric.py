@@ -24,11 +24,12 @@ classification", Journal of Machine Learning Research 17(22), 1-34, 2016.
 
 from __future__ import annotations
 
-import itertools
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from neckid.models._poly_kernels import monomial_tables
 
 __all__ = ["GRADIENT_DEGREE", "GRADIENT_FLOOR", "gradient_relevance", "learnt_weights"]
 
@@ -45,20 +46,12 @@ RIDGE = 1e-8
 MAX_ROWS = 20_000
 
 
-def _powers(n_terms: int, degree: int) -> NDArray[np.int64]:
-    """Exponents of every monomial of degree 0..``degree`` in ``n_terms`` variables."""
-    rows = []
-    for d in range(degree + 1):
-        for combo in itertools.combinations_with_replacement(range(n_terms), d):
-            rows.append(np.bincount(combo, minlength=n_terms))
-    return np.array(rows, dtype=np.int64)
-
-
-def _monomials(z: FloatArray, powers: NDArray[np.int64]) -> FloatArray:
-    out = np.ones((z.shape[0], powers.shape[0]))
-    for k in range(z.shape[1]):
-        for p in range(1, int(powers[:, k].max(initial=0)) + 1):
-            out[:, powers[:, k] == p] *= (z[:, k] ** p)[:, None]
+def _monomials(z: FloatArray, parent: NDArray[np.int64], var: NDArray[np.int64]) -> FloatArray:
+    """Every monomial of :func:`~neckid.models._poly_kernels.monomial_tables`, per row of ``z``."""
+    out = np.empty((z.shape[0], parent.shape[0]))
+    out[:, 0] = 1.0
+    for m in range(1, parent.shape[0]):
+        out[:, m] = out[:, parent[m]] * z[:, var[m]]
     return out
 
 
@@ -94,20 +87,19 @@ def gradient_relevance(
     if not keep.any():
         return np.ones(n_terms)
     t = (t[:, keep] - t[:, keep].mean(axis=0)) / spread[keep]
-    powers = _powers(n_terms, degree)
+    powers, parent, var, lower = monomial_tables(n_terms, degree)
     while powers.shape[0] >= z.shape[0] // 2 and degree > 1:  # too few rows for the monomials
         degree -= 1
-        powers = _powers(n_terms, degree)
-    features = _monomials(z, powers)
+        powers, parent, var, lower = monomial_tables(n_terms, degree)
+    features = _monomials(z, parent, var)
     gram = features.T @ features
     gram[np.diag_indices_from(gram)] += RIDGE * np.trace(gram) / gram.shape[0]
     coef = np.linalg.solve(gram, features.T @ t)
     squared = np.empty(n_terms)
     for k in range(n_terms):
+        # ∂(monomial m)/∂z_k = powers[m, k] · (monomial m with one z_k fewer, ``lower[m, k]``).
         has = powers[:, k] > 0
-        lowered = powers[has].copy()
-        lowered[:, k] -= 1
-        derivative = _monomials(z, lowered) @ (powers[has, k][:, None] * coef[has])
+        derivative = features[:, lower[has, k]] @ (powers[has, k][:, None] * coef[has])
         squared[k] = np.mean(derivative**2)
     relevance = np.sqrt(squared) / scale  # back to the units of x
     top = relevance.max()
