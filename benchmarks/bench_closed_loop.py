@@ -20,7 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 
 

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from neckid import IOData, LinearARX, SetMembership
-from neckid.models.neural import NeuralNARX
+from neckid.models.neural.narx import NeuralNARX
 from neckid.selection import LagSelection, lag_grid, select_lags
 
 

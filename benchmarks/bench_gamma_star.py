@@ -30,8 +30,8 @@ import numba
 import numpy as np
 from _systems import NECK_LIKE_LAGS, NECK_LIKE_NOISE, neck_like
 
-from neckid.models._sm_kernels import gamma_star
-from neckid.models.sm_prior import _default_epsilons
+from neckid.models.set_membership._kernels.gamma import gamma_star
+from neckid.models.set_membership.prior import _default_epsilons
 
 LAGS = NECK_LIKE_LAGS
 NOISE = NECK_LIKE_NOISE
@@ -96,7 +96,7 @@ def main() -> None:
     parser.add_argument("--large", action="store_true", help="also N = 1,000,000, tree only")
     args = parser.parse_args()
     sizes = [2_000, 10_000] if args.quick else [20_000, 100_000]
-    logger = logging.getLogger("neckid.models._sm_kernels")
+    logger = logging.getLogger("neckid.models.set_membership._kernels.tree")
     logger.addHandler(STATS)
     logger.setLevel(logging.DEBUG)
 

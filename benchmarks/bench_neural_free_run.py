@@ -23,7 +23,7 @@ import numpy as np
 
 from neckid import IOData, Lags
 from neckid.models.base import _free_run
-from neckid.models.neural import NeuralNARX
+from neckid.models.neural.narx import NeuralNARX
 
 
 def narx_system(n: int, seed: int = 0) -> IOData:

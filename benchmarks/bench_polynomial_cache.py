@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from neckid import IOData, Lags, ParallelSetMembership
-from neckid.models import polynomial
+from neckid.models.cache import POLYNOMIAL_FITS
 
 CANDIDATES = (
     {"epsilon": 0.01, "estimate": "central"},
@@ -42,12 +42,12 @@ def duffing(n: int, seed: int) -> IOData:
 
 def select(train: IOData, test: IOData, clear: bool) -> tuple[float, list[np.ndarray]]:
     """Fit every candidate; return the wall time and each one's free run of ``test``."""
-    polynomial._FIT_CACHE.clear()
+    POLYNOMIAL_FITS.clear()
     runs = []
     started = time.perf_counter()
     for params in CANDIDATES:
         if clear:
-            polynomial._FIT_CACHE.clear()
+            POLYNOMIAL_FITS.clear()
         model = ParallelSetMembership(
             Lags.arx(2, 2, 1), parallel_degree=3, parallel_fit="simulation", **params
         ).fit(train)

@@ -24,7 +24,7 @@ import numpy as np
 from scipy import signal
 
 from neckid import IOData, Lags
-from neckid.models.rls import RecursiveARX, rls_reference
+from neckid.models.linear.rls import RecursiveARX, rls_reference
 
 FORGETTING_FACTOR = 0.98
 INITIAL_COVARIANCE = 1e4

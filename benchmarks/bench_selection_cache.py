@@ -19,20 +19,20 @@ import time
 import numpy as np
 from _systems import NECK_LIKE_LAGS, NECK_LIKE_NOISE, neck_like
 
-from neckid.models import sm_prior
-from neckid.models.set_membership import SetMembership
+from neckid.models.cache import GAMMA_CURVES
+from neckid.models.set_membership.narx import SetMembership
 
 FACTORS = (1.0, 2.0, 4.0)
 
 
 def select(data: object, clear: bool) -> tuple[float, list[np.ndarray]]:
     """Fit one candidate per ε factor; return the wall time and each model's γ."""
-    sm_prior._CURVE_CACHE.clear()
+    GAMMA_CURVES.clear()
     gammas = []
     started = time.perf_counter()
     for factor in FACTORS:
         if clear:
-            sm_prior._CURVE_CACHE.clear()
+            GAMMA_CURVES.clear()
         model = SetMembership(NECK_LIKE_LAGS, epsilon=factor * NECK_LIKE_NOISE).fit(data)
         gammas.append(model.gamma_.copy())
     return time.perf_counter() - started, gammas

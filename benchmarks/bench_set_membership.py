@@ -23,14 +23,14 @@ import numba
 import numpy as np
 from _systems import NECK_LIKE_LAGS, neck_like
 
+from _sm_reference import bounds_reference, gamma_star_reference
 from neckid import IOData
-from neckid.models._sm_kernels import (
+from neckid.models.set_membership._kernels.gamma import gamma_star
+from neckid.models.set_membership._kernels.tree import (
     SMTree,
-    gamma_star,
 )
-from neckid.models._sm_reference import bounds_reference, gamma_star_reference
-from neckid.models.set_membership import SetMembership
-from neckid.models.sm_prior import _default_epsilons
+from neckid.models.set_membership.narx import SetMembership
+from neckid.models.set_membership.prior import _default_epsilons
 
 LAGS = NECK_LIKE_LAGS
 

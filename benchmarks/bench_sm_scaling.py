@@ -42,9 +42,9 @@ import numba
 import numpy as np
 from _systems import NECK_LIKE_LAGS, NECK_LIKE_NOISE, neck_like
 
-from neckid.models._sm_kernels import gamma_star
-from neckid.models.set_membership import SetMembership
-from neckid.models.sm_training import prior_holds, prior_holds_by_query
+from neckid.models.set_membership._kernels.gamma import gamma_star
+from neckid.models.set_membership.narx import SetMembership
+from neckid.models.set_membership.training import prior_holds, prior_holds_by_query
 
 LAGS = NECK_LIKE_LAGS
 MARGIN = 1.1

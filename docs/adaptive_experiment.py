@@ -20,7 +20,7 @@ import pandas as pd
 import neckid
 from neckid import IOData, Lags
 from neckid.datasets import load_softneck_log
-from neckid.experiments.adaptive import ADAPT_MODES, adaptive_free_run
+from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.experiments.benchmark.datasets import softneck_protocol
 from neckid.experiments.benchmark.settings import arx_error_scale
 from neckid.models.online import simulate_with_offset

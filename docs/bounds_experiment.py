@@ -13,7 +13,7 @@ Protocol (the issue "Guaranteed bounds that mean something"):
   used once, after every setting is fixed;
 - one-step regressor ``Lags(outputs=[1, 2], inputs=[0, 1])``, the one the soft-neck benchmark's
   selection chose on a training log (``docs/softneck_oracle.py``); the k-step regressors follow
-  from it (:func:`~neckid.models.sm_multistep.horizon_lags`);
+  from it (:func:`~neckid.models.set_membership.multistep.horizon_lags`);
 - Set Membership settings (``epsilon_factor``, ``input_weight``, ``lipschitz``) per horizon by leave-one-log-out
   cross-validation over the six training logs: the smallest mean width of the guaranteed band
   among the settings whose mean held-out coverage is at least 95 %;
@@ -37,13 +37,13 @@ import neckid
 from neckid import IOData, Lags, LinearARX, ModelResult
 from neckid.experiments.benchmark import softneck_protocol
 from neckid.metrics import coverage, mean_width, rmse
-from neckid.models._sm_kernels import SMTree
-from neckid.models._sm_local import learn_constants, local_bounds
-from neckid.models.arx import least_squares
+from neckid.models.set_membership._kernels.tree import SMTree
+from neckid.models.set_membership._kernels.local import learn_constants, local_bounds
+from neckid.models.linear.arx import least_squares
 from neckid.models.conformal import calibrate
-from neckid.models.set_membership import DEFAULT_GAMMA_MARGIN, _term_weights
-from neckid.models.sm_multistep import MultiStepSetMembership, horizon_lags, robust_scale
-from neckid.models.sm_prior import _gamma_star
+from neckid.models.set_membership.narx import DEFAULT_GAMMA_MARGIN, _term_weights
+from neckid.models.set_membership.multistep import MultiStepSetMembership, horizon_lags, robust_scale
+from neckid.models.set_membership.prior import _gamma_star
 
 LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
 HORIZONS = (10, 40)

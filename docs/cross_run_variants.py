@@ -6,7 +6,7 @@ Run from the repository (about 2-3 min per protocol and variant on 2 cores):
     .venv/bin/python docs/cross_run_variants.py softneck-controller central-grad
     .venv/bin/python docs/cross_run_variants.py adaptive
 
-``adaptive`` runs ``neckid.experiments.adaptive.adaptive_free_run`` (5 s warm-up, the four
+``adaptive`` runs ``neckid.loops.adaptive.adaptive_free_run`` (5 s warm-up, the four
 adaptation modes) on the payload split for the ARX the benchmark chooses there and SM parallel on
 it with the learnt distance and local constants (``linear_lags=[0, 1]``, ε by the knee), the
 setting the ``central-grad`` variant chooses.
@@ -32,7 +32,7 @@ import numpy as np
 from sklearn.base import clone
 
 from neckid import Lags, LinearARX, ParallelSetMembership
-from neckid.experiments.adaptive import ADAPT_MODES, adaptive_free_run
+from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.experiments.benchmark import settings
 from neckid.experiments.benchmark.datasets import load_benchmark
 from neckid.experiments.benchmark.runner import _select

@@ -34,12 +34,12 @@ import numpy as np
 
 from neckid import IOData, Lags
 from neckid.experiments.benchmark.datasets import load_benchmark
-from neckid.models._sm_kernels import SMTree
-from neckid.models._sm_local import learn_constants, local_bounds
-from neckid.models.polynomial import PolynomialNARX
-from neckid.models.set_membership import SetMembership
-from neckid.models.sm_parallel import ParallelSetMembership
-from neckid.models.sm_prior import _gamma_star
+from neckid.models.set_membership._kernels.tree import SMTree
+from neckid.models.set_membership._kernels.local import learn_constants, local_bounds
+from neckid.models.polynomial.narx import PolynomialNARX
+from neckid.models.set_membership.narx import SetMembership
+from neckid.models.set_membership.parallel import ParallelSetMembership
+from neckid.models.set_membership.prior import _gamma_star
 
 SILVERBOX_EPSILONS_MV = (0.1, 0.15, 0.2, 0.3, 0.45, 0.64, 1.0)
 

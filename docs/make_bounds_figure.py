@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from bounds_experiment import CONTROLLERS, LAGS, TRAIN_PAYLOADS, load  # noqa: E402
 
 from neckid.metrics import coverage, mean_width  # noqa: E402
-from neckid.models.sm_multistep import MultiStepSetMembership  # noqa: E402
+from neckid.models.set_membership.multistep import MultiStepSetMembership  # noqa: E402
 
 CHOSEN = {10: (1.5, 1.0), 40: (2.5, 0.3)}  # horizon: (epsilon_factor, input_weight), bounds.md
 WINDOW_S = (20.0, 60.0)

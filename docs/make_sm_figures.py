@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from neckid import IOData, Lags
-from neckid.models.set_membership import SetMembership
+from neckid.models.set_membership.narx import SetMembership
 from neckid.plant import SoftNeck
 from neckid.report.sm_plots import plot_gamma_curve
 

@@ -11,7 +11,7 @@ sys.path.insert(0, "/tmp")
 import pandas as pd
 from adaptive_experiment import TEST, TRAIN, load, models
 
-from neckid.experiments.adaptive import streaming_ahead
+from neckid.loops.adaptive import streaming_ahead
 
 warnings.simplefilter("ignore")
 train = [load(n) for n in TRAIN]

@@ -7,7 +7,7 @@ import pytest
 from sklearn.base import clone
 
 from neckid import IOData, Lags, LinearARX
-from neckid.models.arx import least_squares
+from neckid.models.linear.arx import least_squares
 
 
 def simulate_arx(u: np.ndarray, noise: np.ndarray | None = None) -> np.ndarray:

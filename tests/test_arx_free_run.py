@@ -13,9 +13,9 @@ import pytest
 from scipy import signal
 
 from neckid import IOData, Lags, LinearARX
-from neckid.models.arx import linear_free_run
 from neckid.models.base import DivergenceError, NarxModel, _free_run
 from neckid.models.io import load_model
+from neckid.models.linear.arx import linear_free_run
 
 RTOL = 1e-10
 

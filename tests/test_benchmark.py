@@ -359,8 +359,8 @@ def test_softneck_protocol_needs_the_raw_inclination():
 def test_scheduled_candidate_is_one_point_per_stair():
     # The scheduled candidate fits from the training log itself; it must find the operating
     # points the stairs give when identified one by one (the benchmark's former ScheduledFromStairs).
-    from neckid.experiments.operating_points import operating_points_from_logs
-    from neckid.models.scheduled import GainScheduledModel
+    from neckid.loops.operating_points import operating_points_from_logs
+    from neckid.models.scheduled.model import GainScheduledModel
 
     train = load_benchmark("softneck", SHARED_DATA).train
     [(_, estimator)] = candidates("scheduled", "softneck", train)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from neckid import IOData, Lags, LinearARX
-from neckid.conditions import parse_condition
+from neckid.data.conditions import parse_condition
 from neckid.datasets.softneck import conditions_from_name
 
 

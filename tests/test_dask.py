@@ -24,7 +24,7 @@ from neckid import LinearARX
 from neckid._parallel import check_backend, run_jobs
 from neckid.cli import app
 from neckid.experiments.benchmark import run_benchmark
-from neckid.models.neural import NeuralNARX
+from neckid.models.neural.narx import NeuralNARX
 from neckid.selection import lag_grid, score_candidates, select_lags
 
 SKIP_REASON = "the Dask tests need the distributed package: pip install neckid[dask]"

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy.io import savemat
 
-from neckid.data import IOData, as_experiments
+from neckid.data.iodata import IOData, as_experiments
 from neckid.validation import check_uniform_time
 
 

@@ -15,9 +15,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from neckid.models._gamma_tree import gamma_star_blocked
-from neckid.models._sm_kernels import TREE_MIN_POINTS, SMTree, gamma_star
-from neckid.models._sm_reference import gamma_star_reference
+from _sm_reference import gamma_star_reference
+from neckid.models.set_membership._kernels.gamma import (
+    TREE_MIN_POINTS,
+    gamma_star,
+    gamma_star_blocked,
+)
+from neckid.models.set_membership._kernels.tree import SMTree
 
 METHODS = ("tree", "pairs", "auto")
 
@@ -151,7 +155,7 @@ def test_auto_walks_the_pairs_below_the_threshold_and_searches_above(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     x, y = _time_series(np.random.default_rng(7), TREE_MIN_POINTS)
-    with caplog.at_level(logging.DEBUG, logger="neckid.models._sm_kernels"):
+    with caplog.at_level(logging.DEBUG, logger="neckid.models.set_membership._kernels.gamma"):
         gamma_star(x[:-1], y[:-1], np.zeros((1, 1)))
         gamma_star(x, y, np.zeros((1, 1)))
     below, above = (record.args[1] for record in caplog.records)  # type: ignore[index]

@@ -14,8 +14,8 @@ import pytest
 
 import neckid
 from neckid import GainScheduledModel, IOData, Lags, LinearARX, NotFittedError, RecursiveARX
-from neckid.experiments.model_in_loop import VelocityDrive
 from neckid.interop import initial_state, output_offset, to_control, to_iosystem
+from neckid.loops.model_in_loop import VelocityDrive
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.signals import multisine, sine
 
@@ -298,7 +298,7 @@ def test_a_loop_through_interconnect_equals_closed_loop_on_neck_models(
 
 def test_position_model_drive_and_controller_close_the_neck_loop(neck: IOData) -> None:
     """A motor-position model needs the drive between the command and its input."""
-    from neckid.experiments.model_in_loop import ModelPlant
+    from neckid.loops.model_in_loop import ModelPlant
 
     view = neck.select(inputs=["motor_position"], outputs=["inclination"])
     model = LinearARX(Lags.arx(2, 2, 3)).fit(view)

@@ -7,7 +7,7 @@ import pytest
 
 import neckid
 from neckid import GainScheduledModel, IOData, Lags, LinearARX
-from neckid.experiments.model_in_loop import (
+from neckid.loops.model_in_loop import (
     LoopComparison,
     ModelPlant,
     VelocityDrive,

@@ -8,7 +8,7 @@ import pytest
 from neckid import IOData, Lags, NotFittedError
 from neckid.models.base import _free_run
 from neckid.models.io import load_model, write_model_file
-from neckid.models.neural import NeuralNARX, forward_pass, member_seeds
+from neckid.models.neural.narx import NeuralNARX, forward_pass, member_seeds
 
 
 def true_system(n: int, seed: int, noise: float = 0.02) -> IOData:
@@ -124,7 +124,7 @@ def test_compiled_free_run_equals_numpy_loop(activation: str, hidden: tuple[int,
 
 
 def test_compiled_tanh_within_rounding_of_numpy() -> None:
-    from neckid.models._neural_kernels import _tanh
+    from neckid.models.neural._kernels import _tanh
 
     z = np.concatenate([np.linspace(-25.0, 25.0, 2001), [0.0, -0.0, 1e-300, -1e-12, 400.0, np.inf]])
     ours = np.array([_tanh(v) for v in z])

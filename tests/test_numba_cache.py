@@ -89,7 +89,7 @@ def test_a_read_only_install_imports_and_reuses_its_compiled_kernels(
     # A small kernel: compiled in the first process, loaded from the cache in the second.
     code = (
         "import neckid, os\n"
-        "from neckid.models._neural_kernels import _tanh\n"
+        "from neckid.models.neural._kernels import _tanh\n"
         "assert neckid.__file__.startswith(os.environ['PYTHONPATH']), neckid.__file__\n"
         "assert abs(_tanh(0.5) - 0.46211715726000974) < 1e-15\n"
         "print(os.environ['NUMBA_CACHE_DIR'], _tanh.stats.cache_hits.total(), sep='|')\n"
@@ -104,5 +104,5 @@ def test_a_read_only_install_imports_and_reuses_its_compiled_kernels(
         assert Path(folder).resolve().is_relative_to(expected.resolve())
         hits.append(int(count))
     assert hits == [0, 1]
-    assert list(Path(folder).rglob("_neural_kernels._tanh-*.nbi"))
+    assert list(Path(folder).rglob("_kernels._tanh-*.nbi"))
     assert not list((site / "neckid").rglob("*.nbi"))

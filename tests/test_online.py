@@ -15,12 +15,12 @@ import pytest
 
 import neckid
 from neckid import IOData, Lags, LinearARX, NotFittedError, SetMembership, load_model
-from neckid.experiments.adaptive import adaptive_free_run, streaming_ahead
-from neckid.models._sm_kernels import gamma_star
+from neckid.loops.adaptive import adaptive_free_run, streaming_ahead
 from neckid.models.io import read_model_file, write_model_file
-from neckid.models.ls_statistics import LeastSquaresStatistics
+from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import estimate_offset, simulate_with_offset
-from neckid.models.sm_update import cross_gamma_star
+from neckid.models.set_membership._kernels.gamma import gamma_star
+from neckid.models.set_membership.update import cross_gamma_star
 
 METHODS = sorted(neckid.methods())
 

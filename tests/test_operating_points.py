@@ -7,12 +7,12 @@ import pandas as pd
 import pytest
 
 from neckid import IOData
-from neckid.experiments.operating_points import (
+from neckid.loops.operating_points import (
     OperatingPointResult,
     identify_operating_points,
     operating_points_from_logs,
 )
-from neckid.models.scheduled import GainScheduledModel
+from neckid.models.scheduled.model import GainScheduledModel
 from neckid.signals import random_binary
 
 TRUE_GAIN = (-0.02, 1.5)
@@ -116,7 +116,7 @@ def test_on_the_simulated_neck() -> None:
 
 def test_excitation_is_random_binary_drawn_point_after_point(monkeypatch) -> None:
     """With a controller that commands nothing, the logged command is the excitation itself."""
-    import neckid.experiments.operating_points as protocol
+    import neckid.loops.operating_points as protocol
 
     class Silent:
         def reset(self) -> None:

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.plant import InclinationController, SoftNeck, SoftNeckParameters, _kernels, closed_loop
 from neckid.plant.calibration import (
     PAPER_BANDWIDTH,

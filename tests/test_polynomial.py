@@ -11,9 +11,10 @@ from hypothesis import strategies as st
 
 import neckid
 from neckid import IOData, Lags, PolynomialNARX
-from neckid.models import polynomial
-from neckid.models._poly_kernels import monomial_tables, poly_free_run, poly_sensitivity
 from neckid.models.base import _free_run
+from neckid.models.polynomial import narx as polynomial
+from neckid.models.polynomial._kernels import poly_free_run, poly_sensitivity
+from neckid.models.polynomial.monomials import monomial_tables
 
 
 def _cubic_system(n: int, seed: int, output_noise: float = 0.0) -> tuple[IOData, np.ndarray]:

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.regressors import Lags, ResolvedLags
 
 

@@ -25,8 +25,8 @@ from neckid.cli import app
 from neckid.experiments.demo_outputs import BANDWIDTH_COMMAND, CHIRP_RUN
 from neckid.experiments.paper import DemoSettings, run_demo
 from neckid.models.base import ExtrapolationWarning
-from neckid.models.scheduled import GainScheduledModel
-from neckid.models.set_membership import GammaCurve
+from neckid.models.scheduled.model import GainScheduledModel
+from neckid.models.set_membership.narx import GammaCurve
 from neckid.report.html import Figure, Report
 from neckid.report.scheduled_plots import plot_gain_schedule
 from neckid.report.sm_plots import plot_gamma_curve

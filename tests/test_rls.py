@@ -11,7 +11,7 @@ from scipy import signal
 from neckid import IOData, Lags, LinearARX
 from neckid.models.base import NotFittedError
 from neckid.models.io import load_model
-from neckid.models.rls import RecursiveARX, rls_reference
+from neckid.models.linear.rls import RecursiveARX, rls_reference
 
 
 def arx_data(n: int, a: list[float], b: list[float], noise: float, seed: int) -> IOData:

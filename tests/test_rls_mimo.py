@@ -17,8 +17,8 @@ import pytest
 from neckid import IOData, Lags
 from neckid.models.base import NarxModel
 from neckid.models.io import load_model, read_model_file, write_model_file
-from neckid.models.rls import RecursiveARX, rls_reference
-from neckid.models.rls_kernels import ParameterHistory
+from neckid.models.linear.rls import RecursiveARX, rls_reference
+from neckid.models.linear.rls_kernels import ParameterHistory
 
 #: y1(t) = 0.6 y1(t-1) + 0.2 y2(t-1) + 0.5 u1(t-1) - 0.3 u2(t-2)
 #: y2(t) = -0.3 y1(t-1) + 0.7 y2(t-1) - 0.1 y2(t-2) + 0.8 u2(t-1) + 0.4 u1(t-2)

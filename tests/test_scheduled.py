@@ -15,7 +15,7 @@ import pytest
 from neckid import IOData, Lags
 from neckid.models.base import NotFittedError
 from neckid.models.io import load_model
-from neckid.models.scheduled import (
+from neckid.models.scheduled.model import (
     PAPER_GAIN_COEFFICIENTS,
     PAPER_POLE_COEFFICIENTS,
     GainScheduledModel,
@@ -260,7 +260,7 @@ def test_delay_shifts_the_response_and_matches_the_transfer_function(delay: int)
 
 
 def test_delay_comes_from_the_operating_points_and_survives_save_load(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from neckid.experiments.operating_points import operating_points_from_logs
+    from neckid.loops.operating_points import operating_points_from_logs
 
     rng = np.random.default_rng(0)
     logs = []

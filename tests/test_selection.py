@@ -13,7 +13,7 @@ from _synthetic import arx_system
 from neckid import IOData, Lags, LinearARX
 from neckid.experiments.benchmark.runner import _select
 from neckid.metrics import fit_percent
-from neckid.models.neural import NeuralNARX
+from neckid.models.neural.narx import NeuralNARX
 from neckid.report.selection_plots import plot_lipschitz_index
 from neckid.selection import (
     LagSelection,

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from sklearn.base import clone
 
+from _sm_reference import gamma_star_reference
 from neckid import IOData, Lags
-from neckid.models._sm_reference import gamma_star_reference
 from neckid.models.base import NotFittedError
-from neckid.models.set_membership import (
+from neckid.models.set_membership.narx import (
     GammaCurve,
     SetMembership,
     choose_epsilon,
@@ -228,7 +228,7 @@ def test_linear_part_extrapolates() -> None:
 def test_invalidation(valid_model: SetMembership, data: IOData) -> None:
     ok = valid_model.invalidation(data[800:])
     assert not ok.falsified and ok.fraction[0] == 0.0
-    shifted = data[800:]._replace(y=data[800:].y + 1.0)
+    shifted = data[800:].replace(y=data[800:].y + 1.0)
     bad = valid_model.invalidation([shifted])[0]
     assert bad.falsified and bad.fraction[0] > 0.5 and np.all(bad.excess[bad.outside] > 0)
 

@@ -10,12 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from neckid.models._sm_kernels import (
+from _sm_reference import bounds_reference, gamma_star_reference
+from neckid.models.set_membership._kernels.gamma import gamma_star
+from neckid.models.set_membership._kernels.tree import (
     SMTree,
     build_tree,
-    gamma_star,
 )
-from neckid.models._sm_reference import bounds_reference, gamma_star_reference
 
 
 def _data(rng: np.random.Generator, n: int, dims: int, outputs: int = 1, duplicates: int = 0):
@@ -157,7 +157,7 @@ def test_gamma_star_kernel_matches_reference_property(seed: int, n: int, dims: i
 
 
 def test_a_few_queries_without_threads_give_the_same_bits() -> None:
-    from neckid.models._sm_kernels import SERIAL_QUERIES
+    from neckid.models.set_membership._kernels.tree import SERIAL_QUERIES
 
     rng = np.random.default_rng(5)
     x, y = rng.normal(size=(3000, 4)), rng.normal(size=(3000, 2))
@@ -185,7 +185,8 @@ def test_gamma_star_with_a_repeated_epsilon_matches_the_reference(seed: int) -> 
 
 
 def test_gamma_star_values_are_cached_per_data_and_epsilon(monkeypatch) -> None:
-    from neckid.models import sm_prior
+    from neckid.models.cache import GAMMA_CURVES
+    from neckid.models.set_membership import prior as sm_prior
 
     rng = np.random.default_rng(11)
     points = rng.normal(size=(300, 3))
@@ -193,7 +194,7 @@ def test_gamma_star_values_are_cached_per_data_and_epsilon(monkeypatch) -> None:
     first = np.array([[0.0, 0.0], [0.01, 0.02], [0.1, 0.05]])
     second = np.array([[0.01, 0.02], [0.2, 0.3], [0.1, 0.05]])
     fresh = gamma_star(points, targets, second)
-    sm_prior._CURVE_CACHE.clear()
+    GAMMA_CURVES.clear()
     calls = []
     real = sm_prior.gamma_star
 

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from neckid import IOData, Lags, load_model
-from neckid.models._sm_kernels import SMTree
-from neckid.models._sm_local import local_bounds, point_gamma
 from neckid.models.io import read_model_file, write_model_file
-from neckid.models.set_membership import SetMembership
-from neckid.models.sm_multistep import MultiStepSetMembership
+from neckid.models.set_membership._kernels.local import local_bounds, point_gamma
+from neckid.models.set_membership._kernels.tree import SMTree
+from neckid.models.set_membership.multistep import MultiStepSetMembership
+from neckid.models.set_membership.narx import SetMembership
 
 
 def _slopes(points: np.ndarray, targets: np.ndarray, epsilon: np.ndarray) -> np.ndarray:
@@ -233,7 +233,7 @@ def test_bad_local_settings_are_refused(neck) -> None:
 
 
 def test_parallel_sm_passes_local_constants_to_its_map(neck, tmp_path) -> None:
-    from neckid.models.sm_parallel import ParallelSetMembership
+    from neckid.models.set_membership.parallel import ParallelSetMembership
 
     train, test = neck
     model = ParallelSetMembership(Lags.arx(1, 1), lipschitz="local", local_neighbours=4).fit(train)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from neckid import IOData, Lags, ParallelSetMembership, SetMembership, load_model
-from neckid.models.sm_metric import GRADIENT_FLOOR, gradient_relevance
+from neckid.models.set_membership.metric import GRADIENT_FLOOR, gradient_relevance
 
 
 def test_relevance_is_the_relative_root_mean_square_slope():

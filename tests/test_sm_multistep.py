@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from _sm_reference import gamma_star_reference
 from neckid import IOData, Lags, LinearARX, SetMembership, load_model
 from neckid.metrics import coverage
-from neckid.models._sm_reference import gamma_star_reference
 from neckid.models.base import NotFittedError
 from neckid.models.io import read_model_file, write_model_file
-from neckid.models.sm_multistep import (
+from neckid.models.set_membership.multistep import (
     MAD_TO_STD,
     MultiStepSetMembership,
     horizon_lags,

@@ -16,12 +16,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from _sm_reference import bounds_reference, gamma_star_reference
 from neckid import IOData, Lags
-from neckid.models._gamma_tree import gamma_star_blocked
-from neckid.models._sm_kernels import SMTree, _permute_rows, build_tree, gamma_star
-from neckid.models._sm_reference import bounds_reference, gamma_star_reference
-from neckid.models.set_membership import SetMembership
-from neckid.models.sm_training import (
+from neckid.models.set_membership._kernels.gamma import gamma_star, gamma_star_blocked
+from neckid.models.set_membership._kernels.tree import SMTree, _permute_rows, build_tree
+from neckid.models.set_membership.narx import SetMembership
+from neckid.models.set_membership.training import (
     check_duplicates,
     prior_holds,
     prior_holds_by_query,

@@ -33,22 +33,22 @@ _numba_setup.configure_numba_cache()
 
 if TYPE_CHECKING:
     from neckid import datasets, interop, metrics, plant, signals
-    from neckid.data import IOData, as_experiments
-    from neckid.experiments.operating_points import (
+    from neckid.data.iodata import IOData, as_experiments
+    from neckid.loops.operating_points import (
         OperatingPointResult,
         identify_operating_points,
         operating_points_from_logs,
     )
     from neckid.metrics import fit_percent, mae, rmse
-    from neckid.models.arx import LinearARX
     from neckid.models.base import DivergenceError, ModelResult, NotFittedError
     from neckid.models.io import load_model
-    from neckid.models.neural import NeuralNARX
-    from neckid.models.polynomial import PolynomialNARX
-    from neckid.models.rls import RecursiveARX
-    from neckid.models.scheduled import GainScheduledModel
-    from neckid.models.set_membership import SetMembership, gamma_curve
-    from neckid.models.sm_parallel import ParallelSetMembership
+    from neckid.models.linear.arx import LinearARX
+    from neckid.models.linear.rls import RecursiveARX
+    from neckid.models.neural.narx import NeuralNARX
+    from neckid.models.polynomial.narx import PolynomialNARX
+    from neckid.models.scheduled.model import GainScheduledModel
+    from neckid.models.set_membership.narx import SetMembership, gamma_curve
+    from neckid.models.set_membership.parallel import ParallelSetMembership
     from neckid.registry import Method, get_method, methods
     from neckid.regressors import Lags
     from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
@@ -93,26 +93,26 @@ __all__ = [
 # Public submodules, and the module each other public name lives in (the same imports as above).
 _SUBMODULES = frozenset({"datasets", "interop", "metrics", "plant", "signals"})
 _NAME_TO_MODULE = {
-    "IOData": "neckid.data",
-    "as_experiments": "neckid.data",
-    "OperatingPointResult": "neckid.experiments.operating_points",
-    "identify_operating_points": "neckid.experiments.operating_points",
-    "operating_points_from_logs": "neckid.experiments.operating_points",
+    "IOData": "neckid.data.iodata",
+    "as_experiments": "neckid.data.iodata",
+    "OperatingPointResult": "neckid.loops.operating_points",
+    "identify_operating_points": "neckid.loops.operating_points",
+    "operating_points_from_logs": "neckid.loops.operating_points",
     "fit_percent": "neckid.metrics",
     "mae": "neckid.metrics",
     "rmse": "neckid.metrics",
-    "LinearARX": "neckid.models.arx",
+    "LinearARX": "neckid.models.linear.arx",
     "DivergenceError": "neckid.models.base",
     "ModelResult": "neckid.models.base",
     "NotFittedError": "neckid.models.base",
     "load_model": "neckid.models.io",
-    "NeuralNARX": "neckid.models.neural",
-    "PolynomialNARX": "neckid.models.polynomial",
-    "RecursiveARX": "neckid.models.rls",
-    "GainScheduledModel": "neckid.models.scheduled",
-    "SetMembership": "neckid.models.set_membership",
-    "gamma_curve": "neckid.models.set_membership",
-    "ParallelSetMembership": "neckid.models.sm_parallel",
+    "NeuralNARX": "neckid.models.neural.narx",
+    "PolynomialNARX": "neckid.models.polynomial.narx",
+    "RecursiveARX": "neckid.models.linear.rls",
+    "GainScheduledModel": "neckid.models.scheduled.model",
+    "SetMembership": "neckid.models.set_membership.narx",
+    "gamma_curve": "neckid.models.set_membership.narx",
+    "ParallelSetMembership": "neckid.models.set_membership.parallel",
     "Lags": "neckid.regressors",
     "Method": "neckid.registry",
     "get_method": "neckid.registry",

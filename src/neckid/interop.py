@@ -6,7 +6,7 @@ r"""python-control interop: identified models as transfer functions and as I/O s
   ``dt = ts_`` and the model's channel names, for Bode plots, margins and controller design.
 * :func:`to_iosystem` turns *any* fitted model (and the loop's other pieces: an
   :class:`~neckid.plant.InclinationController`, a
-  :class:`~neckid.experiments.model_in_loop.VelocityDrive`) into a discrete
+  :class:`~neckid.loops.model_in_loop.VelocityDrive`) into a discrete
   ``control.NonlinearIOSystem`` that ``control.interconnect`` can wire to a user's controller.
 
 Time alignment (the same in neckid and in python-control)
@@ -30,7 +30,7 @@ reproduce ``model.simulate`` to the last bit. :func:`initial_state` packs initia
 Three models keep something else: :class:`~neckid.ParallelSetMembership` keeps its linear part's
 *simulated* outputs (``<output>_linear``); :class:`~neckid.GainScheduledModel` keeps
 ``[i(t−1), r(t−1), u(t−d), …, u(t−1)]`` (inclination [deg], its rate [deg/s], the last ``d``
-commands); :class:`~neckid.models.sm_multistep.MultiStepSetMembership` keeps the anchor of its
+commands); :class:`~neckid.models.set_membership.multistep.MultiStepSetMembership` keeps the anchor of its
 chained free run, the inputs since and the number of steps since, and replays them (up to
 ``horizon`` model evaluations per sample).
 """
@@ -42,21 +42,21 @@ from typing import Any, Literal
 
 import control
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from neckid.experiments.model_in_loop import POSITION, VELOCITY, VelocityDrive, channel_names
-from neckid.models.arx import LinearARX
+from neckid._typing import FloatArray
+from neckid.loops.model_in_loop import POSITION, VELOCITY, VelocityDrive, channel_names
 from neckid.models.base import Estimator, check_is_fitted, history_rows
-from neckid.models.rls import RecursiveARX
-from neckid.models.scheduled import GainScheduledModel
-from neckid.models.sm_multistep import MultiStepSetMembership
-from neckid.models.sm_parallel import LINEAR_SUFFIX, ParallelSetMembership
+from neckid.models.linear.arx import LinearARX
+from neckid.models.linear.rls import RecursiveARX
+from neckid.models.scheduled.model import GainScheduledModel
+from neckid.models.set_membership.multistep import MultiStepSetMembership
+from neckid.models.set_membership.parallel import LINEAR_SUFFIX, ParallelSetMembership
 from neckid.plant.control import InclinationController
 from neckid.validation import check_finite
 
 __all__ = ["initial_state", "output_offset", "to_control", "to_iosystem"]
 
-FloatArray = NDArray[np.float64]
 
 LINEAR_MODELS = (LinearARX, RecursiveARX, GainScheduledModel)
 
@@ -259,9 +259,16 @@ def _scheduled_frozen(
     b_mat = np.zeros((n_x, 1))
     b_mat[-1, 0] = 1.0
     return control.StateSpace(
-        a_mat, b_mat, c_mat, np.zeros((1, 1)), dt=ts, inputs=[command], outputs=[output],
-        states=_scheduled_state_names(model), name=label,
-    )  # fmt: skip
+        a_mat,
+        b_mat,
+        c_mat,
+        np.zeros((1, 1)),
+        dt=ts,
+        inputs=[command],
+        outputs=[output],
+        states=_scheduled_state_names(model),
+        name=label,
+    )
 
 
 def to_control(

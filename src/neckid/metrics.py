@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
+from neckid._typing import FloatArray
 from neckid.validation import check_number, check_vector
 
 __all__ = [
@@ -25,8 +26,6 @@ __all__ = [
     "residual_input_correlation",
     "rmse",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 def _pair(y_true: ArrayLike, y_pred: ArrayLike, skip: int) -> tuple[FloatArray, FloatArray]:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid.data import IOData, as_experiments
+from neckid.data.iodata import IOData, as_experiments
 from neckid.validation import check_lag_list
 
 __all__ = ["Lags", "ResolvedLags"]

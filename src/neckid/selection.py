@@ -27,11 +27,11 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 from joblib import delayed
-from numpy.typing import NDArray
 from sklearn.base import clone
 
 from neckid._parallel import check_backend, run_jobs
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
 from neckid.registry import get_method
@@ -46,7 +46,6 @@ __all__ = [
     "select_lags",
 ]
 
-FloatArray = NDArray[np.float64]
 Criterion = Literal["prediction", "simulation"]
 #: How candidates were scored: on the validation records given, or on held-out experiments.
 Scheme = Literal["validation", "leave-one-experiment-out", "grouped-k-fold"]
@@ -688,15 +687,17 @@ def select_lags(
     fitted = [row for row in rows if "error" not in row]
     if fitted:
         scores = score_candidates(
-            [(row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
-             for row in fitted],
+            [
+                (row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
+                for row in fitted
+            ],
             train_list,
             validation,
             n_jobs=n_jobs,
             progress=progress,
             folds=folds,
             backend=backend,
-        )  # fmt: skip
+        )
         for row, score in zip(fitted, scores.to_dict(orient="records"), strict=True):
             row.update({str(k): v for k, v in score.items() if k not in ("candidate", "name")})
 

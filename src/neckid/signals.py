@@ -2,7 +2,7 @@
 
 All frequencies are angular, in rad/s; all times in seconds. A signal is returned as a 1-D float64
 array, one value per time stamp (or per sample), ready to be a column of an
-:class:`~neckid.data.IOData`. Values carry the unit of the command they drive (the paper's
+:class:`~neckid.data.iodata.IOData`. Values carry the unit of the command they drive (the paper's
 inclination commands are in degrees).
 
 Contents
@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import integrate
 from scipy import signal as sps
 
+from neckid._typing import FloatArray
 from neckid.validation import (
     check_number,
     check_time_vector,
@@ -54,8 +55,6 @@ __all__ = [
     "staircase",
     "step",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 # ---------------------------------------------------------------------------------- paper chirp
@@ -656,7 +655,7 @@ def random_binary(
     (``numpy.random.Generator.integers(0, 2)``, one per clock period), not a maximum-length
     sequence: the signal does not repeat and its autocorrelation is two-valued only on average.
     This is the excitation of the seed paper's operating-point protocol
-    (:func:`neckid.experiments.operating_points.identify_operating_points`).
+    (:func:`neckid.loops.operating_points.identify_operating_points`).
 
     Examples
     --------

@@ -36,15 +36,39 @@ References
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Literal
+from collections.abc import Sequence
+from typing import Any, Literal, Protocol, Self, TypeVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from neckid._typing import FloatArray
 from neckid.validation import check_finite
 
-if TYPE_CHECKING:
-    from neckid.data import IOData
+
+class _Log(Protocol):
+    """What the conversions need of a log (an :class:`~neckid.IOData`); tilt does not import it."""
+
+    @property
+    def y(self) -> FloatArray: ...  # pragma: no cover - protocol
+
+    @property
+    def output_names(self) -> tuple[str, ...]: ...  # pragma: no cover - protocol
+
+    @property
+    def output_units(self) -> tuple[str, ...]: ...  # pragma: no cover - protocol
+
+    def channel(self, name: str) -> FloatArray: ...  # pragma: no cover - protocol
+
+    def select(
+        self, inputs: Sequence[str] | None = None, outputs: Sequence[str] | None = None
+    ) -> Self: ...  # pragma: no cover - protocol
+
+    def replace(self, **changes: Any) -> Self: ...  # pragma: no cover - protocol
+
+
+#: An :class:`~neckid.IOData` (or any log with the same methods): what goes in comes out.
+LogT = TypeVar("LogT", bound=_Log)
 
 __all__ = [
     "Representation",
@@ -56,7 +80,6 @@ __all__ = [
     "to_tilt",
 ]
 
-FloatArray = NDArray[np.float64]
 Representation = Literal["vector", "pitch_roll"]
 
 #: Channel names of each representation, in order.
@@ -167,12 +190,12 @@ def from_pitch_roll(pitch: ArrayLike, roll: ArrayLike) -> tuple[FloatArray, Floa
 
 
 def tilt_log(
-    data: IOData,
+    data: LogT,
     *,
     inclination: str = "inclination",
     orientation: str = "orientation",
     representation: Representation = "vector",
-) -> IOData:
+) -> LogT:
     """The log with its inclination and orientation outputs replaced by a wrap-free pair.
 
     Parameters
@@ -219,7 +242,7 @@ def tilt_log(
     return _swap_outputs(data, (inclination, orientation), NAMES[representation], first, second)
 
 
-def polar_log(data: IOData, *, representation: Representation = "vector") -> IOData:
+def polar_log(data: LogT, *, representation: Representation = "vector") -> LogT:
     """The inverse of :func:`tilt_log`: outputs ``inclination`` and ``orientation`` [deg] again.
 
     Examples
@@ -245,14 +268,14 @@ def polar_log(data: IOData, *, representation: Representation = "vector") -> IOD
 
 
 def _swap_outputs(
-    data: IOData,
+    data: LogT,
     old: tuple[str, str],
     new: tuple[str, str],
     first: FloatArray,
     second: FloatArray,
-) -> IOData:
+) -> LogT:
     others = [name for name in data.output_names if name not in old]
     kept = data.select(outputs=others) if others else None
     y = np.column_stack([first, second, *(kept.y.T if kept is not None else [])])
     units = ("deg", "deg", *(kept.output_units if kept is not None else ()))
-    return data._replace(y=y, output_names=(*new, *others), output_units=units)
+    return data.replace(y=y, output_names=(*new, *others), output_units=units)

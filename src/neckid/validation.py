@@ -33,7 +33,9 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+
+from neckid._typing import FloatArray
 
 __all__ = [
     "Interval",
@@ -45,10 +47,9 @@ __all__ = [
     "check_ts",
     "check_uniform_time",
     "check_vector",
+    "per_output",
     "validate_parameters",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 # ---------------------------------------------------------------------------- constraints
@@ -468,3 +469,25 @@ def check_uniform_time(
         # stamps it would count the repeats as samples, so the median step is kept instead.
         period = reference if allow_repeats else float((t[-1] - t[0]) / (t.size - 1))
     return period, float(t[0])
+
+
+def per_output(value: Any, n_outputs: int, argument: str) -> FloatArray:
+    """A scalar or one value per output, as finite float64 of shape (n_outputs,)."""
+    if isinstance(value, bool):
+        raise TypeError(f"{argument} must be a number or one number per output; got {value!r}")
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(
+            f"{argument} must be a number or one number per output; got {value!r}"
+        ) from exc
+    if array.ndim == 0:
+        array = np.full(n_outputs, float(array))
+    if array.shape != (n_outputs,):
+        raise ValueError(
+            f"{argument} must be a number or {n_outputs} numbers (one per output); got shape"
+            f" {array.shape}"
+        )
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{argument} must be finite; got {array.tolist()}")
+    return array

@@ -7,7 +7,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.regressors import Lags
 
 __all__ = [
@@ -100,14 +100,14 @@ def read_log(
         ``inputs``/``outputs`` then select among them.
     conditions : sequence of str
         ``name=value`` conditions of the experiment (``"payload=0.4kg"``). They override those of
-        the log's sidecar ``<stem>.conditions.json`` (:func:`neckid.conditions.read_sidecar`),
+        the log's sidecar ``<stem>.conditions.json`` (:func:`neckid.data.sidecar.read_sidecar`),
         which override those the loader reads from a soft-neck file name.
     tilt : bool, default False
         A 3-D neck's log: read its ``inclination`` and ``orientation`` outputs [deg] and return
         the tilt vector ``tilt_x``, ``tilt_y`` [deg] in their place (:mod:`neckid.tilt`).
         ``tilt_x``/``tilt_y`` among ``outputs`` (a model's channels) stand for those two.
     """
-    from neckid.conditions import apply_conditions
+    from neckid.data.sidecar import apply_conditions
 
     path = Path(path)
     if not path.exists():

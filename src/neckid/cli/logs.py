@@ -156,9 +156,22 @@ def info(
             console.print_json(json.dumps(described))
             return
         table = Table(title=f"{path.name}: {described['method']}", show_header=False)
-        for key in ("class", "lags", "inputs", "outputs", "output_units", "ts_s",
-                    "initial_samples", "training_samples", "horizons", "epsilon", "gamma",
-                    "lipschitz", "distance", "estimate"):  # fmt: skip
+        for key in (
+            "class",
+            "lags",
+            "inputs",
+            "outputs",
+            "output_units",
+            "ts_s",
+            "initial_samples",
+            "training_samples",
+            "horizons",
+            "epsilon",
+            "gamma",
+            "lipschitz",
+            "distance",
+            "estimate",
+        ):
             if key in described:
                 table.add_row(
                     key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
@@ -183,7 +196,12 @@ def info(
         )
     for name, channel in described["channels"].items():
         table.add_row(
-            name, channel["kind"], channel["unit"] or "-", f"{channel['min']:.4g}",
-            f"{channel['max']:.4g}", f"{channel['mean']:.4g}", str(channel["non_numeric"]),
-        )  # fmt: skip
+            name,
+            channel["kind"],
+            channel["unit"] or "-",
+            f"{channel['min']:.4g}",
+            f"{channel['max']:.4g}",
+            f"{channel['mean']:.4g}",
+            str(channel["non_numeric"]),
+        )
     console.print(table)

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 
 __all__ = [
     "SILVERBOX_TS",

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.tilt import Representation
 
 __all__ = ["load_three_motor_log"]

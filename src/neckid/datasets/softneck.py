@@ -36,7 +36,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.validation import check_ts, check_uniform_time
 
 __all__ = [
@@ -139,7 +139,7 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
     try:
         text = data.decode("utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except UnicodeDecodeError as exc:
-        from neckid.data_files import not_text_message
+        from neckid.data.readers import not_text_message
 
         message = not_text_message(path, data, "utf-8", exc)
         raise ValueError(f"{message}; soft-neck logs are UTF-8 (ASCII) text") from None

@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.experiments.demo_settings import EXPERIMENTS, OUTPUT, PAPER_LAGS, DemoSettings
 from neckid.models.base import ModelResult
-from neckid.models.scheduled import GainScheduledModel
+from neckid.models.scheduled.model import GainScheduledModel
 from neckid.outputs import StagedFolder
 from neckid.regressors import Lags
 
@@ -218,10 +218,13 @@ def write_outputs(
         tests = list(loop["fit"].columns)
         free = table.loc[list(loop["fit"].index), tests]
         both = pd.concat(
-            {"free run, fit [%]": free, "in the loop, fit [%]": loop["fit"],
-             "in the loop, command fit [%]": loop["command_fit"]},
+            {
+                "free run, fit [%]": free,
+                "in the loop, fit [%]": loop["fit"],
+                "in the loop, command fit [%]": loop["command_fit"],
+            },
             axis=1,
-        )  # fmt: skip
+        )
         both.columns = [f"{column[1]}: {column[0]}" for column in both.columns]
         report.add_table(
             "Models in the loop: tests 1-3, fit [%]",

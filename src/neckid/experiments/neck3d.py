@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.experiments.neck3d_settings import (
     METHODS_3D,
     NARX_INPUTS,

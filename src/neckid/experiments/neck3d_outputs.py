@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.experiments.neck3d_settings import TESTS_3D, Demo3DSettings
 from neckid.models.base import ModelResult
 from neckid.outputs import StagedFolder
@@ -129,9 +129,11 @@ def write_outputs_3d(
     for record in TESTS_3D[1:3]:
         name, number = _FIGURES[record]
         fig = plot_tilt_plane(
-            views[record], results[record], reference=references.get(record),
+            views[record],
+            results[record],
+            reference=references.get(record),
             title=f"{number} — {record}: tilt plane",
-        )  # fmt: skip
+        )
         save(
             fig,
             name,

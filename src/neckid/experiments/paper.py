@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.experiments.demo_outputs import write_outputs
 from neckid.experiments.demo_settings import (
     DEMO_METHODS,
@@ -47,7 +47,7 @@ from neckid.experiments.demo_settings import (
     DemoResult,
     DemoSettings,
 )
-from neckid.experiments.model_in_loop import model_in_the_loop
+from neckid.loops.model_in_loop import model_in_the_loop
 from neckid.models.base import ModelResult
 from neckid.outputs import StagedFolder
 from neckid.plant import InclinationController, SoftNeck, closed_loop
@@ -138,7 +138,7 @@ def run_demo(
 def _run_protocol(
     out: StagedFolder, settings: DemoSettings | None, on_step: Callable[[str], None] | None
 ) -> DemoResult:
-    from neckid.experiments.operating_points import identify_operating_points
+    from neckid.loops.operating_points import identify_operating_points
 
     started = time.perf_counter()
     settings = settings if settings is not None else DemoSettings.make()
@@ -322,7 +322,7 @@ def _models_in_the_loop(
     Returns tables (model x test) of the inclination's fit [%] and RMSE [deg], the velocity
     command's fit [%], and the SM band's coverage of the measured inclination (NaN without a
     band). NARX models get the motor position from the neck's drive law
-    (:class:`~neckid.experiments.model_in_loop.VelocityDrive`); the scheduled model takes the
+    (:class:`~neckid.loops.model_in_loop.VelocityDrive`); the scheduled model takes the
     command itself.
     """
     tests = list(EXPERIMENTS[1:])

@@ -31,11 +31,12 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator
 from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
 
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent, mae, rmse
 from neckid.models.io import ModelFile
 from neckid.regressors import Lags, ResolvedLags
@@ -54,7 +55,6 @@ __all__ = [
     "history_rows",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: Largest magnitude a training value may have: its square times a record length stays finite.
 LARGEST_VALUE = 1e150

@@ -29,15 +29,15 @@ from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.validation import check_number
 
 __all__ = ["CalibratedModel", "Kind", "calibrate", "conformal_quantile", "predict_ahead"]
 
-FloatArray = NDArray[np.float64]
 Kind = Literal["prediction", "simulation"]
 
 
@@ -112,7 +112,7 @@ def predict_ahead(model: Any, data: IOData, steps: int) -> ModelResult:
     Parameters
     ----------
     model : fitted estimator
-        A model with ``predict_ahead`` (:class:`~neckid.models.sm_multistep.MultiStepSetMembership`,
+        A model with ``predict_ahead`` (:class:`~neckid.models.set_membership.multistep.MultiStepSetMembership`,
         its direct predictor is used), a NARX model (its one-step map iterated ``k`` times from
         every anchor, all anchors at once), or any model with a ``simulator()`` (run ``k`` steps
         from every anchor).
@@ -164,9 +164,14 @@ def predict_ahead(model: Any, data: IOData, steps: int) -> ModelResult:
     y = np.array(data.y, dtype=np.float64)
     y[start:] = y_hat[start:]
     return ModelResult.from_data(
-        "prediction", data, y, start, model.output_names_, model.output_units_,
+        "prediction",
+        data,
+        y,
+        start,
+        model.output_names_,
+        model.output_units_,
         extras={"steps": k},
-    )  # fmt: skip
+    )
 
 
 def _iterate_map(model: NarxModel, data: IOData, steps: int) -> FloatArray:

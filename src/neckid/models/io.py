@@ -286,7 +286,7 @@ def _check_runs(model: Any) -> None:
     Catches what the values alone do not show: channel names that are not unique strings,
     regressor indices outside the channels, arrays that do not fit one another.
     """
-    from neckid.data import IOData
+    from neckid.data.iodata import IOData
 
     max_lag = model.max_lag_
     if isinstance(max_lag, bool) or not isinstance(max_lag, int | np.integer):

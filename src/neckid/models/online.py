@@ -26,9 +26,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, check_is_fitted
 
 __all__ = [
@@ -38,8 +39,6 @@ __all__ = [
     "update_experiments",
     "update_rows",
 ]
-
-FloatArray = NDArray[np.float64]
 
 
 def update_experiments(model: Any, data: IOData | Sequence[IOData]) -> list[IOData]:

@@ -25,10 +25,8 @@ import math
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+from neckid._typing import FloatArray, IntArray
 
 # Indices into the packed parameter vector (see SoftNeckParameters.packed).
 LINK_LENGTH = 0

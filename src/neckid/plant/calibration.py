@@ -19,8 +19,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from neckid._typing import FloatArray
 from neckid.plant.control import InclinationController, closed_loop
 from neckid.plant.soft_neck import SoftNeck
 from neckid.signals import BandwidthResult, bandwidth_from_chirp, paper_chirp, paper_chirp_frequency
@@ -34,7 +34,6 @@ __all__ = [
     "static_map",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: The paper's inclination-scheduled first-order model, ``N(i)`` and ``P(i)`` (i in degrees).
 PAPER_GAIN = (-0.059, 1.857)

@@ -3,7 +3,7 @@ r"""The inclination controller of the closed-loop experiments, and the loop that
 :class:`InclinationController` is a discrete PI with anti-windup whose output is the motor
 velocity command (the bench's drives run in velocity mode). :func:`closed_loop` runs a reference
 through a controller and any plant with ``reset()`` and ``step(u) -> y`` (the simulated neck or an
-identified model's ``simulator()``) and logs everything in one :class:`~neckid.data.IOData`.
+identified model's ``simulator()``) and logs everything in one :class:`~neckid.data.iodata.IOData`.
 """
 
 from __future__ import annotations
@@ -12,17 +12,17 @@ import math
 from typing import Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 import neckid.plant._kernels as _kernels
-from neckid.data import IOData
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData
 from neckid.plant.protocols import Controller, Plant
 from neckid.plant.soft_neck import DIVERGED_MESSAGE, SoftNeck
 from neckid.validation import check_finite, check_number, check_ts
 
 __all__ = ["InclinationController", "closed_loop"]
 
-FloatArray = NDArray[np.float64]
 
 _TENDON_ANGLES = np.radians([0.0, 120.0, 240.0])
 _TENDON_COS = np.cos(_TENDON_ANGLES)

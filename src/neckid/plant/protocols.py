@@ -4,7 +4,7 @@ Structural types (:class:`typing.Protocol`): any object with the two methods fit
 class to inherit. The simulated neck (:class:`~neckid.plant.SoftNeck`), an identified model's
 ``simulator()`` and a real rig's driver are plants; :class:`~neckid.plant.InclinationController`
 is a controller. :func:`~neckid.plant.closed_loop` and
-:func:`~neckid.experiments.operating_points.identify_operating_points` take them.
+:func:`~neckid.loops.operating_points.identify_operating_points` take them.
 """
 
 from __future__ import annotations
@@ -89,7 +89,7 @@ class BoundedSimulator(Simulator, Protocol):
     """A :class:`Simulator` that also gives each step's band (the Set Membership models).
 
     ``step_bounds(u)`` advances like ``step`` and returns ``(y, lower, upper)``, each of shape
-    ``(n_outputs,)``; :func:`neckid.experiments.model_in_loop.model_in_the_loop` carries the band
+    ``(n_outputs,)``; :func:`neckid.loops.model_in_loop.model_in_the_loop` carries the band
     along a closed loop.
     """
 

@@ -50,15 +50,15 @@ from dataclasses import asdict, dataclass, fields
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 import neckid.plant._kernels as _kernels
-from neckid.data import IOData
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData
 from neckid.validation import check_finite, check_ts
 
 __all__ = ["Configuration", "SoftNeck", "SoftNeckParameters"]
 
-FloatArray = NDArray[np.float64]
 Configuration = Literal["planar", "three_tendon"]
 
 STANDARD_GRAVITY = 9.80665  # m/s^2

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.models.base import ModelResult
 
 __all__ = ["plot_simulation"]
@@ -79,14 +79,25 @@ def plot_simulation(
         ax.plot(result.time, y, lw=1.0, color=color, label=name)
         shown.append(y[np.isfinite(y)])
         if ax_res is not None:
-            ax_res.plot(result.time[result.n_initial :], (measured - y)[result.n_initial :],
-                        lw=0.8, color=color)  # fmt: skip
+            ax_res.plot(
+                result.time[result.n_initial :],
+                (measured - y)[result.n_initial :],
+                lw=0.8,
+                color=color,
+            )
         if bounds and result.lower is not None and result.upper is not None:
             lo, hi = result.lower[:, output], result.upper[:, output]
             ok = np.isfinite(lo) & np.isfinite(hi)
             if ok.any():
-                ax.fill_between(result.time[ok], lo[ok], hi[ok], color=color, alpha=0.15, lw=0,
-                                label=f"{name} bounds")  # fmt: skip
+                ax.fill_between(
+                    result.time[ok],
+                    lo[ok],
+                    hi[ok],
+                    color=color,
+                    alpha=0.15,
+                    lw=0,
+                    label=f"{name} bounds",
+                )
     values = np.concatenate(shown)
     low, high = float(np.min(values)), float(np.max(values))
     margin = 0.08 * (high - low or 1.0)

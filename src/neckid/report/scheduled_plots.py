@@ -9,10 +9,10 @@ import numpy as np
 import pandas as pd
 
 from neckid.models.base import check_is_fitted
-from neckid.models.scheduled import GainScheduledModel
+from neckid.models.scheduled.model import GainScheduledModel
 
 if TYPE_CHECKING:
-    from neckid.experiments.operating_points import OperatingPointResult
+    from neckid.loops.operating_points import OperatingPointResult
 
 __all__ = ["GAIN_UNIT", "POSITION_GAIN_UNIT", "operating_points_frame", "plot_gain_schedule"]
 

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid.models.set_membership import GammaCurve, choose_epsilon
+from neckid.models.set_membership.narx import GammaCurve, choose_epsilon
 
 __all__ = ["plot_gamma_curve"]
 
@@ -35,7 +35,7 @@ def plot_gamma_curve(
         output (e.g. ``(model.epsilon_, model.gamma_)`` of a fitted
         :class:`~neckid.SetMembership`): drawn as a filled marker with the text
         ``"ε = … unit, γ = …"``. When omitted, the knee of the curve
-        (:func:`~neckid.models.set_membership.choose_epsilon`) is marked instead.
+        (:func:`~neckid.models.set_membership.narx.choose_epsilon`) is marked instead.
     title : str, optional
         Axes title; default ``"γ*(ε): smallest Lipschitz constant consistent with the data"``.
 

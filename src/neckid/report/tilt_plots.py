@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.models.base import ModelResult
 
 __all__ = ["plot_tilt_plane"]
@@ -64,14 +64,25 @@ def plot_tilt_plane(
         ax.annotate(f"tendon {k + 1}", end * 0.85, color="0.55", fontsize=7, ha="center")
     if reference is not None:
         phi = np.radians(reference[:, 1])
-        ax.plot(reference[:, 0] * np.cos(phi), reference[:, 0] * np.sin(phi), color="0.4",
-                lw=1.0, ls=":", label="reference")  # fmt: skip
+        ax.plot(
+            reference[:, 0] * np.cos(phi),
+            reference[:, 0] * np.sin(phi),
+            color="0.4",
+            lw=1.0,
+            ls=":",
+            label="reference",
+        )
     ax.plot(y[:, 0], y[:, 1], color="black", lw=1.4, label="measured")
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, (name, result) in enumerate(results.items()):
         start = result.n_initial
-        ax.plot(result.y[start:, 0], result.y[start:, 1], lw=0.9, color=colors[k % len(colors)],
-                label=name)  # fmt: skip
+        ax.plot(
+            result.y[start:, 0],
+            result.y[start:, 1],
+            lw=0.9,
+            color=colors[k % len(colors)],
+            label=name,
+        )
     ax.set_xlim(-limit, limit)
     ax.set_ylim(-limit, limit)
     ax.set_aspect("equal")

@@ -19,7 +19,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from neckid.data import IOData
+from neckid.data.iodata import IOData
 from neckid.datasets.benchmarks import (
     BenchmarkData,
     load_bouc_wen,
@@ -169,15 +169,23 @@ def load_softneck_benchmark(folder: str | Path) -> BenchmarkData:
 SOFTNECK_CROSS_RUN: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = MappingProxyType(
     {
         "softneck-payload": (
-            tuple(f"stair/{c}{g}response.csv" for c in ("ada", "fra", "int") for g in ("000", "600")),
-            tuple(f"stair/{c}{g}response.csv" for c in ("ada", "fra", "int") for g in ("200", "400")),
+            tuple(
+                f"stair/{c}{g}response.csv" for c in ("ada", "fra", "int") for g in ("000", "600")
+            ),
+            tuple(
+                f"stair/{c}{g}response.csv" for c in ("ada", "fra", "int") for g in ("200", "400")
+            ),
         ),
         "softneck-controller": (
-            tuple(f"stair/{c}{g}response.csv" for c in ("ada", "fra") for g in ("000", "200", "400", "600")),
+            tuple(
+                f"stair/{c}{g}response.csv"
+                for c in ("ada", "fra")
+                for g in ("000", "200", "400", "600")
+            ),
             tuple(f"stair/int{g}response.csv" for g in ("000", "200", "400", "600")),
         ),
     }
-)  # fmt: skip
+)
 
 
 def load_softneck_cross_run(folder: str | Path, name: str) -> BenchmarkData:

@@ -26,10 +26,10 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from sklearn.base import BaseEstimator
 
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.experiments.benchmark.settings import (
     PEER_METHODS,
     PUBLIC_BENCHMARKS,
@@ -44,8 +44,6 @@ __all__ = ["PEER_METHODS", "FrolsPeer", "peer_candidates", "peer_unavailable"]
 #: Polynomial degree and the number of terms the information criterion is evaluated over.
 FROLS_DEGREE = 3
 FROLS_INFO_VALUES = 40
-
-FloatArray = NDArray[np.float64]
 
 
 def peer_unavailable(name: str) -> str | None:
@@ -71,10 +69,12 @@ def peer_candidates(name: str, benchmark: str, quick: bool = False) -> list[Cand
         return []
     info = 10 if quick else FROLS_INFO_VALUES
     return [
-        (f"lags={lags!r}, degree={FROLS_DEGREE}, AIC over {info} terms",
-         FrolsPeer(lags, n_info_values=info))
+        (
+            f"lags={lags!r}, degree={FROLS_DEGREE}, AIC over {info} terms",
+            FrolsPeer(lags, n_info_values=info),
+        )
         for lags in lag_grid(benchmark, quick)
-    ]  # fmt: skip
+    ]
 
 
 def _input_ahead(u: FloatArray) -> FloatArray:
@@ -98,9 +98,11 @@ class FrolsPeer(BaseEstimator):
     """
 
     def __init__(
-        self, lags: Lags | None = None, degree: int = FROLS_DEGREE,
+        self,
+        lags: Lags | None = None,
+        degree: int = FROLS_DEGREE,
         n_info_values: int = FROLS_INFO_VALUES,
-    ) -> None:  # fmt: skip
+    ) -> None:
         self.lags = lags
         self.degree = degree
         self.n_info_values = n_info_values
@@ -140,10 +142,15 @@ class FrolsPeer(BaseEstimator):
         from sysidentpy.parameter_estimation import LeastSquares
 
         model = FROLS(
-            ylag=outputs, xlag=inputs, order_selection=True, info_criteria="aic",
-            n_info_values=int(self.n_info_values), estimator=LeastSquares(),
-            basis_function=Polynomial(degree=int(self.degree)), model_type="NARMAX",
-        )  # fmt: skip
+            ylag=outputs,
+            xlag=inputs,
+            order_selection=True,
+            info_criteria="aic",
+            n_info_values=int(self.n_info_values),
+            estimator=LeastSquares(),
+            basis_function=Polynomial(degree=int(self.degree)),
+            model_type="NARMAX",
+        )
         model.fit(X=_input_ahead(record.u[:, 0]), y=record.y[:, :1])
         self.model_ = model
         self.max_lag_ = int(max(max(outputs), max(inputs)))
@@ -161,6 +168,9 @@ class FrolsPeer(BaseEstimator):
             y = self.model_.predict(X=_input_ahead(data.u[:, 0]), y=data.y[: self.max_lag_, :1])
         y = np.asarray(y, dtype=np.float64).reshape(-1, 1)[: data.n_samples]
         return ModelResult(
-            kind="simulation", time=np.asarray(data.time, dtype=np.float64), y=y,
-            output_names=tuple(data.output_names), n_initial=self.max_lag_,
-        )  # fmt: skip
+            kind="simulation",
+            time=np.asarray(data.time, dtype=np.float64),
+            y=y,
+            output_names=tuple(data.output_names),
+            n_initial=self.max_lag_,
+        )

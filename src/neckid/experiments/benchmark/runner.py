@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from sklearn.base import clone
 
 from neckid._parallel import check_backend
-from neckid.data import IOData, as_experiments
+from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
 from neckid.experiments.benchmark.peers import peer_candidates, peer_unavailable

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from neckid.data import IOData, as_experiments
+from neckid.data.iodata import IOData, as_experiments
 from neckid.experiments.benchmark.datasets import SOFTNECK_STAIR_EDGES
 from neckid.metrics import rmse
 from neckid.registry import methods
@@ -370,9 +370,15 @@ def _parallel_polynomial_grid(
         degree = method.make(lags, quick=quick).parallel_degree  # the registry's (2 when quick)
         for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if quick else SM_PARALLEL_POLY_ESTIMATES:
             out += _parallel_candidates(
-                method.make, lags, quick, regressors, factors, scale, f", degree={degree}",
+                method.make,
+                lags,
+                quick,
+                regressors,
+                factors,
+                scale,
+                f", degree={degree}",
                 {**SM_PARALLEL_POLY_OPTIONS, "estimate": estimate},
-            )  # fmt: skip
+            )
     return out
 
 

@@ -21,55 +21,48 @@ Kernels
   are *bit for bit* those of a linear scan with the same formula. With ``overwrite_points`` it
   reorders the caller's matrix in place (:func:`_permute_rows`, one spare row) instead of
   keeping a reordered copy: the estimator's one copy of its training points.
-- :func:`free_run`: the compiled free-run loop (regressor from the simulated history, linear
+- the compiled free-run loop (:mod:`.free_run`) (regressor from the simulated history, linear
   part, both bounds, central value fed back).
-- :func:`gamma_star`: γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε,
+- γ*(ε) (:func:`~neckid.models.set_membership._kernels.gamma.gamma_star`): = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε,
   by branch and bound over the kd-tree (or, for few points, over all pairs); the kernels are in
-  :mod:`neckid.models._gamma_tree`. A Python callback reports progress between blocks of rows.
+  :mod:`neckid.models.set_membership._kernels.gamma`. A Python callback reports progress between blocks of rows.
 
 The plain NumPy references (vectorised over training points) are beside this module, in
-:mod:`neckid.models._sm_reference`; tests check that the kernels agree with them.
+:mod:`_sm_reference`; tests check that the kernels agree with them.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models._gamma_tree import gamma_star_blocked
+from neckid._typing import FloatArray, IntArray
 
 __all__ = [
     "LEAF_SIZE",
-    "TREE_MIN_POINTS",
-    "GammaMethod",
     "SMTree",
     "build_tree",
-    "free_run",
-    "gamma_star",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 logger = logging.getLogger(__name__)
 
 #: Largest number of training points in a leaf of the kd-tree.
 LEAF_SIZE = 16
 #: Depth of the traversal stack; a median-split tree over 2**60 points is shallower.
-_STACK_DEPTH = 128
+STACK_DEPTH = 128
 
 
 # ---------------------------------------------------------------------------------- tree build
 @njit(cache=True)
 def _count_nodes(n_points: int, leaf_size: int) -> int:
     """Nodes of the median-split tree over ``n_points`` (fewer if identical points stop a split)."""
-    sizes = np.empty(_STACK_DEPTH, np.int64)
+    sizes = np.empty(STACK_DEPTH, np.int64)
     sizes[0] = n_points
     top = 1
     count = 0
@@ -131,7 +124,7 @@ def _build_tree_kernel(
     right = np.full(max_nodes, -1, np.int64)
     lo = np.empty((max_nodes, n_dims))
     hi = np.empty((max_nodes, n_dims))
-    stack = np.empty(_STACK_DEPTH, np.int64)
+    stack = np.empty(STACK_DEPTH, np.int64)
     start[0] = 0
     end[0] = n_points
     n_nodes = 1
@@ -258,7 +251,7 @@ def build_tree(points: FloatArray, leaf_size: int = LEAF_SIZE) -> dict[str, NDAr
 
 # ---------------------------------------------------------------------------------- queries
 @njit(cache=True, inline="always")
-def _box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
+def box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
     """Squared distance from ``w`` to the bounding box of ``node`` (0 inside)."""
     acc = 0.0
     for k in range(w.shape[0]):
@@ -273,7 +266,7 @@ def _box_distance2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> 
 
 
 @njit(cache=True, inline="always")
-def _squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
+def squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
     """Squared distance from ``w`` to ``points[p]``, summed in component order."""
     acc = 0.0
     for k in range(w.shape[0]):
@@ -283,12 +276,12 @@ def _squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
 
 
 @njit(cache=True, inline="always")
-def _box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
-    return math.sqrt(_box_distance2(w, lo, hi, node))
+def box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
+    return math.sqrt(box_distance2(w, lo, hi, node))
 
 
 @njit(cache=True, inline="always")
-def _push_children(
+def push_children(
     w: FloatArray,
     lo: FloatArray,
     hi: FloatArray,
@@ -302,8 +295,8 @@ def _push_children(
     """Push the two children of ``node`` with their box distances, the nearer one on top."""
     child = left[node]
     other = right[node]
-    d_left = _box_distance(w, lo, hi, child)
-    d_right = _box_distance(w, lo, hi, other)
+    d_left = box_distance(w, lo, hi, child)
+    d_right = box_distance(w, lo, hi, other)
     if d_left <= d_right:
         node_stack[top], dist_stack[top] = other, d_right
         node_stack[top + 1], dist_stack[top + 1] = child, d_left
@@ -314,7 +307,7 @@ def _push_children(
 
 
 @njit(cache=True)
-def _query_one(
+def query_one(
     w: FloatArray,
     points: FloatArray,
     targets: FloatArray,
@@ -335,7 +328,7 @@ def _query_one(
     """Return ``(max_k ỹ_k − L_k d_k, min_k ỹ_k + L_k d_k)`` for one query (ε not included).
 
     ``L_k = γ`` with an empty ``point_gamma`` (shape ``(0, n_outputs)``: one global constant),
-    else ``max(γ, point_gamma[k, col])`` (local constants, :mod:`neckid.models._sm_local`,
+    else ``max(γ, point_gamma[k, col])`` (local constants, :mod:`neckid.models.set_membership._kernels.local`,
     where ``γ`` is the query's own constant); the node test uses ``γ``, a lower bound of every
     ``L_k``.
     """
@@ -343,7 +336,7 @@ def _query_one(
     best_upper = np.inf
     best_lower = -np.inf
     node_stack[0] = 0
-    dist_stack[0] = _box_distance(w, lo, hi, 0)
+    dist_stack[0] = box_distance(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
@@ -355,14 +348,14 @@ def _query_one(
         if child < 0:
             for p in range(start[node], end[node]):
                 slope = max(gamma, point_gamma[p, col]) if local else gamma
-                gd = slope * math.sqrt(_squared_distance(w, points, p))
+                gd = slope * math.sqrt(squared_distance(w, points, p))
                 v = targets[p, col]
                 if v + gd < best_upper:
                     best_upper = v + gd
                 if v - gd > best_lower:
                     best_lower = v - gd
         else:  # the nearer child is explored first
-            top = _push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
     return best_lower, best_upper
 
 
@@ -386,14 +379,28 @@ def _bounds_many_kernel(
     n_out = targets.shape[1]
     no_points = np.empty((0, n_out))
     for i in prange(queries.shape[0]):
-        node_stack = np.empty(_STACK_DEPTH, np.int64)
-        dist_stack = np.empty(_STACK_DEPTH)
+        node_stack = np.empty(STACK_DEPTH, np.int64)
+        dist_stack = np.empty(STACK_DEPTH)
         w = queries[i]
         for c in range(n_out):
-            low, high = _query_one(
-                w, points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin, ymax,
-                node_stack, dist_stack, no_points,
-            )  # fmt: skip
+            low, high = query_one(
+                w,
+                points,
+                targets,
+                c,
+                gamma[c],
+                start,
+                end,
+                left,
+                right,
+                lo,
+                hi,
+                ymin,
+                ymax,
+                node_stack,
+                dist_stack,
+                no_points,
+            )
             lower[i, c] = low
             upper[i, c] = high
 
@@ -408,74 +415,33 @@ def _bounds_few_kernel(
     machine; the results are identical (same traversal, same sums).
     """
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree  # SMTree.kernel_arrays()
-    node_stack = np.empty(_STACK_DEPTH, np.int64)
-    dist_stack = np.empty(_STACK_DEPTH)
+    node_stack = np.empty(STACK_DEPTH, np.int64)
+    dist_stack = np.empty(STACK_DEPTH)
     no_points = np.empty((0, targets.shape[1]))
     for i in range(queries.shape[0]):
         for c in range(targets.shape[1]):
-            lower[i, c], upper[i, c] = _query_one(
-                queries[i], points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin,
-                ymax, node_stack, dist_stack, no_points,
-            )  # fmt: skip
+            lower[i, c], upper[i, c] = query_one(
+                queries[i],
+                points,
+                targets,
+                c,
+                gamma[c],
+                start,
+                end,
+                left,
+                right,
+                lo,
+                hi,
+                ymin,
+                ymax,
+                node_stack,
+                dist_stack,
+                no_points,
+            )
 
 
 #: Below this many queries the bounds are evaluated without threads.
 SERIAL_QUERIES = 64
-
-
-@njit(cache=True)
-def _free_run_kernel(
-    u: FloatArray,
-    y: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    source: IntArray,
-    channel: IntArray,
-    lag: IntArray,
-    max_lag: int,
-    weights: FloatArray,
-    coef: FloatArray,
-    intercept: FloatArray,
-    epsilon: FloatArray,
-    gamma: FloatArray,
-    points: FloatArray,
-    targets: FloatArray,
-    start: IntArray,
-    end: IntArray,
-    left: IntArray,
-    right: IntArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    ymin: FloatArray,
-    ymax: FloatArray,
-) -> None:
-    n_terms = source.shape[0]
-    n_out = y.shape[1]
-    w = np.empty(n_terms)
-    ws = np.empty(n_terms)
-    node_stack = np.empty(_STACK_DEPTH, np.int64)
-    dist_stack = np.empty(_STACK_DEPTH)
-    no_points = np.empty((0, n_out))
-    for t in range(max_lag, y.shape[0]):
-        for k in range(n_terms):
-            if source[k] == 0:
-                w[k] = y[t - lag[k], channel[k]]
-            else:
-                w[k] = u[t - lag[k], channel[k]]
-            ws[k] = w[k] * weights[k]
-        for c in range(n_out):
-            linear = intercept[c]
-            for k in range(n_terms):
-                linear += w[k] * coef[k, c]
-            low, high = _query_one(
-                ws, points, targets, c, gamma[c], start, end, left, right, lo, hi, ymin, ymax,
-                node_stack, dist_stack, no_points,
-            )  # fmt: skip
-            f_lower = low - epsilon[c]
-            f_upper = high + epsilon[c]
-            lower[t, c] = linear + f_lower
-            upper[t, c] = linear + f_upper
-            y[t, c] = linear + 0.5 * (f_lower + f_upper)
 
 
 class SMTree:
@@ -559,161 +525,19 @@ class SMTree:
             return lower - epsilon, upper + epsilon
         points, targets, start, end, left, right, lo, hi, ymin, ymax = self.kernel_arrays()
         _bounds_many_kernel(
-            queries, points, targets, gamma, start, end, left, right, lo, hi, ymin, ymax,
-            lower, upper,
-        )  # fmt: skip
+            queries,
+            points,
+            targets,
+            gamma,
+            start,
+            end,
+            left,
+            right,
+            lo,
+            hi,
+            ymin,
+            ymax,
+            lower,
+            upper,
+        )
         return lower - epsilon, upper + epsilon
-
-
-def free_run(
-    tree: SMTree,
-    u: FloatArray,
-    y_initial: FloatArray,
-    source: IntArray,
-    channel: IntArray,
-    lag: IntArray,
-    max_lag: int,
-    weights: FloatArray,
-    coef: FloatArray,
-    intercept: FloatArray,
-    epsilon: FloatArray,
-    gamma: FloatArray,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Compiled free run; returns ``(y, lower, upper)``, each ``(n_samples, n_outputs)``.
-
-    The first ``max_lag`` rows of ``y`` are ``y_initial``'s (initial conditions); the bounds there
-    are NaN.
-    """
-    y = np.array(y_initial, dtype=np.float64, order="C")
-    lower = np.full(y.shape, np.nan)
-    upper = np.full(y.shape, np.nan)
-    _free_run_kernel(
-        np.ascontiguousarray(u, dtype=np.float64), y, lower, upper,
-        np.ascontiguousarray(source, dtype=np.int64), np.ascontiguousarray(channel, dtype=np.int64),
-        np.ascontiguousarray(lag, dtype=np.int64), int(max_lag),
-        np.ascontiguousarray(weights, dtype=np.float64), np.ascontiguousarray(coef, dtype=np.float64),
-        np.ascontiguousarray(intercept, dtype=np.float64),
-        np.ascontiguousarray(epsilon, dtype=np.float64), np.ascontiguousarray(gamma, dtype=np.float64),
-        *tree.kernel_arrays(),
-    )  # fmt: skip
-    return y, lower, upper
-
-
-# ---------------------------------------------------------------------------------- gamma*(eps)
-#: The ways :func:`gamma_star` can walk the pairs.
-GammaMethod = Literal["auto", "tree", "pairs"]
-#: Below this many points ``method="auto"`` walks all pairs. Both ways take under 0.15 s there
-#: for the default 48-ε grid (measured on neck-like regressors, n = 12: pairs 0.13 s, tree
-#: 0.07 s at 10,000 points; the tree wins from a few hundred points on time series, from about
-#: 4,000 on i.i.d. uniform 12-D points), while compiling the tree's kernels costs a fresh
-#: install about 3 s: small problems, such as the demo's, keep to the one kernel.
-TREE_MIN_POINTS = 10_000
-#: Leaf size of the kd-tree that :func:`gamma_star` builds.
-GAMMA_LEAF_SIZE = 8
-
-
-def gamma_star(
-    points: FloatArray,
-    targets: FloatArray,
-    epsilons: FloatArray,
-    n_blocks: int = 64,
-    callback: Callable[[int, int], None] | None = None,
-    method: GammaMethod = "auto",
-    *,
-    tree: SMTree | None = None,
-    floor: FloatArray | None = None,
-) -> FloatArray:
-    """γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for each ε of a grid and each output.
-
-    Parameters
-    ----------
-    points : ndarray, shape (n_points, n_dims)
-        Scaled regressors.
-    targets : ndarray, shape (n_points, n_outputs)
-        Targets ỹ.
-    epsilons : ndarray, shape (n_eps, n_outputs)
-        The grid of ε per output (any order, >= 0).
-    n_blocks : int, default 64
-        How many blocks of rows (of kd-tree leaves with the tree; at most one per row or leaf),
-        each holding about the same number of pairs ``(i, j > i)``; ``callback`` is called
-        after each.
-    callback : callable, optional
-        ``callback(pairs_done, pairs_total)`` called from Python between blocks.
-    method : {"auto", "tree", "pairs"}, default "auto"
-        ``"pairs"`` walks every pair (the quadratic reference); ``"tree"`` finds, for each
-        point, the partners that can still raise γ*(ε) by branch and bound over a kd-tree;
-        ``"auto"`` walks the pairs below ``TREE_MIN_POINTS`` points and otherwise runs the
-        tree, handing the remaining rows to the pair kernel if the tree prunes too little (a
-        cost estimate from the work it counted, see
-        :func:`neckid.models._gamma_tree.gamma_star_blocked`). All give the same result.
-    tree : SMTree, optional
-        A kd-tree already built over ``points`` and ``targets`` (any leaf size; the estimator
-        passes its own, with ``points=tree.points`` and ``targets=tree.targets``): searched
-        instead of building a new one (which would copy the points).
-    floor : ndarray, shape (n_outputs,), optional
-        Return ``max(γ*(ε), floor)``: pairs that cannot exceed the floor are never computed
-        (see :func:`~neckid.models._gamma_tree.gamma_star_blocked`). The result equals the floor
-        exactly when no pair exceeds it, which is how :func:`~neckid.models.sm_training.prior_holds`
-        checks γ >= γ*(ε) without computing γ*(ε).
-
-    Returns
-    -------
-    ndarray, shape (n_eps, n_outputs)
-        γ*(ε); ``inf`` where two identical regressors have targets more than 2ε apart, 0 where
-        no two targets are more than 2ε apart.
-
-    Raises
-    ------
-    ValueError
-        If ``method`` is not one of the three.
-
-    Notes
-    -----
-    γ*(ε) is the smallest Lipschitz constant for which the prior assumptions of Set Membership
-    identification (Milanese & Novara 2004) are not falsified by the data at noise bound ε.
-    Both kernels evaluate each pair they cannot skip with the same floating-point operations
-    and skip only pairs that provably cannot raise the maximum, so ``"tree"`` and ``"pairs"``
-    agree to the last bit (see :mod:`neckid.models._gamma_tree`).
-
-    The tree's cost depends on the data. On time-series regressors and a small ε each point
-    meets a few hundred candidates and the cost grows like N log N; at large ε, where many
-    distant pairs have nearly the largest slope, the candidates within reach grow with N and
-    so does the cost per point (quadratic, with a small constant). Where it prunes almost
-    nothing (every pair with the same slope) a pair costs it several times what it costs the
-    pair kernel, which is why ``"auto"`` watches the work it counts.
-
-    References
-    ----------
-    M. Milanese and C. Novara, "Set Membership identification of nonlinear systems",
-    Automatica 40(6), 957-975, 2004.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> points = np.array([[0.0], [1.0], [3.0]])
-    >>> targets = np.array([[0.0], [1.0], [5.0]])
-    >>> gamma_star(points, targets, np.array([[0.0], [0.5], [3.0]]), method="tree")[:, 0]
-    array([2. , 1.5, 0. ])
-    """
-    if method not in ("auto", "tree", "pairs"):
-        raise ValueError(f"method must be 'auto', 'tree' or 'pairs'; got {method!r}")
-    points = np.ascontiguousarray(points, dtype=np.float64)
-    targets = np.ascontiguousarray(targets, dtype=np.float64)
-    epsilons = np.asarray(epsilons, dtype=np.float64)
-    order = np.argsort(epsilons, axis=0, kind="stable")
-    twice_eps = np.ascontiguousarray(2.0 * np.take_along_axis(epsilons, order, axis=0))
-    n_points = points.shape[0]
-    use_tree = method == "tree" or (method == "auto" and n_points >= TREE_MIN_POINTS)
-    if not use_tree or n_points < 2:
-        tree = None
-    elif tree is None:
-        tree = SMTree(points, targets, GAMMA_LEAF_SIZE)
-    if floor is not None:
-        floor = np.ascontiguousarray(floor, dtype=np.float64)
-    best, stats = gamma_star_blocked(
-        points, targets, twice_eps, n_blocks, callback, tree, method == "auto", floor
-    )
-    logger.debug("gamma*(eps) over %d points: %s", n_points, stats)
-    result = np.empty_like(best)
-    np.put_along_axis(result, order, best, axis=0)
-    return result

@@ -1,8 +1,8 @@
 """The free run of a NARX ensemble of multilayer perceptrons: the compiled loop and its packing.
 
-:meth:`neckid.models.neural.NeuralNARX.simulate` calls :func:`mlp_free_run` (numba) on weights
+:meth:`neckid.models.neural.narx.NeuralNARX.simulate` calls :func:`mlp_free_run` (numba) on weights
 packed once per call by :func:`pack_layers`; the plain NumPy loop it replaced stays in
-:mod:`neckid.models.neural` (``compiled=False``) as the reference the tests compare it with.
+:mod:`neckid.models.neural.narx` (``compiled=False``) as the reference the tests compare it with.
 
 Per sample the loop builds the regressor ``w(t)`` from the lagged outputs and inputs, runs every
 network's layers (``h_k = g(h_{k-1} W_k + b_k)``, identity output layer) and writes the mean of
@@ -17,12 +17,11 @@ from collections.abc import Sequence
 
 import numpy as np
 from numba import njit
-from numpy.typing import NDArray
+
+from neckid._typing import FloatArray, IntArray
 
 __all__ = ["ACTIVATION_CODES", "mlp_free_run", "pack_layers"]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: The kernel's code of every hidden-layer activation.
 ACTIVATION_CODES = {"identity": 0, "tanh": 1, "relu": 2, "logistic": 3}

@@ -1,6 +1,6 @@
 """Plain NumPy references of the Set Membership kernels (brute force, written as the equations read).
 
-:mod:`neckid.models._sm_kernels` computes the same quantities with a kd-tree and compiled loops;
+:mod:`neckid.models.set_membership._kernels.tree` computes the same quantities with a kd-tree and compiled loops;
 the tests check that both agree (bit for bit for the bounds, to 1e-12 for γ*(ε)).
 """
 

@@ -4,7 +4,7 @@ The network maps the standardised regressor ``w(t)`` (see :class:`~neckid.Lags`)
 standardised output ``y(t)``. scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` trains
 it on one-step-ahead targets; prediction and model files use a plain NumPy forward pass over the
 learned weight matrices, so a loaded model needs no scikit-learn object, and the free run is one
-compiled loop over those matrices (:mod:`neckid.models._neural_kernels`, about 3 µs per sample
+compiled loop over those matrices (:mod:`neckid.models.neural._kernels`, about 3 µs per sample
 for five 2x25 networks, against about 16 µs for the NumPy loop kept beside it as reference).
 
 A fitted model is an ensemble of ``n_networks`` such networks, trained alike from different seeds,
@@ -24,7 +24,8 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.regressors import Lags, ResolvedLags
@@ -32,7 +33,6 @@ from neckid.validation import Interval, Options
 
 __all__ = ["NeuralNARX", "forward_pass", "member_seeds"]
 
-FloatArray = NDArray[np.float64]
 Activation = Literal["tanh", "relu", "logistic", "identity"]
 
 logger = logging.getLogger(__name__)
@@ -261,7 +261,7 @@ class NeuralNARX(NarxModel):
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags
-    >>> from neckid.models.neural import NeuralNARX
+    >>> from neckid.models.neural.narx import NeuralNARX
     >>> rng = np.random.default_rng(0)
     >>> u = rng.uniform(-2, 2, size=600)
     >>> y = np.zeros(600)
@@ -513,7 +513,7 @@ class NeuralNARX(NarxModel):
         """Free run over ``u`` from the first ``max_lag`` rows of ``y_measured``.
 
         ``networks`` (positions in the ensemble) runs the ensemble of those alone. ``compiled``
-        runs the numba loop (:func:`~neckid.models._neural_kernels.mlp_free_run`); ``False``
+        runs the numba loop (:func:`~neckid.models.neural._kernels.mlp_free_run`); ``False``
         runs the NumPy loop kept beside it as its reference (the tests check they agree).
         """
         coefs, intercepts = self.coefs_, self.intercepts_
@@ -533,7 +533,7 @@ class NeuralNARX(NarxModel):
         b1 = intercepts[0] - (self.x_mean_ / self.x_scale_) @ coefs[0]
         y = np.array(y_measured, dtype=np.float64)
         if compiled:
-            from neckid.models._neural_kernels import ACTIVATION_CODES, mlp_free_run, pack_layers
+            from neckid.models.neural._kernels import ACTIVATION_CODES, mlp_free_run, pack_layers
 
             weights, biases, sizes = pack_layers([w1, *coefs[1:]], [b1, *intercepts[1:]])
             mlp_free_run(

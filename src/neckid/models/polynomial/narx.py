@@ -11,7 +11,7 @@ the data, so beyond that the model continues with its linear terms only. Least s
 polynomial NARX (the model class of Billings' NARMAX, without term selection). With
 ``fit_for="simulation"`` (the default) those coefficients are only the start: Levenberg–Marquardt
 then minimises the *free-run* error over the training experiments, with the exact Jacobian from
-the model's sensitivity recursion (:mod:`neckid.models._poly_kernels`). A model that is good one
+the model's sensitivity recursion (:mod:`neckid.models.polynomial._kernels`). A model that is good one
 step ahead can drift in free run, where its small one-step errors are fed back; fitting the
 simulation error removes most of that (on the Silverbox benchmark, degree 3: 0.32 mV free-run
 RMSE by least squares, 0.25 mV after the simulation fit; ``docs/benchmarks.md``).
@@ -35,8 +35,6 @@ from __future__ import annotations
 import copy
 import hashlib
 import logging
-import threading
-from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -44,14 +42,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares as _levenberg_marquardt
 
-from neckid.data import IOData, as_experiments
-from neckid.models._poly_kernels import monomial_tables, poly_free_run, poly_sensitivity
-from neckid.models.arx import least_squares
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
-from neckid.models.ls_statistics import LeastSquaresStatistics
+from neckid.models.cache import active_cache, array_digest
+from neckid.models.linear.arx import least_squares, linear_sum
+from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
-from neckid.models.sm_prior import _digest
-from neckid.models.sm_training import linear_sum
+from neckid.models.polynomial._kernels import poly_free_run, poly_sensitivity
+from neckid.models.polynomial.monomials import monomial_tables
 from neckid.regressors import Lags
 from neckid.validation import Interval, Options
 
@@ -59,7 +58,6 @@ __all__ = ["PolynomialNARX"]
 
 logger = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 
 #: Largest Jacobian (bytes) the simulation fit builds; beyond it, fit on fewer samples.
 MAX_JACOBIAN_BYTES = 2 * 1024**3
@@ -70,13 +68,6 @@ RANK_TOLERANCE = 1e-7
 CLIP_SPANS = 10.0
 
 
-#: Fitted polynomials :meth:`PolynomialNARX.fit` remembers (the most recently used).
-FIT_CACHE_SIZE = 8
-_FIT_CACHE: OrderedDict[bytes, dict[str, Any]] = OrderedDict()
-#: Candidates may be fitted on threads (joblib): the cache changes under this lock.
-_FIT_CACHE_LOCK = threading.Lock()
-
-
 def _fit_key(model: PolynomialNARX, data: IOData | Sequence[IOData]) -> bytes:
     """A digest of the model's parameters and the training data's values, names and conditions."""
     h = hashlib.blake2b(digest_size=16)
@@ -84,7 +75,7 @@ def _fit_key(model: PolynomialNARX, data: IOData | Sequence[IOData]) -> bytes:
     for record in as_experiments(data, "data"):
         h.update(repr((record.ts, record.input_names, record.output_names)).encode())
         h.update(repr(sorted(record.conditions.items())).encode())
-        h.update(_digest(record.u, record.y))
+        h.update(array_digest(record.u, record.y))
     return h.digest()
 
 
@@ -190,15 +181,13 @@ class PolynomialNARX(NarxModel):
         """Least squares on the one-step error, then (``fit_for="simulation"``) on the free run.
 
         The simulation fit is deterministic and costs seconds to minutes on a large record; the
-        last :data:`FIT_CACHE_SIZE` results are remembered per parameters and training data
-        (a digest of their values), so a selection that refits the same polynomial on the same
+        results are remembered per parameters and training data (a digest of their values) in
+        the active ``polynomial_fits`` cache (:mod:`neckid.models.cache`), so a selection that refits the same polynomial on the same
         data (the candidates of ``ParallelSetMembership(parallel_degree=3)``) gets a copy of it.
         """
+        cache = active_cache("polynomial_fits")
         key = _fit_key(self, data)
-        with _FIT_CACHE_LOCK:
-            cached = _FIT_CACHE.get(key)
-            if cached is not None:
-                _FIT_CACHE.move_to_end(key)
+        cached = cache.get(key) if cache is not None else None
         if cached is not None:
             self.__dict__.update(copy.deepcopy(cached))
             logger.debug("PolynomialNARX fit taken from the cache of earlier fits")
@@ -209,11 +198,8 @@ class PolynomialNARX(NarxModel):
         if self.fit_for == "simulation":
             experiments = as_experiments(self._with_conditions(data, fitting=True))
             self._fit_simulation(experiments, int(self.max_iter), self._linear_start(x, y))
-        fitted = copy.deepcopy(self.__dict__)
-        with _FIT_CACHE_LOCK:
-            _FIT_CACHE[key] = fitted
-            while len(_FIT_CACHE) > FIT_CACHE_SIZE:
-                _FIT_CACHE.popitem(last=False)
+        if cache is not None:
+            cache.put(key, copy.deepcopy(self.__dict__))
         return self
 
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
@@ -287,8 +273,16 @@ class PolynomialNARX(NarxModel):
         span = np.ptp(y_all, axis=0)
         low, high = y_all.min(axis=0) - CLIP_SPANS * span, y_all.max(axis=0) + CLIP_SPANS * span
         tables = (
-            r.source, r.channel, r.lag, self.center_, self.scale_, self.low_, self.high_, parent, var
-        )  # fmt: skip
+            r.source,
+            r.channel,
+            r.lag,
+            self.center_,
+            self.scale_,
+            self.low_,
+            self.high_,
+            parent,
+            var,
+        )
 
         def full(theta: FloatArray) -> FloatArray:
             coef = np.zeros(self.coef_.size)
@@ -307,8 +301,9 @@ class PolynomialNARX(NarxModel):
                         poly_free_run(u, ysim, *tables, coef, m, low, high)
                 else:
                     block = jacobian[row : row + n]
-                    poly_sensitivity(u, ysim, *tables, self.powers_, lower, coef, m, low, high,
-                                     block)  # fmt: skip
+                    poly_sensitivity(
+                        u, ysim, *tables, self.powers_, lower, coef, m, low, high, block
+                    )
                 errors.append((ysim[m:] - d.y[m:]) * weight)
                 row += n
             return np.concatenate(errors).ravel()
@@ -320,8 +315,10 @@ class PolynomialNARX(NarxModel):
             evaluations[0] += 1
             logger.info(
                 "polynomial NARX simulation fit: free run %d of at most %d, weighted RMS error %.4g",
-                evaluations[0], budget, float(np.sqrt(np.mean(errors**2))),
-            )  # fmt: skip
+                evaluations[0],
+                budget,
+                float(np.sqrt(np.mean(errors**2))),
+            )
             return errors
 
         def jacobian(theta: FloatArray) -> FloatArray:
@@ -419,10 +416,22 @@ class PolynomialNARX(NarxModel):
         unbounded = np.full(self.n_outputs_, np.inf)
         with np.errstate(all="ignore"):  # divergence is reported by _result
             poly_free_run(
-                np.ascontiguousarray(data.u, dtype=np.float64), y, r.source, r.channel, r.lag,
-                self.center_, self.scale_, self.low_, self.high_, parent, var, self.coef_, r.max_lag,
-                -unbounded, unbounded,
-            )  # fmt: skip
+                np.ascontiguousarray(data.u, dtype=np.float64),
+                y,
+                r.source,
+                r.channel,
+                r.lag,
+                self.center_,
+                self.scale_,
+                self.low_,
+                self.high_,
+                parent,
+                var,
+                self.coef_,
+                r.max_lag,
+                -unbounded,
+                unbounded,
+            )
         return self._result("simulation", data, y)
 
     # ------------------------------------------------------------------ files

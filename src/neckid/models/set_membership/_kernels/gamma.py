@@ -8,7 +8,7 @@ in which pairs they can prove useless without computing them.
 - :func:`_pairs_rows_kernel` walks every pair ``(i, j > i)`` of a set of rows (the reference,
   quadratic in the number of points);
 - :func:`_tree_leaves_kernel` searches the kd-tree built by
-  :func:`neckid.models._sm_kernels.build_tree` by branch and bound (Bentley 1975; Friedman,
+  :func:`neckid.models.set_membership._kernels.tree.build_tree` by branch and bound (Bentley 1975; Friedman,
   Bentley & Finkel 1977): the points of one leaf search together for the partners that could
   still raise the running maximum, and skip every node whose bound on the ratio,
   (max |ỹ_i − ỹ_j| − 2ε) / min ‖w̃_i − w̃_j‖ over the node, cannot exceed it.
@@ -19,7 +19,7 @@ the maxima found so far (seeded with the pairs of nearby rows). Only one number 
 output, whatever the size of the grid. :func:`gamma_star_blocked` runs the kernels over blocks
 of rows (or of leaves), refreshing the table between blocks and reporting progress; with a
 tree it can hand the remaining rows to the pair kernel when the tree prunes too little. The
-public entry point is :func:`neckid.models._sm_kernels.gamma_star`.
+public entry point is :func:`neckid.models.set_membership._kernels.tree.gamma_star`.
 
 The same search answers two neighbouring questions (Milanese & Novara 2004, the prior is valid
 iff γ >= γ*(ε)): started at a ``floor`` γ instead of 0 it only opens what could exceed γ, which
@@ -41,34 +41,36 @@ Information Processing Systems 13, 521-527, 2001.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Literal
 
 import numpy as np
 from numba import njit, prange
-from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    from neckid.models._sm_kernels import SMTree
+from neckid._typing import FloatArray, IntArray
+from neckid.models.set_membership._kernels.tree import STACK_DEPTH, SMTree
 
 __all__ = [
+    "GAMMA_LEAF_SIZE",
     "REACH_BINS",
     "TREE_HANDOVER",
+    "TREE_MIN_POINTS",
     "TREE_NODE_COST",
     "TREE_PAIR_COST",
+    "GammaMethod",
+    "gamma_star",
     "gamma_star_blocked",
 ]
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+
+logger = logging.getLogger(__name__)
 
 #: Bins of the output difference Δ in the table of reachable distances.
 REACH_BINS = 4096
 #: Consecutive rows (in the order given, and in tree order) paired for the first lower bound.
 _SEED_STEPS = 8
-#: Depth of the traversal stack; a median-split tree over 2**60 points is shallower.
-_STACK_DEPTH = 128
 #: Cost of a pair whose distance the tree computes, and of a node it tests, in units of one pair
 #: of the all-pairs kernel (which streams the distances of a row); see :func:`gamma_star_blocked`.
 TREE_PAIR_COST = 2.5
@@ -236,7 +238,7 @@ def _search_leaf(
     """Raise ``g`` (E, m) with the pairs ``(i, j > i)``, ``i`` in leaf ``q``, by branch and bound.
 
     ``points`` and ``targets`` are in tree order and ``i``, ``j`` are tree positions; ``tree`` is
-    ``(start, end, left, right, lo, hi, ymin, ymax)`` of :class:`~neckid.models._sm_kernels.SMTree`.
+    ``(start, end, left, right, lo, hi, ymin, ymax)`` of :class:`~neckid.models.set_membership._kernels.tree.SMTree`.
     The points of a leaf are close together, so they search the tree together (node-to-node
     bounds, as in the dual-tree algorithms of Gray & Moore 2001): a node is opened only if it
     holds a position after the leaf's first one and, for some output c,
@@ -342,11 +344,19 @@ def _tree_leaves_kernel(
 ) -> None:
     """:func:`_search_leaf` for each leaf of ``leaves`` (threads); ``work[r]`` its two counts."""
     for r in prange(leaves.shape[0]):
-        stack = np.empty(_STACK_DEPTH, np.int64)
+        stack = np.empty(STACK_DEPTH, np.int64)
         work[r, 0], work[r, 1] = _search_leaf(
-            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack,
+            leaves[r],
+            points,
+            targets,
+            twice_eps,
+            out[r],
+            reach2,
+            bins_per_unit,
+            tree,
+            stack,
             margin,
-        )  # fmt: skip
+        )
 
 
 @njit(cache=True)
@@ -366,12 +376,20 @@ def _tree_leaves_serial(
 
     Waking the thread pool costs more than a small block, and much more on a busy machine.
     """
-    stack = np.empty(_STACK_DEPTH, np.int64)
+    stack = np.empty(STACK_DEPTH, np.int64)
     for r in range(leaves.shape[0]):
         work[r, 0], work[r, 1] = _search_leaf(
-            leaves[r], points, targets, twice_eps, out[r], reach2, bins_per_unit, tree, stack,
+            leaves[r],
+            points,
+            targets,
+            twice_eps,
+            out[r],
+            reach2,
+            bins_per_unit,
+            tree,
+            stack,
             margin,
-        )  # fmt: skip
+        )
 
 
 # ------------------------------------------------------------------------- driver
@@ -569,3 +587,123 @@ def gamma_star_blocked(
         if callback is not None:
             callback(done, total)
     return best, stats
+
+
+# ---------------------------------------------------------------------------------- gamma*(eps)
+#: The ways :func:`gamma_star` can walk the pairs.
+GammaMethod = Literal["auto", "tree", "pairs"]
+#: Below this many points ``method="auto"`` walks all pairs. Both ways take under 0.15 s there
+#: for the default 48-ε grid (measured on neck-like regressors, n = 12: pairs 0.13 s, tree
+#: 0.07 s at 10,000 points; the tree wins from a few hundred points on time series, from about
+#: 4,000 on i.i.d. uniform 12-D points), while compiling the tree's kernels costs a fresh
+#: install about 3 s: small problems, such as the demo's, keep to the one kernel.
+TREE_MIN_POINTS = 10_000
+#: Leaf size of the kd-tree that :func:`gamma_star` builds.
+GAMMA_LEAF_SIZE = 8
+
+
+def gamma_star(
+    points: FloatArray,
+    targets: FloatArray,
+    epsilons: FloatArray,
+    n_blocks: int = 64,
+    callback: Callable[[int, int], None] | None = None,
+    method: GammaMethod = "auto",
+    *,
+    tree: SMTree | None = None,
+    floor: FloatArray | None = None,
+) -> FloatArray:
+    """γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for each ε of a grid and each output.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n_points, n_dims)
+        Scaled regressors.
+    targets : ndarray, shape (n_points, n_outputs)
+        Targets ỹ.
+    epsilons : ndarray, shape (n_eps, n_outputs)
+        The grid of ε per output (any order, >= 0).
+    n_blocks : int, default 64
+        How many blocks of rows (of kd-tree leaves with the tree; at most one per row or leaf),
+        each holding about the same number of pairs ``(i, j > i)``; ``callback`` is called
+        after each.
+    callback : callable, optional
+        ``callback(pairs_done, pairs_total)`` called from Python between blocks.
+    method : {"auto", "tree", "pairs"}, default "auto"
+        ``"pairs"`` walks every pair (the quadratic reference); ``"tree"`` finds, for each
+        point, the partners that can still raise γ*(ε) by branch and bound over a kd-tree;
+        ``"auto"`` walks the pairs below ``TREE_MIN_POINTS`` points and otherwise runs the
+        tree, handing the remaining rows to the pair kernel if the tree prunes too little (a
+        cost estimate from the work it counted, see
+        :func:`neckid.models.set_membership._kernels.gamma.gamma_star_blocked`). All give the same result.
+    tree : SMTree, optional
+        A kd-tree already built over ``points`` and ``targets`` (any leaf size; the estimator
+        passes its own, with ``points=tree.points`` and ``targets=tree.targets``): searched
+        instead of building a new one (which would copy the points).
+    floor : ndarray, shape (n_outputs,), optional
+        Return ``max(γ*(ε), floor)``: pairs that cannot exceed the floor are never computed
+        (see :func:`~neckid.models.set_membership._kernels.gamma.gamma_star_blocked`). The result equals the floor
+        exactly when no pair exceeds it, which is how :func:`~neckid.models.set_membership.training.prior_holds`
+        checks γ >= γ*(ε) without computing γ*(ε).
+
+    Returns
+    -------
+    ndarray, shape (n_eps, n_outputs)
+        γ*(ε); ``inf`` where two identical regressors have targets more than 2ε apart, 0 where
+        no two targets are more than 2ε apart.
+
+    Raises
+    ------
+    ValueError
+        If ``method`` is not one of the three.
+
+    Notes
+    -----
+    γ*(ε) is the smallest Lipschitz constant for which the prior assumptions of Set Membership
+    identification (Milanese & Novara 2004) are not falsified by the data at noise bound ε.
+    Both kernels evaluate each pair they cannot skip with the same floating-point operations
+    and skip only pairs that provably cannot raise the maximum, so ``"tree"`` and ``"pairs"``
+    agree to the last bit (see :mod:`neckid.models.set_membership._kernels.gamma`).
+
+    The tree's cost depends on the data. On time-series regressors and a small ε each point
+    meets a few hundred candidates and the cost grows like N log N; at large ε, where many
+    distant pairs have nearly the largest slope, the candidates within reach grow with N and
+    so does the cost per point (quadratic, with a small constant). Where it prunes almost
+    nothing (every pair with the same slope) a pair costs it several times what it costs the
+    pair kernel, which is why ``"auto"`` watches the work it counts.
+
+    References
+    ----------
+    M. Milanese and C. Novara, "Set Membership identification of nonlinear systems",
+    Automatica 40(6), 957-975, 2004.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> points = np.array([[0.0], [1.0], [3.0]])
+    >>> targets = np.array([[0.0], [1.0], [5.0]])
+    >>> gamma_star(points, targets, np.array([[0.0], [0.5], [3.0]]), method="tree")[:, 0]
+    array([2. , 1.5, 0. ])
+    """
+    if method not in ("auto", "tree", "pairs"):
+        raise ValueError(f"method must be 'auto', 'tree' or 'pairs'; got {method!r}")
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    epsilons = np.asarray(epsilons, dtype=np.float64)
+    order = np.argsort(epsilons, axis=0, kind="stable")
+    twice_eps = np.ascontiguousarray(2.0 * np.take_along_axis(epsilons, order, axis=0))
+    n_points = points.shape[0]
+    use_tree = method == "tree" or (method == "auto" and n_points >= TREE_MIN_POINTS)
+    if not use_tree or n_points < 2:
+        tree = None
+    elif tree is None:
+        tree = SMTree(points, targets, GAMMA_LEAF_SIZE)
+    if floor is not None:
+        floor = np.ascontiguousarray(floor, dtype=np.float64)
+    best, stats = gamma_star_blocked(
+        points, targets, twice_eps, n_blocks, callback, tree, method == "auto", floor
+    )
+    logger.debug("gamma*(eps) over %d points: %s", n_points, stats)
+    result = np.empty_like(best)
+    np.put_along_axis(result, order, best, axis=0)
+    return result

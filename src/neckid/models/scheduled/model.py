@@ -5,11 +5,11 @@ At each operating point the seed paper (section IV) identifies, by CFF-RLS, the 
 ``N(i)`` and ``P(i)`` through the points against the inclination ``i``. This module holds that
 scheduled (LPV) model, in the paper's rate form or in a position form (motor position to
 inclination, no integrator): fitting the lines through the points that
-:func:`~neckid.models.scheduled_points.identify_point` finds on records, simulating it in free
+:func:`~neckid.models.scheduled.points.identify_point` finds on records, simulating it in free
 run with the scheduling variable taken from its own simulated inclination (clipped to the
 identified range, the pole kept inside the unit circle), a step-by-step simulator, and the frozen
 transfer function at a given inclination.
-:func:`neckid.experiments.operating_points.identify_operating_points` runs the protocol on a plant.
+:func:`neckid.loops.operating_points.identify_operating_points` runs the protocol on a plant.
 """
 
 from __future__ import annotations
@@ -22,15 +22,16 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid.data import IOData, as_experiments
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
-from neckid.models.scheduled_points import (
+from neckid.models.scheduled.points import (
     FORMS,
     OperatingPoint,
     default_window,
     identify_point,
 )
-from neckid.models.scheduled_simulator import GainScheduledSimulator, clipped_polyval
+from neckid.models.scheduled.simulator import GainScheduledSimulator, clipped_polyval
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import (
     Interval,
@@ -53,7 +54,6 @@ __all__ = [
     "identify_point",
 ]
 
-FloatArray = NDArray[np.float64]
 
 #: The seed paper's lines (section IV), inclination in degrees:
 #: ``N = −0.059 i + 1.857`` and ``P = 0.01175 i − 0.4797``.
@@ -209,7 +209,7 @@ class GainScheduledModel(Estimator):
     Examples
     --------
     >>> import numpy as np
-    >>> from neckid.models.scheduled import GainScheduledModel
+    >>> from neckid.models.scheduled.model import GainScheduledModel
     >>> i = np.array([5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0])
     >>> model = GainScheduledModel.from_points(i, -0.059 * i + 1.857, 0.01175 * i - 0.4797, ts=0.02)
     >>> np.round(model.gain_coefficients_, 4), np.round(model.pole_coefficients_, 5)
@@ -399,9 +399,13 @@ class GainScheduledModel(Estimator):
         ts_value = check_ts(ts)
         delay = check_number(delay, "delay", low=1, integer=True)
         template = IOData(
-            np.zeros(1), np.zeros(1), ts=ts_value, input_names=[input_name],
-            output_names=[output_name], output_units=[output_unit],
-        )  # fmt: skip
+            np.zeros(1),
+            np.zeros(1),
+            ts=ts_value,
+            input_names=[input_name],
+            output_names=[output_name],
+            output_units=[output_unit],
+        )
         self.lags = Lags.arx(1, 1, delay)
         self.lags_ = self.lags.resolve(template)
         self._set_channels(template)

@@ -13,70 +13,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from neckid.conditions import ConditionValue, check_conditions
+from neckid._typing import FloatArray
+from neckid.data.channels import as_2d, channel_names, channel_units
+from neckid.data.conditions import ConditionValue, check_conditions
 from neckid.validation import check_finite, check_ts
 
 if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["IOData", "as_experiments"]
-
-FloatArray = NDArray[np.float64]
-
-
-def _as_2d(values: ArrayLike | None, argument: str, n_samples: int | None = None) -> FloatArray:
-    """Return ``values`` as a contiguous 2-D float64 array, time down the rows."""
-    if values is None:
-        if n_samples is None:
-            raise ValueError(f"{argument} is required")
-        return np.zeros((n_samples, 0))
-    if np.iscomplexobj(values):
-        raise TypeError(
-            f"{argument} holds complex numbers; a log holds real values: take .real, .imag or abs"
-            " explicitly"
-        )
-    try:
-        array = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{argument} must be numeric; could not convert it: {exc}") from exc
-    if array.ndim == 0:
-        raise ValueError(f"{argument} must be 1-D or 2-D (time down the rows); got a scalar")
-    if array.ndim == 1:
-        array = array[:, None]
-    if array.ndim != 2:
-        raise ValueError(
-            f"{argument} must be 1-D or 2-D (time down the rows); got shape {array.shape}"
-        )
-    return np.ascontiguousarray(array)
-
-
-def _names(names: Sequence[str] | None, count: int, prefix: str, argument: str) -> tuple[str, ...]:
-    if names is None:
-        if count == 1:
-            return (prefix,)
-        return tuple(f"{prefix}{i + 1}" for i in range(count))
-    if isinstance(names, str):
-        names = [names]
-    names = tuple(str(n) for n in names)
-    if len(names) != count:
-        raise ValueError(f"{argument} has {len(names)} names {list(names)} for {count} channels")
-    if len(set(names)) != len(names):
-        dup = sorted({n for n in names if names.count(n) > 1})
-        raise ValueError(f"{argument} must be unique; repeated: {dup}")
-    return names
-
-
-def _units(units: Sequence[str] | None, count: int, argument: str) -> tuple[str, ...]:
-    if units is None:
-        return ("",) * count
-    if isinstance(units, str):
-        units = [units]
-    units = tuple(str(x) for x in units)
-    if len(units) != count:
-        raise ValueError(f"{argument} has {len(units)} entries for {count} channels")
-    return units
 
 
 class IOData:
@@ -100,7 +47,7 @@ class IOData:
         A label for the experiment (for example the file it came from).
     conditions : mapping of str to float or str, optional
         Constants of the experiment (payload mass, controller, ...): a number or a label per name
-        (:mod:`neckid.conditions`). Models use numeric ones as inputs through
+        (:mod:`neckid.data.conditions`). Models use numeric ones as inputs through
         ``Lags(..., conditions=[...])``.
     condition_units : mapping of str to str, optional
         Unit of each condition (``{"payload": "kg"}``).
@@ -154,8 +101,8 @@ class IOData:
         conditions: Mapping[str, ConditionValue] | None = None,
         condition_units: Mapping[str, str] | None = None,
     ) -> None:
-        u_arr = _as_2d(u, "u")
-        y_arr = _as_2d(y, "y", n_samples=u_arr.shape[0])
+        u_arr = as_2d(u, "u")
+        y_arr = as_2d(y, "y", n_samples=u_arr.shape[0])
         if u_arr.shape[0] != y_arr.shape[0]:
             raise ValueError(
                 f"u and y must have the same number of samples (rows); got u with {u_arr.shape[0]}"
@@ -163,15 +110,15 @@ class IOData:
             )
         if u_arr.shape[0] == 0:
             raise ValueError("an IOData needs at least one sample; got 0 rows")
-        self.input_names = _names(input_names, u_arr.shape[1], "u", "input_names")
-        self.output_names = _names(output_names, y_arr.shape[1], "y", "output_names")
+        self.input_names = channel_names(input_names, u_arr.shape[1], "u", "input_names")
+        self.output_names = channel_names(output_names, y_arr.shape[1], "y", "output_names")
         clash = set(self.input_names) & set(self.output_names)
         if clash:
             raise ValueError(f"a name cannot be both an input and an output: {sorted(clash)}")
         check_finite(u_arr, "u", self.input_names)
         check_finite(y_arr, "y", self.output_names)
-        self.input_units = _units(input_units, u_arr.shape[1], "input_units")
-        self.output_units = _units(output_units, y_arr.shape[1], "output_units")
+        self.input_units = channel_units(input_units, u_arr.shape[1], "input_units")
+        self.output_units = channel_units(output_units, y_arr.shape[1], "output_units")
         self.ts = check_ts(ts)
         t0_value = float(t0)
         if not math.isfinite(t0_value):
@@ -253,7 +200,14 @@ class IOData:
 
     __hash__ = None  # type: ignore[assignment]
 
-    def _replace(self, **changes: Any) -> IOData:
+    def replace(self, **changes: Any) -> IOData:
+        """A new log with the given constructor arguments changed (``u``, ``y``, ``ts``, names, ...).
+
+        Examples
+        --------
+        >>> IOData(u=[1.0, 2.0], ts=0.1).replace(ts=0.2).ts
+        0.2
+        """
         fields: dict[str, Any] = {
             "u": self._u,
             "y": self._y,
@@ -278,7 +232,7 @@ class IOData:
         >>> IOData(u=[1.0, 2.0], ts=0.1).renamed("run 2").name
         'run 2'
         """
-        return self._replace(name=name)
+        return self.replace(name=name)
 
     def with_conditions(
         self, units: Mapping[str, str] | None = None, **values: ConditionValue
@@ -292,7 +246,7 @@ class IOData:
         ({'payload': 0.2}, {'payload': 'kg'})
         """
         merged_units = {**self.condition_units, **(units or {})}
-        return self._replace(conditions={**self.conditions, **values}, condition_units=merged_units)
+        return self.replace(conditions={**self.conditions, **values}, condition_units=merged_units)
 
     def conditions_as_inputs(self, names: Sequence[str]) -> IOData:
         """Append numeric conditions as constant input channels (with their units), in order.
@@ -313,9 +267,30 @@ class IOData:
         >>> d.conditions_as_inputs(["payload"]).channel("payload")
         array([0.2, 0.2])
         """
-        from neckid.conditions import conditions_as_inputs
-
-        return conditions_as_inputs(self, names)
+        data = self
+        for name in names:
+            if name in data.input_names:
+                continue
+            if name not in data.conditions:
+                raise KeyError(
+                    f"the model uses condition {name!r}, which {data.name or 'the log'} does not"
+                    f" have; its conditions are {dict(data.conditions)} (set it with"
+                    f" data.with_conditions({name}=...) or --condition {name}=...)"
+                )
+            value = data.conditions[name]
+            if isinstance(value, str):
+                raise ValueError(
+                    f"condition {name!r} of {data.name or 'the log'} is a label ({value!r}); only"
+                    " numeric conditions can be regressor inputs"
+                )
+            data = data.replace(
+                u=np.hstack([data._u, np.full((data.n_samples, 1), value)]),
+                input_names=(*data.input_names, name),
+                input_units=(*data.input_units, data.condition_units.get(name, "")),
+                conditions={k: v for k, v in data.conditions.items() if k != name},
+                condition_units={k: v for k, v in data.condition_units.items() if k != name},
+            )
+        return data
 
     # ------------------------------------------------------------------ channel access
     def channel(self, name: str) -> FloatArray:
@@ -383,7 +358,7 @@ class IOData:
 
         u, un, uu = gather(inputs, "inputs", "inputs")
         y, yn, yu = gather(outputs, "outputs", "outputs")
-        return self._replace(
+        return self.replace(
             u=u, y=y, input_names=un, output_names=yn, input_units=uu, output_units=yu
         )
 
@@ -403,19 +378,19 @@ class IOData:
         kind : {"input", "output"}
             Where to put it.
         """
-        column = _as_2d(values, name)
+        column = as_2d(values, name)
         if column.shape != (self.n_samples, 1):
             raise ValueError(
                 f"channel {name!r} must have shape ({self.n_samples},); got {np.shape(values)}"
             )
         if kind == "input":
-            return self._replace(
+            return self.replace(
                 u=np.hstack([self._u, column]),
                 input_names=(*self.input_names, name),
                 input_units=(*self.input_units, unit),
             )
         if kind == "output":
-            return self._replace(
+            return self.replace(
                 y=np.hstack([self._y, column]),
                 output_names=(*self.output_names, name),
                 output_units=(*self.output_units, unit),
@@ -507,7 +482,7 @@ class IOData:
             raise ValueError(f"slice step must be positive; got {step}")
         if stop <= start:
             raise ValueError(f"slice {index} selects no sample of {self.n_samples}")
-        return self._replace(
+        return self.replace(
             u=self._u[start:stop:step],
             y=self._y[start:stop:step],
             ts=self.ts * step,
@@ -550,7 +525,7 @@ class IOData:
         return self[:k], self[k:]
 
     # ------------------------------------------------------------------ tables and files
-    # Reading and checking tables lives in neckid.data_files (imported on first use: pandas).
+    # Reading and checking tables lives in neckid.data.readers (imported on first use: pandas).
     def to_frame(self, time: str | None = "time") -> pd.DataFrame:
         """Return a DataFrame with a time column (seconds) and one column per channel.
 
@@ -625,7 +600,7 @@ class IOData:
             If not exactly one of ``time`` and ``ts`` is given, a column is not numeric, or the
             time stamps are not sorted, distinct and uniform (the message names the row).
         """
-        from neckid.data_files import frame_fields
+        from neckid.data.readers import frame_fields
 
         fields = frame_fields(frame, inputs, outputs, time=time, ts=ts, units=units)
         return cls(**fields, name=name)
@@ -657,7 +632,7 @@ class IOData:
             If the file is not a readable CSV log: not text, not parseable, an empty, NaN, inf or
             non-numeric cell, a repeated column name, time stamps that are not sorted and uniform.
             The message starts with the file name and names the column and the row
-            (:func:`neckid.data_files.file_fields`).
+            (:func:`neckid.data.readers.file_fields`).
 
         Examples
         --------
@@ -712,9 +687,9 @@ class IOData:
         their ``header.stamp`` when they have one (``stamps="receive"``: the recorder's time)
         and interpolated linearly onto a grid of period ``ts`` (default: the median period of
         the slowest topic) over the span every topic covers. Needs the ``[ros]`` extra
-        (the ``rosbags`` package, no ROS install). See :func:`neckid.data_rosbag.rosbag_fields`.
+        (the ``rosbags`` package, no ROS install). See :func:`neckid.data.rosbag.rosbag_fields`.
         """
-        from neckid.data_rosbag import rosbag_fields
+        from neckid.data.rosbag import rosbag_fields
 
         return cls(**rosbag_fields(path, channels, ts=ts, name=name, stamps=stamps))  # type: ignore[arg-type]
 
@@ -750,8 +725,8 @@ class IOData:
         outputs: Sequence[str],
         **options: Any,
     ) -> IOData:
-        """Read a file with :func:`neckid.data_files.file_fields`; every error names the file."""
-        from neckid.data_files import file_fields
+        """Read a file with :func:`neckid.data.readers.file_fields`; every error names the file."""
+        from neckid.data.readers import file_fields
 
         fields = file_fields(path, kind, inputs, outputs, **options)
         try:

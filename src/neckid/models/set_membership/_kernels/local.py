@@ -30,12 +30,12 @@ can make them cross by an ulp (with ``gamma_margin = 1``); such a query is evalu
 global constant, and the constant used is returned. ``γ(w)`` takes every training point within
 the ``K``-th smallest distance (ties included), so it does not depend on the tree's layout.
 
-The evaluation is the exact branch and bound of :mod:`neckid.models._sm_kernels` (its
-``_query_one`` with per-point constants), the node test made with ``γ(w)``, a lower bound of
+The evaluation is the exact branch and bound of :mod:`neckid.models.set_membership._kernels.tree` (its
+``query_one`` with per-point constants), the node test made with ``γ(w)``, a lower bound of
 every ``max(γ(w), γ_j)`` in the node, so no point that could change a bound is skipped.
 
 Developers: numba's on-disk cache of these kernels is keyed on this file; after editing the
-kernels they call in :mod:`neckid.models._sm_kernels` in a checkout, delete the cache (see
+kernels they call in :mod:`neckid.models.set_membership._kernels.tree` in a checkout, delete the cache (see
 :mod:`neckid._numba_setup`) or touch this file.
 
 References
@@ -56,23 +56,21 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models._sm_kernels import (
-    _STACK_DEPTH,
+from neckid._typing import FloatArray, IntArray
+from neckid.models.set_membership._kernels.tree import (
     SERIAL_QUERIES,
-    _box_distance,
-    _box_distance2,
-    _push_children,
-    _query_one,
-    _squared_distance,
+    STACK_DEPTH,
+    box_distance,
+    box_distance2,
+    push_children,
+    query_one,
+    squared_distance,
 )
 
 if TYPE_CHECKING:
-    from neckid.models._sm_kernels import SMTree
+    from neckid.models.set_membership._kernels.tree import SMTree
 
 __all__ = ["check_constants", "learn_constants", "local_bounds", "point_gamma"]
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 # ---------------------------------------------------------------------------------- constants
@@ -94,7 +92,7 @@ def _steepest(
     t = targets[i, c]
     best = 0.0
     node_stack[0] = 0
-    dist_stack[0] = _box_distance(w, lo, hi, 0)
+    dist_stack[0] = box_distance(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
@@ -110,13 +108,13 @@ def _steepest(
                 rise = abs(t - targets[p, c]) - twice_eps
                 if rise <= 0.0:
                     continue
-                d = math.sqrt(_squared_distance(w, points, p))
+                d = math.sqrt(squared_distance(w, points, p))
                 if rise > best * d:
                     if d == 0.0:
                         return np.inf
                     best = rise / d
         else:
-            top = _push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
     return best
 
 
@@ -125,8 +123,8 @@ def _point_gamma_kernel(
     rows: IntArray, twice_eps: FloatArray, tree: tuple[NDArray, ...], out: FloatArray
 ) -> None:
     for r in prange(rows.shape[0]):
-        node_stack = np.empty(_STACK_DEPTH, np.int64)
-        dist_stack = np.empty(_STACK_DEPTH)
+        node_stack = np.empty(STACK_DEPTH, np.int64)
+        dist_stack = np.empty(STACK_DEPTH)
         for c in range(out.shape[1]):
             out[r, c] = _steepest(rows[r], c, twice_eps[c], tree, node_stack, dist_stack)
 
@@ -182,7 +180,7 @@ def _neighbour_gamma(
         near_d[k] = np.inf
     # 1. the k_near-th smallest squared distance
     node_stack[0] = 0
-    dist_stack[0] = _box_distance2(w, lo, hi, 0)
+    dist_stack[0] = box_distance2(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
@@ -191,7 +189,7 @@ def _neighbour_gamma(
             continue
         if left[node] < 0:
             for p in range(start[node], end[node]):
-                acc = _squared_distance(w, points, p)
+                acc = squared_distance(w, points, p)
                 if acc < near_d[k_near - 1]:
                     slot = k_near - 1
                     while slot > 0 and near_d[slot - 1] > acc:
@@ -199,8 +197,8 @@ def _neighbour_gamma(
                         slot -= 1
                     near_d[slot] = acc
         else:  # the nearer child on top
-            d_left = _box_distance2(w, lo, hi, left[node])
-            d_right = _box_distance2(w, lo, hi, right[node])
+            d_left = box_distance2(w, lo, hi, left[node])
+            d_right = box_distance2(w, lo, hi, right[node])
             near, far = (
                 (left[node], right[node]) if d_left <= d_right else (right[node], left[node])
             )
@@ -214,7 +212,7 @@ def _neighbour_gamma(
     # 2. the largest constant within that distance, ties included
     out[:] = 0.0
     node_stack[0] = 0
-    dist_stack[0] = _box_distance2(w, lo, hi, 0)
+    dist_stack[0] = box_distance2(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
@@ -223,13 +221,13 @@ def _neighbour_gamma(
             continue
         if left[node] < 0:
             for p in range(start[node], end[node]):
-                if _squared_distance(w, points, p) <= radius2:
+                if squared_distance(w, points, p) <= radius2:
                     for c in range(out.shape[0]):
                         out[c] = max(out[c], gammas[p, c])
         else:
             for child in (left[node], right[node]):
                 node_stack[top] = child
-                dist_stack[top] = _box_distance2(w, lo, hi, child)
+                dist_stack[top] = box_distance2(w, lo, hi, child)
                 top += 1
 
 
@@ -254,16 +252,44 @@ def _local_one(
     _neighbour_gamma(w, k_near, gammas, tree, node_stack, dist_stack, near_d, near_g)
     for c in range(targets.shape[1]):
         g = near_g[c]
-        low, high = _query_one(
-            w, points, targets, c, g, start, end, left, right, lo, hi, ymin, ymax, node_stack,
-            dist_stack, gammas,
-        )  # fmt: skip
+        low, high = query_one(
+            w,
+            points,
+            targets,
+            c,
+            g,
+            start,
+            end,
+            left,
+            right,
+            lo,
+            hi,
+            ymin,
+            ymax,
+            node_stack,
+            dist_stack,
+            gammas,
+        )
         if low - high > 2.0 * epsilon[c] and fallback[c] > g:  # rounding only (module notes)
             g = fallback[c]
-            low, high = _query_one(
-                w, points, targets, c, g, start, end, left, right, lo, hi, ymin, ymax,
-                node_stack, dist_stack, gammas,
-            )  # fmt: skip
+            low, high = query_one(
+                w,
+                points,
+                targets,
+                c,
+                g,
+                start,
+                end,
+                left,
+                right,
+                lo,
+                hi,
+                ymin,
+                ymax,
+                node_stack,
+                dist_stack,
+                gammas,
+            )
         lower[i, c] = low - epsilon[c]
         upper[i, c] = high + epsilon[c]
         used[i, c] = g
@@ -282,14 +308,26 @@ def _local_many_kernel(
     used: FloatArray,
 ) -> None:
     for i in prange(queries.shape[0]):
-        node_stack = np.empty(_STACK_DEPTH, np.int64)
-        dist_stack = np.empty(_STACK_DEPTH)
+        node_stack = np.empty(STACK_DEPTH, np.int64)
+        dist_stack = np.empty(STACK_DEPTH)
         near_d = np.empty(max(k_near, 1))
         near_g = np.empty(lower.shape[1])
         _local_one(
-            queries[i], i, k_near, gammas, epsilon, fallback, tree, lower, upper, used,
-            node_stack, dist_stack, near_d, near_g,
-        )  # fmt: skip
+            queries[i],
+            i,
+            k_near,
+            gammas,
+            epsilon,
+            fallback,
+            tree,
+            lower,
+            upper,
+            used,
+            node_stack,
+            dist_stack,
+            near_d,
+            near_g,
+        )
 
 
 @njit(cache=True)
@@ -304,15 +342,27 @@ def _local_few_kernel(
     upper: FloatArray,
     used: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against the parallel kernel
-    node_stack = np.empty(_STACK_DEPTH, np.int64)
-    dist_stack = np.empty(_STACK_DEPTH)
+    node_stack = np.empty(STACK_DEPTH, np.int64)
+    dist_stack = np.empty(STACK_DEPTH)
     near_d = np.empty(max(k_near, 1))
     near_g = np.empty(lower.shape[1])
     for i in range(queries.shape[0]):
         _local_one(
-            queries[i], i, k_near, gammas, epsilon, fallback, tree, lower, upper, used,
-            node_stack, dist_stack, near_d, near_g,
-        )  # fmt: skip
+            queries[i],
+            i,
+            k_near,
+            gammas,
+            epsilon,
+            fallback,
+            tree,
+            lower,
+            upper,
+            used,
+            node_stack,
+            dist_stack,
+            near_d,
+            near_g,
+        )
 
 
 def local_bounds(

@@ -9,17 +9,14 @@ estimate. See :class:`SetMembership` for the equations, the choice of ε and γ 
 from __future__ import annotations
 
 import logging
-import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid.data import IOData, as_experiments
-from neckid.models._sm_kernels import SMTree, free_run
-from neckid.models._sm_local import check_constants, learn_constants, local_bounds
-from neckid.models.arx import least_squares
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import (
     ModelResult,
     NarxModel,
@@ -27,26 +24,34 @@ from neckid.models.base import (
     check_is_fitted,
     stepped_run,
 )
+from neckid.models.linear.arx import least_squares, linear_sum
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
-from neckid.models.sm_metric import learnt_weights
-from neckid.models.sm_prior import (
+from neckid.models.set_membership._kernels import (
+    SMTree,
+    check_constants,
+    free_run,
+    learn_constants,
+    local_bounds,
+)
+from neckid.models.set_membership.metric import learnt_weights
+from neckid.models.set_membership.prior import (
     GammaCurve,
     ProgressOption,
     _epsilon_grid,
     _gamma_star,
     choose_epsilon,
 )
-from neckid.models.sm_training import (
+from neckid.models.set_membership.scaling import term_weights
+from neckid.models.set_membership.training import (
     check_duplicates,
-    linear_sum,
     prior_holds,
     smallest_epsilon,
     training_tree,
     unscale,
 )
-from neckid.models.sm_update import Invalidation, PriorRule, revise_prior
-from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Interval, Options, check_finite
+from neckid.models.set_membership.update import Invalidation, PriorRule, revise_prior
+from neckid.regressors import Lags
+from neckid.validation import Interval, Options, check_finite, per_output
 
 __all__ = [
     "DEFAULT_GAMMA_MARGIN",
@@ -61,7 +66,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 
 #: Default ratio γ / γ*(ε). γ*(ε) is the smallest constant consistent with the *training* data,
 #: a lower bound of the true one; 10 % above it leaves room for what the data did not explore.
@@ -78,71 +82,6 @@ class SMBounds(NamedTuple):
 
 
 # ====================================================================================== helpers
-def _per_output(value: Any, n_outputs: int, argument: str) -> FloatArray:
-    """A scalar or one value per output, as finite float64 of shape (n_outputs,)."""
-    if isinstance(value, bool):
-        raise TypeError(f"{argument} must be a number or one number per output; got {value!r}")
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(
-            f"{argument} must be a number or one number per output; got {value!r}"
-        ) from exc
-    if array.ndim == 0:
-        array = np.full(n_outputs, float(array))
-    if array.shape != (n_outputs,):
-        raise ValueError(
-            f"{argument} must be a number or {n_outputs} numbers (one per output); got shape"
-            f" {array.shape}"
-        )
-    if not np.all(np.isfinite(array)):
-        raise ValueError(f"{argument} must be finite; got {array.tolist()}")
-    return array
-
-
-def _weights(scaling: Any, x: FloatArray, names: Sequence[str]) -> FloatArray:
-    """The per-component weights of the distance (scaled regressor = regressor * weights)."""
-    n_terms = x.shape[1]
-    if isinstance(scaling, str):
-        if scaling == "none":
-            return np.ones(n_terms)
-        if scaling in ("std", "gradient"):  # "gradient": sm_metric.learnt_weights multiplies these
-            # column by column: a temporary of one column, not of the whole matrix
-            std = np.array([x[:, k].std() for k in range(n_terms)])
-            constant = std == 0
-            if constant.any():
-                warnings.warn(
-                    f"regressor terms {[names[int(i)] for i in np.flatnonzero(constant)]} are constant"
-                    " in the training data; they get weight 1 in the distance (drop those lags if"
-                    " they carry nothing)",
-                    stacklevel=3,
-                )
-            return np.where(constant, 1.0, 1.0 / np.where(constant, 1.0, std))
-        raise ValueError(
-            f"scaling must be 'std', 'gradient', 'none' or an array of weights; got {scaling!r}"
-        )
-    try:
-        weights = np.asarray(scaling, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(
-            f"scaling must be 'std', 'none' or an array of weights; got {scaling!r}"
-        ) from exc
-    if weights.shape != (n_terms,):
-        raise ValueError(
-            f"scaling weights must have one value per regressor term ({n_terms}: {list(names)});"
-            f" got shape {weights.shape}"
-        )
-    if not np.all(np.isfinite(weights)) or np.any(weights <= 0):
-        raise ValueError(f"scaling weights must be finite and > 0; got {weights.tolist()}")
-    return weights.copy()
-
-
-def _term_weights(scaling: Any, input_weight: Any, x: FloatArray, lags: ResolvedLags) -> FloatArray:
-    """The weights of :func:`_weights`, with the input terms' multiplied by ``input_weight``."""
-    weights = _weights(scaling, x, lags.names)
-    return np.where(lags.source == 1, float(input_weight) * weights, weights)
-
-
 # ====================================================================================== estimator
 class SetMembership(NarxModel):
     r"""Nonlinear Set Membership identification of a NARX model (Milanese & Novara, 2004).
@@ -169,7 +108,7 @@ class SetMembership(NarxModel):
         Weights of the regressor components in the distance: ``1 / std`` of each component over
         the training regressors; that times each component's relative slope of what SM
         interpolates (``"gradient"``, a metric learnt from the training data, see
-        :mod:`neckid.models.sm_metric`); all ones; or user weights (> 0).
+        :mod:`neckid.models.set_membership.metric`); all ones; or user weights (> 0).
     input_weight : float, default 1.0
         Factor (> 0) on the weight of every *input* term, on top of ``scaling``. Below 1 the
         distance, and so the SM part, depends mostly on the past outputs: with a linear part, a
@@ -261,7 +200,7 @@ class SetMembership(NarxModel):
     ε is the smallest value consistent with it, ``ε = ½ max_{i,j} (|ỹ_i − ỹ_j| − γ‖w̃_i − w̃_j‖)⁺``
     (computed exactly, by branch and bound over the pairs). With both given, γ >= γ*(ε) is
     checked by the γ* branch and bound started at γ, which skips every pair that cannot exceed
-    it (:func:`~neckid.models.sm_training.prior_holds`; a relative 1e-9 of slack), and a γ
+    it (:func:`~neckid.models.set_membership.training.prior_holds`; a relative 1e-9 of slack), and a γ
     below γ*(ε) is refused. If the sensor's noise bound is known, pass it as ``epsilon``: the
     knee is a heuristic.
 
@@ -279,15 +218,15 @@ class SetMembership(NarxModel):
     ``γ``; ``γ`` itself where γ*(ε) = 0), so both ends of every training pair carry its slope, the
     bounds never cross, and the largest constant is the global ``γ*(ε)``. ε is chosen as above;
     the global ``γ_`` is kept (the largest constant). See
-    :mod:`neckid.models._sm_local`. :meth:`simulate` then steps the simulator (no compiled
+    :mod:`neckid.models.set_membership._kernels.local`. :meth:`simulate` then steps the simulator (no compiled
     free run), and :meth:`partial_fit` re-learns every point's constant on all the data.
 
     *Evaluation.* The bounds are evaluated exactly by branch and bound over a kd-tree of the
     training regressors whose nodes keep their bounding box and the min/max of ỹ; they equal a
     brute-force scan to the last bit in the distance sum's order (see
-    :mod:`neckid.models._sm_kernels`). The tree holds the one copy of the training regressors,
+    :mod:`neckid.models.set_membership._kernels.tree`). The tree holds the one copy of the training regressors,
     scaled and in tree order (the matrix built for ``fit`` is reordered in place;
-    :mod:`neckid.models.sm_training`). In :meth:`simulate` the bounds at each step are the bounds
+    :mod:`neckid.models.set_membership.training`). In :meth:`simulate` the bounds at each step are the bounds
     of ``f_o`` at the *simulated* regressor (as in the seed paper's figures), not a guaranteed
     enclosure of the true free-run trajectory.
 
@@ -303,7 +242,7 @@ class SetMembership(NarxModel):
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags
-    >>> from neckid.models.set_membership import SetMembership
+    >>> from neckid.models.set_membership.narx import SetMembership
     >>> rng = np.random.default_rng(0)
     >>> u = rng.uniform(-1, 1, 600)
     >>> y = np.zeros(600)
@@ -377,10 +316,10 @@ class SetMembership(NarxModel):
                 f" (lags up to {self.lags_.max_lag}); use a longer record"
             )
         margin = float(self.gamma_margin)
-        epsilon = None if self.epsilon is None else _per_output(self.epsilon, n_out, "epsilon")
+        epsilon = None if self.epsilon is None else per_output(self.epsilon, n_out, "epsilon")
         if epsilon is not None and np.any(epsilon < 0):
             raise ValueError(f"epsilon must be >= 0 (a noise bound); got {epsilon.tolist()}")
-        gamma = None if self.gamma is None else _per_output(self.gamma, n_out, "gamma")
+        gamma = None if self.gamma is None else per_output(self.gamma, n_out, "gamma")
         if gamma is not None and np.any(gamma <= 0):
             raise ValueError(f"gamma must be > 0 (a Lipschitz constant); got {gamma.tolist()}")
         constant = np.flatnonzero(np.ptp(y, axis=0) == 0)
@@ -390,7 +329,7 @@ class SetMembership(NarxModel):
                 " nothing to identify"
             )
 
-        weights = _term_weights(self.scaling, self.input_weight, x, self.lags_)
+        weights = term_weights(self.scaling, self.input_weight, x, self.lags_)
         if self.linear_part:
             coef, intercept = least_squares(x, y, fit_intercept=True)
         else:
@@ -466,8 +405,10 @@ class SetMembership(NarxModel):
         self._outputs = outputs
         logger.info(
             "SetMembership fitted on %d regressors: epsilon=%s gamma=%s",
-            n_rows, self.epsilon_.tolist(), self.gamma_.tolist(),
-        )  # fmt: skip
+            n_rows,
+            self.epsilon_.tolist(),
+            self.gamma_.tolist(),
+        )
 
     @property
     def _x_train(self) -> FloatArray:
@@ -493,9 +434,13 @@ class SetMembership(NarxModel):
         scaled = x * self.weights_
         if self.point_gamma_ is not None:
             lower, upper, _ = local_bounds(
-                self._tree, self.point_gamma_, scaled, self.epsilon_, self.gamma_,
+                self._tree,
+                self.point_gamma_,
+                scaled,
+                self.epsilon_,
+                self.gamma_,
                 self.local_neighbours_,
-            )  # fmt: skip
+            )
             return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
         lower, upper = self._tree.bounds(scaled, self.epsilon_, self.gamma_)
         return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
@@ -572,9 +517,19 @@ class SetMembership(NarxModel):
             return self._result("simulation", data, y, lower, upper)
         r = self.lags_
         y, lower, upper = free_run(
-            self._tree, data.u, y0, r.source, r.channel, r.lag, r.max_lag, self.weights_,
-            self.coef_, self.intercept_, self.epsilon_, self.gamma_,
-        )  # fmt: skip
+            self._tree,
+            data.u,
+            y0,
+            r.source,
+            r.channel,
+            r.lag,
+            r.max_lag,
+            self.weights_,
+            self.coef_,
+            self.intercept_,
+            self.epsilon_,
+            self.gamma_,
+        )
         return self._result("simulation", data, y, lower, upper)
 
     def simulator(self) -> SetMembershipSimulator:
@@ -648,7 +603,7 @@ class SetMembership(NarxModel):
         -----
         Not a refit: ε and the regressor ``weights_`` are kept (γ is measured in the weighted
         distance, so changing the weights would change its meaning), and γ only grows. See
-        :mod:`neckid.models.sm_update` for the rule and its cost.
+        :mod:`neckid.models.set_membership.update` for the rule and its cost.
         """
         experiments = update_experiments(self, data)
         invalidation = self.invalidation(experiments)
@@ -663,10 +618,17 @@ class SetMembership(NarxModel):
             coef, intercept = least_squares(x, y, fit_intercept=True)
         tree, outputs = training_tree(x, y, self.weights_, coef, intercept, bool(self.linear_part))
         gamma, star, valid = revise_prior(
-            tree, np.flatnonzero(tree.perm >= n_old), self.epsilon_, self.gamma_,
-            prior_holds(tree, self.epsilon_, self.gamma_)[0], self.gamma_star_,
-            bool(self.linear_part), prior, float(self.gamma_margin), self.output_names_,
-        )  # fmt: skip
+            tree,
+            np.flatnonzero(tree.perm >= n_old),
+            self.epsilon_,
+            self.gamma_,
+            prior_holds(tree, self.epsilon_, self.gamma_)[0],
+            self.gamma_star_,
+            bool(self.linear_part),
+            prior,
+            float(self.gamma_margin),
+            self.output_names_,
+        )
         # Everything that can fail runs before the model changes.
         constants = self._point_gamma(tree, gamma, self.point_gamma_ is not None)
         self.gamma_, self.gamma_star_, self.prior_valid_ = gamma, star, valid
@@ -874,7 +836,7 @@ def gamma_curve(
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags
-    >>> from neckid.models.set_membership import gamma_curve
+    >>> from neckid.models.set_membership.narx import gamma_curve
     >>> rng = np.random.default_rng(1)
     >>> u = rng.uniform(-1, 1, 300)
     >>> y = np.zeros(300)
@@ -888,7 +850,7 @@ def gamma_curve(
     x, y = model._prepare_fit(data)
     if x.shape[0] < 2:
         raise ValueError(f"gamma_curve needs at least 2 regressors; the data give {x.shape[0]}")
-    weights = _term_weights(scaling, input_weight, x, model.lags_)
+    weights = term_weights(scaling, input_weight, x, model.lags_)
     if linear_part:
         coef, intercept = least_squares(x, y, fit_intercept=True)
         y = y - (x @ coef + intercept)

@@ -1,0 +1,138 @@
+"""Experimental conditions: named constants of one experiment (payload, controller, neck type).
+
+A run of the real neck differs from the next by what is on its head and what drives it. An
+:class:`~neckid.IOData` keeps such facts as *conditions*: a name, a value that is constant over the
+experiment (a number with a unit, or a label), and a unit. A model uses chosen numeric conditions
+as extra regressor inputs through ``Lags(..., conditions=["payload"])``: each becomes a constant
+input channel (:meth:`neckid.IOData.conditions_as_inputs`) with lag 0, so a model identified on
+several payloads can interpolate between them and says so when a log's payload is outside the
+ones it has seen (:meth:`neckid.models.base.Estimator.extrapolation`).
+
+Examples
+--------
+>>> from neckid.data.conditions import parse_condition
+>>> parse_condition("payload=0.4kg")
+('payload', 0.4, 'kg')
+>>> parse_condition("controller=ada")
+('controller', 'ada', '')
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from types import MappingProxyType
+
+import numpy as np
+
+__all__ = ["ConditionValue", "check_conditions", "parse_condition"]
+
+ConditionValue = float | str
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*$")
+
+
+def _check_name(name: object, argument: str) -> str:
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise ValueError(
+            f"{argument} has a condition named {name!r}; a name starts with a letter or _ and"
+            " holds letters, digits, _, . or - (e.g. 'payload')"
+        )
+    return name
+
+
+def _check_value(name: str, value: object, argument: str) -> ConditionValue:
+    if isinstance(value, bool) or value is None:
+        raise ValueError(f"{argument}[{name!r}] must be a number or a label (str); got {value!r}")
+    if isinstance(value, str):
+        if not value.strip():
+            raise ValueError(f"{argument}[{name!r}] is an empty label")
+        return value
+    if isinstance(value, int | float | np.integer | np.floating):
+        number = float(value)
+        if not math.isfinite(number):
+            raise ValueError(f"{argument}[{name!r}] must be finite; got {value!r}")
+        return number
+    raise ValueError(
+        f"{argument}[{name!r}] must be a number or a label (str); got {type(value).__name__}"
+    )
+
+
+def check_conditions(
+    values: Mapping[str, object] | None,
+    units: Mapping[str, str] | None,
+    channel_names: tuple[str, ...] = (),
+    argument: str = "conditions",
+) -> tuple[Mapping[str, ConditionValue], Mapping[str, str]]:
+    """Validate conditions and their units; return read-only mappings (numbers as float).
+
+    Parameters
+    ----------
+    values : mapping of str to float or str, optional
+        Condition name -> value: a number (payload in kg) or a label (controller name).
+    units : mapping of str to str, optional
+        Condition name -> unit (free text, ``"kg"``); every name must be a condition.
+    channel_names : tuple of str
+        Names of the log's channels: a condition may not share one.
+    argument : str
+        How error messages name ``values``.
+
+    Raises
+    ------
+    ValueError
+        Naming the condition: a bad name, a value that is not a finite number or a label, a name
+        shared with a channel, a unit for a condition that does not exist.
+    """
+    checked: dict[str, ConditionValue] = {}
+    if values is not None:
+        if not isinstance(values, Mapping):
+            raise ValueError(
+                f"{argument} must be a mapping of name to value; got {type(values).__name__}"
+            )
+        for name, value in values.items():
+            checked[_check_name(name, argument)] = _check_value(name, value, argument)
+    clash = sorted(set(checked) & set(channel_names))
+    if clash:
+        raise ValueError(
+            f"{argument} names {clash[0]!r}, which is already a channel of the log; a condition"
+            " is a constant of the experiment and needs its own name"
+        )
+    unit_map: dict[str, str] = {}
+    for name, unit in (units or {}).items():
+        if name not in checked:
+            raise ValueError(
+                f"condition_units gives a unit for {name!r}, which is not a condition; the"
+                f" conditions are {sorted(checked)}"
+            )
+        if not isinstance(unit, str):
+            raise ValueError(f"condition_units[{name!r}] must be a str; got {unit!r}")
+        unit_map[name] = unit
+    for name in checked:
+        unit_map.setdefault(name, "")
+    return MappingProxyType(checked), MappingProxyType(unit_map)
+
+
+def parse_condition(text: str) -> tuple[str, ConditionValue, str]:
+    """Read ``name=value`` (value a number with an optional unit, or a label) from the command line.
+
+    Examples
+    --------
+    >>> parse_condition("payload=0.2 kg")
+    ('payload', 0.2, 'kg')
+    >>> parse_condition("temperature=-3e1degC")
+    ('temperature', -30.0, 'degC')
+    """
+    name, sep, raw = text.partition("=")
+    name = name.strip()
+    if not sep or not name or not raw.strip():
+        raise ValueError(f"--condition takes name=value (e.g. payload=0.4kg); got {text!r}")
+    _check_name(name, "--condition")
+    match = _NUMBER_UNIT.match(raw)
+    if match:
+        number = float(match.group(1))
+        if not math.isfinite(number):
+            raise ValueError(f"--condition {name} must be finite; got {raw.strip()!r}")
+        return name, number, match.group(2)
+    return name, raw.strip(), ""

@@ -1,0 +1,900 @@
+r"""Multi-step Set Membership: a direct k-step predictor per horizon, with guaranteed bands.
+
+A one-step NARX model run in a loop compounds its own errors, and the bounds a one-step Set
+Membership model carries along a free run bound ``f_o`` at the *simulated* regressor, not the
+trajectory. A *direct* k-step model predicts ``y(t + k)`` from what is known at time ``t`` (the
+measured outputs up to ``t`` and the inputs up to ``t + k``): its Set Membership bounds are then
+guaranteed bounds of the k-step-ahead output, whenever the prior holds (Lauricella & Fagiano;
+Terzi, Fagiano, Farina & Scattolini). :class:`MultiStepSetMembership` fits one such model per
+horizon, each a :class:`~neckid.SetMembership` (exact kd-tree bounds) on the k-step regressor
+of :func:`horizon_lags`.
+
+References
+----------
+M. Lauricella and L. Fagiano, "Set membership identification of linear systems with guaranteed
+simulation accuracy", IEEE Transactions on Automatic Control 65(12):5189-5204, 2020.
+
+E. Terzi, L. Fagiano, M. Farina and R. Scattolini, "Learning-based predictive control for linear
+systems: a unitary approach", Automatica 108:108473, 2019 (multi-step predictors identified by
+Set Membership for predictive control).
+
+M. Milanese and C. Novara, "Set membership identification of nonlinear systems",
+Automatica 40(6):957-975, 2004.
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from neckid._typing import FloatArray
+from neckid.data.iodata import IOData, as_experiments
+from neckid.models.base import (
+    ModelResult,
+    NarxModel,
+    NarxSimulator,
+    check_is_fitted,
+    stepped_run,
+)
+from neckid.models.linear.arx import least_squares
+from neckid.models.online import extend_training_ranges, update_experiments
+from neckid.models.set_membership.narx import (
+    DEFAULT_GAMMA_MARGIN,
+    Invalidation,
+    SetMembership,
+)
+from neckid.models.set_membership.prior import ProgressOption, _gamma_star
+from neckid.models.set_membership.scaling import term_weights
+from neckid.models.set_membership.training import duplicate_spread
+from neckid.models.set_membership.update import PriorRule
+from neckid.regressors import Lags, ResolvedLags
+from neckid.validation import Interval, Options
+
+__all__ = [
+    "MAD_TO_STD",
+    "MAX_HORIZON",
+    "MultiStepSetMembership",
+    "MultiStepSimulator",
+    "horizon_lags",
+    "robust_scale",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Fractions of ε_k at which γ* is tried, smallest first, where γ*(ε_k) = 0 (see ``_gamma``).
+_FALLBACK_FRACTIONS = (0.5, 0.75, 0.9, 0.99)
+
+
+#: 1.4826 · MAD estimates the standard deviation of Gaussian data (1 / Φ⁻¹(3/4)).
+MAD_TO_STD = 1.482602218505602
+#: Largest horizon accepted, in samples.
+MAX_HORIZON = 1000
+
+
+def _numbers(values: FloatArray) -> str:
+    return ", ".join(f"{v:.4g}" for v in np.ravel(values))
+
+
+def robust_scale(residual: ArrayLike) -> FloatArray:
+    r"""Robust scale of each column: ``1.4826 · median(|r − median(r)|)`` (the normalised MAD).
+
+    Parameters
+    ----------
+    residual : array_like, shape (n_samples, n_outputs)
+
+    Returns
+    -------
+    ndarray, shape (n_outputs,)
+        Equal to the standard deviation for Gaussian data; a few large errors barely move it.
+
+    Examples
+    --------
+    >>> robust_scale([[1.0], [2.0], [3.0], [4.0], [100.0]])
+    array([1.482602...])
+    """
+    r = np.asarray(residual, dtype=np.float64)
+    centre = np.median(r, axis=0)
+    return np.asarray(MAD_TO_STD * np.median(np.abs(r - centre), axis=0), dtype=np.float64)
+
+
+def horizon_lags(lags: ResolvedLags, steps: int) -> Lags:
+    r"""The regressor of the direct ``steps``-ahead predictor built from a one-step regressor.
+
+    With the one-step regressor holding ``y(s − l)`` for the output lags ``l`` and ``u(s − l)``
+    for the input lags ``l``, the ``k``-step predictor of ``y(s)`` made at time ``t = s − k``
+    holds
+
+    - the outputs the one-step regressor of ``y(t + 1)`` holds: lags ``l + k − 1`` (so lag ``k``
+      is ``y(t)``, the last measured output), and
+    - every input that the ``k`` one-step regressors of ``y(t + 1) … y(t + k)`` hold: lags
+      ``l + j`` for ``j = 0 … k − 1`` (the past inputs and the future ones up to ``t + k − min l``).
+
+    Its largest lag is ``max_lag + k − 1``. For ``k = 1`` it is the one-step regressor.
+
+    Parameters
+    ----------
+    lags : ResolvedLags
+        The one-step regressor, bound to channels.
+    steps : int
+        The horizon ``k >= 1``, in samples.
+
+    Returns
+    -------
+    Lags
+        Per channel, by name.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags
+    >>> data = IOData(np.zeros(20), np.arange(20.0), ts=0.02)
+    >>> horizon_lags(Lags.arx(2, 2).resolve(data), 3)
+    Lags(outputs={'y': [3, 4]}, inputs={'u': [1, 2, 3, 4]})
+    """
+    outputs: dict[str, list[int]] = {n: [] for n in lags.output_names}
+    inputs: dict[str, set[int]] = {n: set() for n in lags.input_names}
+    for source, channel, lag in zip(lags.source, lags.channel, lags.lag, strict=True):
+        if source == 0:
+            outputs[lags.output_names[channel]].append(int(lag) + steps - 1)
+        elif lags.input_names[channel] in lags.conditions:  # constant: lag 0 says it all
+            inputs[lags.input_names[channel]].add(0)
+        else:
+            inputs[lags.input_names[channel]].update(range(int(lag), int(lag) + steps))
+    return Lags(
+        outputs=outputs,
+        inputs={n: sorted(v) for n, v in inputs.items()},
+        conditions=lags.conditions,
+    )
+
+
+class MultiStepSetMembership(NarxModel):
+    r"""Direct multi-step Set Membership predictors, one per horizon, with guaranteed bands.
+
+    For each horizon ``k`` a Set Membership model (Milanese & Novara, 2004) of
+
+    .. math:: y(t + k) = f_k\bigl(y(t), y(t − 1), …, u(t + k − d), …, u(t − n_b + 1)\bigr)
+              + d_k(t), \qquad |d_k(t)| \le ε_k,
+
+    on the regressor of :func:`horizon_lags` (measured outputs up to ``t``, inputs up to
+    ``t + k``), as in the multi-step Set Membership predictors of Terzi, Fagiano, Farina &
+    Scattolini. :meth:`predict_ahead` gives the central estimate of ``y(t + k)`` and a band that
+    contains the measurement ``y(t + k)`` whenever the prior (ε_k, γ_k) holds.
+
+    Parameters
+    ----------
+    lags : Lags
+        The one-step regressor, e.g. ``Lags.arx(2, 2)``; the k-step regressors are derived from
+        it (:func:`horizon_lags`).
+    horizon : int, default 10
+        Fit the predictors of every horizon ``1 … horizon`` (samples). It is also the block length
+        of :meth:`simulate` and :meth:`predict_receding` (re-anchoring period).
+    horizons : sequence of int, optional
+        Further horizons (>= 1) to fit, for :meth:`predict_ahead` only (e.g. ``[40]``).
+    epsilon_factor : float, default 3.0
+        ε_k = ``epsilon_factor`` × the robust scale (1.4826 · MAD) of the k-step residual of the
+        linear least-squares predictor on the training data (see Notes). Unused when ``epsilon``
+        is given.
+    epsilon : float or array_like, optional
+        A known bound of the k-step error instead of the rule: one number (every horizon and
+        output), shape ``(n_horizons,)`` or ``(n_horizons, n_outputs)``, in the order of
+        ``horizons_`` (ascending), output units.
+    gamma_margin : float, default 1.1
+        γ_k = ``gamma_margin`` · γ*(ε_k) (>= 1).
+    scaling : {"std", "none"}, default "std"
+        Weights of the k-step regressor components in the distance (1 / std over the training
+        regressors, or ones).
+    input_weight : float, default 1.0
+        Factor (> 0) on the weight of every input term (as in :class:`~neckid.SetMembership`);
+        the k-step regressor holds about ``k`` input terms per input channel, so values below 1
+        keep the distance from being dominated by them.
+    linear_part : bool, default True
+        Each ``f_k`` is a least-squares linear predictor on the k-step regressor plus a Set
+        Membership model of its residual.
+    progress : bool or callable, optional
+        Progress of the γ*(ε) passes (see :class:`~neckid.SetMembership`).
+    lipschitz : {"global", "local"}, default "global"
+        One Lipschitz constant per horizon, or one per training point and horizon (see Notes,
+        *Local constants*).
+    local_neighbours : int, default 10
+        With ``lipschitz="local"``, the number of nearest training points whose largest
+        constant is the constant at a query.
+
+    Attributes
+    ----------
+    horizons_ : ndarray of int, shape (n_horizons,)
+        The fitted horizons, ascending: ``1 … horizon`` and ``horizons``.
+    estimators_ : tuple of SetMembership
+        One fitted model per horizon, on the regressor ``horizon_lags(lags_, k)``.
+    epsilon_, gamma_, gamma_star_ : ndarray, shape (n_horizons, n_outputs)
+        ε_k, γ_k and γ*(ε_k) per horizon and output.
+    residual_scale_ : ndarray, shape (n_horizons, n_outputs)
+        Robust scale (1.4826 · MAD) of the k-step least-squares residual on the training data.
+    lags_ : ResolvedLags
+        The one-step regressor; ``max_lag_`` is its largest lag.
+    n_inputs_, n_outputs_, n_samples_ : int
+    ts_ : float
+
+    Raises
+    ------
+    ValueError
+        In ``fit``: a horizon < 1 or above :data:`MAX_HORIZON`, an ``epsilon`` of the wrong shape
+        or negative, a training experiment shorter than the longest k-step regressor, and
+        everything :meth:`SetMembership.fit <neckid.SetMembership.fit>` refuses.
+
+    Notes
+    -----
+    *Bounds.* For horizon ``k``, with ``f_{k,l}`` and ``f_{k,u}`` the Set Membership bounds
+    (Milanese & Novara, 2004, Theorem 1) of ``f_k`` at the regressor ``φ_k(t)``,
+
+    .. math:: f_{k,l}(φ) \le f_k(φ) \le f_{k,u}(φ), \qquad
+              y(t + k) \in \bigl[f_{k,l}(φ) − ε_k,\; f_{k,u}(φ) + ε_k\bigr],
+
+    the second being the *guaranteed band* of :meth:`predict_ahead` (``lower``, ``upper``): it
+    holds for every ``t`` whenever ``|d_k| <= ε_k`` and ``f_k`` is Lipschitz with constant ``γ_k``
+    (the prior). The first, the bounds of the noise-free ``f_k``, are in the result's extras.
+
+    *ε_k (the rule).* ``ε_k = epsilon_factor · 1.4826 · MAD(r_k)``, with ``r_k`` the residual
+    of the least-squares linear k-step predictor (standardised regressors, with intercept) on
+    the training data only, MAD the median absolute deviation from the median. With the default
+    factor 3 it is the 3σ level of a Gaussian residual, robust to the few large errors that make
+    a plain maximum useless. It is a rule, not a guarantee: with a known noise bound, give
+    ``epsilon``. The rule measures what the *linear* predictor misses: where a strong
+    nonlinearity dominates that residual, ε_k overstates the noise and the bands are as wide as
+    the linear model's errors (the Set Membership part then refines the centre, not the band).
+    A smaller ε makes γ*(ε), a maximum over pairs of samples, grow fast when the residual has
+    heavy tails: too small an ε widens the band instead of narrowing it.
+
+    *γ_k.* ``γ_k = gamma_margin · γ*(ε_k)``, with γ*(ε) the smallest Lipschitz constant
+    consistent with the training data (:func:`~neckid.gamma_curve`), computed exactly on the
+    residual of the linear part. Where γ*(ε_k) = 0 (every training residual lies within ±ε_k
+    of one value: a constant fits), ``γ_k = gamma_margin · γ*(ε_k / 2)`` instead, any γ >= 0
+    being consistent: the band then still widens away from the data (if identical regressors
+    make γ*(ε_k / 2) infinite, the first finite one of γ*(0.75 ε_k), γ*(0.9 ε_k), γ*(0.99 ε_k)).
+
+    *ε_k floor.* No Lipschitz function fits two identical regressors whose targets differ by more
+    than 2ε (a quantised sensor at rest gives many); the rule's ε_k is raised, with a warning,
+    to half the widest such spread.
+
+    *Local constants.* With ``lipschitz="local"`` each ``f_k`` has one constant per training
+    point, the steepest slope that point takes part in (times ``gamma_margin``), and the
+    constant at a query is the largest of its ``local_neighbours`` nearest points' (ties
+    included; the prior of :class:`~neckid.SetMembership` with ``lipschitz="local"``). A few
+    steep pairs (controller switches, hysteresis) then widen the band only near themselves, so a
+    smaller ε_k no longer blows the band up everywhere; ``gamma_`` stays the global constant (the
+    largest one; every point's constant where γ*(ε_k) = 0).
+
+    *Free run.* :meth:`simulate` cannot re-anchor on measurements (a free run does not look at
+    measured outputs after the initial ones): it chains the predictors in blocks of ``horizon``
+    samples, each block anchored on the model's own last outputs. The bands of the first block
+    are guaranteed; later ones are those of ``f_k`` at a simulated regressor
+    (``extras["band"] == "chained"``). :meth:`predict_receding` is the receding-horizon run
+    that re-anchors on the *measured* outputs every ``horizon`` samples, with guaranteed bands.
+
+    References
+    ----------
+    E. Terzi, L. Fagiano, M. Farina and R. Scattolini, "Learning-based predictive control for
+    linear systems: a unitary approach", Automatica 108:108473, 2019.
+
+    M. Lauricella and L. Fagiano, "Set membership identification of linear systems with
+    guaranteed simulation accuracy", IEEE TAC 65(12):5189-5204, 2020.
+
+    M. Milanese and C. Novara, "Set membership identification of nonlinear systems",
+    Automatica 40(6):957-975, 2004.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags
+    >>> from neckid.models.set_membership.multistep import MultiStepSetMembership
+    >>> rng = np.random.default_rng(0)
+    >>> u = np.repeat(rng.uniform(-1, 1, 60), 10)
+    >>> y = np.zeros(600)
+    >>> for t in range(1, 600):
+    ...     y[t] = 0.8 * y[t - 1] + np.tanh(u[t - 1]) + rng.uniform(-0.01, 0.01)
+    >>> data = IOData(u, y, ts=0.02)
+    >>> model = MultiStepSetMembership(Lags.arx(1, 1), horizon=3).fit(data[:400])
+    >>> model.horizons_
+    array([1, 2, 3])
+    >>> ahead = model.predict_ahead(data[400:], steps=3)
+    >>> ahead.n_initial, ahead.extras["band"]
+    (3, 'guaranteed')
+    >>> bool(np.all(ahead.lower[3:] <= ahead.y[3:]) and np.all(ahead.y[3:] <= ahead.upper[3:]))
+    True
+    """
+
+    _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
+        "lags": [None, Lags],
+        "horizon": [Interval("int", 1, MAX_HORIZON)],
+        "horizons": [None, "lag-list"],
+        "epsilon_factor": [Interval("real", 0, None, closed="neither")],
+        "epsilon": [None, Interval("real", 0, None), "array-like"],
+        "gamma_margin": [Interval("real", 1, None)],
+        "scaling": [Options(("std", "none"))],
+        "input_weight": [Interval("real", 0, None, closed="neither")],
+        "linear_part": ["boolean"],
+        "progress": [None, "boolean", "callable"],
+        "lipschitz": [Options(("global", "local"))],
+        "local_neighbours": [Interval("int", 1, None)],
+    }
+
+    def __init__(
+        self,
+        lags: Lags | None = None,
+        *,
+        horizon: int = 10,
+        horizons: Sequence[int] | None = None,
+        epsilon_factor: float = 3.0,
+        epsilon: float | ArrayLike | None = None,
+        gamma_margin: float = DEFAULT_GAMMA_MARGIN,
+        scaling: Literal["std", "none"] = "std",
+        input_weight: float = 1.0,
+        linear_part: bool = True,
+        progress: ProgressOption = None,
+        lipschitz: Literal["global", "local"] = "global",
+        local_neighbours: int = 10,
+    ) -> None:
+        self.lags = lags
+        self.horizon = horizon
+        self.horizons = horizons
+        self.epsilon_factor = epsilon_factor
+        self.epsilon = epsilon
+        self.gamma_margin = gamma_margin
+        self.scaling = scaling
+        self.input_weight = input_weight
+        self.linear_part = linear_part
+        self.progress = progress
+        self.lipschitz = lipschitz
+        self.local_neighbours = local_neighbours
+
+    # ------------------------------------------------------------------ fit
+    def _horizon_set(self) -> NDArray[np.int64]:
+        extra = [] if self.horizons is None else [int(k) for k in self.horizons]
+        bad = [k for k in extra if not 1 <= k <= MAX_HORIZON]
+        if bad:
+            raise ValueError(
+                f"horizons must hold horizons in [1, {MAX_HORIZON}] samples; got {bad[0]} in"
+                f" {extra}"
+            )
+        return np.array(sorted(set(range(1, int(self.horizon) + 1)) | set(extra)), dtype=np.int64)
+
+    def _given_epsilon(self, n_horizons: int, n_outputs: int) -> FloatArray | None:
+        if self.epsilon is None:
+            return None
+        value = np.asarray(self.epsilon, dtype=np.float64)
+        if value.ndim == 0:
+            value = np.full((n_horizons, n_outputs), float(value))
+        elif value.ndim == 1 and value.shape[0] == n_horizons:
+            value = np.repeat(value[:, None], n_outputs, axis=1)
+        if value.shape != (n_horizons, n_outputs):
+            raise ValueError(
+                f"epsilon must be a number, {n_horizons} numbers (one per horizon) or shape"
+                f" ({n_horizons}, {n_outputs}) (horizon, output); got shape {np.shape(self.epsilon)}"
+            )
+        if not np.all(np.isfinite(value)) or np.any(value < 0):
+            raise ValueError(f"epsilon must be finite and >= 0 (a bound); got {value.tolist()}")
+        return value
+
+    def fit(self, data: IOData | Sequence[IOData]) -> MultiStepSetMembership:
+        """Fit one Set Membership predictor per horizon on one experiment or a list of them.
+
+        Regressors never straddle two experiments; every experiment must be longer than the
+        longest k-step regressor (``max_lag + max(horizons_) − 1`` samples).
+        """
+        data = self._with_conditions(data, fitting=True)
+        self._prepare_fit(data)
+        experiments = as_experiments(data)
+        horizons = self._horizon_set()
+        n_out = self.n_outputs_
+        given = self._given_epsilon(horizons.size, n_out)
+        shortest = min(d.n_samples for d in experiments)
+        longest_lag = self.lags_.max_lag + int(horizons[-1]) - 1
+        if shortest <= longest_lag + 1:
+            raise ValueError(
+                f"the shortest training experiment has {shortest} samples, too few for horizon"
+                f" {int(horizons[-1])}: its regressor reaches {longest_lag} samples back; use"
+                " longer experiments or a shorter horizon"
+            )
+        estimators = []
+        scale = np.empty((horizons.size, n_out))
+        epsilon = np.empty((horizons.size, n_out))
+        gamma_star_at = np.empty((horizons.size, n_out))
+        for i, k in enumerate(horizons):
+            lags_k = horizon_lags(self.lags_, int(k))
+            resolved = lags_k.resolve(experiments)
+            x, y = lags_k.build(experiments)
+            coef, intercept = least_squares(x, y, fit_intercept=True)
+            residual = y - (x @ coef + intercept)
+            scale[i] = robust_scale(residual)
+            target = np.ascontiguousarray(residual if self.linear_part else y)
+            # The estimator's own distance (it warns about constant terms here, once).
+            weights = term_weights(self.scaling, self.input_weight, x, resolved)
+            points = np.ascontiguousarray(x * weights)
+            epsilon[i] = (
+                given[i]
+                if given is not None
+                else self._rule_epsilon(points, target, scale[i], int(k))
+            )
+            gamma, gamma_star_at[i] = self._gamma(points, target, epsilon[i], int(k))
+            model = SetMembership(
+                lags_k,
+                epsilon=epsilon[i].tolist(),
+                gamma=gamma.tolist(),
+                scaling=self.scaling,
+                linear_part=bool(self.linear_part),
+                input_weight=float(self.input_weight),
+                lipschitz=self.lipschitz,
+                local_neighbours=int(self.local_neighbours),
+            )
+            with warnings.catch_warnings():
+                # Constant regressor terms were reported once, above.
+                warnings.simplefilter("ignore", UserWarning)
+                estimators.append(model.fit(experiments))
+            logger.info("horizon %d: epsilon=%s gamma=%s", k, epsilon[i].tolist(), gamma.tolist())
+        self.horizons_ = horizons
+        self.estimators_ = tuple(estimators)
+        self.residual_scale_ = scale
+        self.gamma_star_ = gamma_star_at
+        self._set_horizon_arrays()
+        self._mark_fitted()
+        return self
+
+    def _rule_epsilon(
+        self, points: FloatArray, target: FloatArray, scale: FloatArray, k: int
+    ) -> FloatArray:
+        """``epsilon_factor`` × the robust scale, raised where identical regressors need more.
+
+        ``points`` are the scaled k-step regressors, ``target`` what the SM map fits.
+        """
+        rule = float(self.epsilon_factor) * scale
+        # A relative 1e-9 above half the spread: the estimator recomputes the targets from the
+        # scaled points, which can move them by an ulp.
+        floor = 0.5 * duplicate_spread(points, target) * (1.0 + 1e-9)
+        if np.any(floor > rule):
+            warnings.warn(
+                f"horizon {k}: epsilon_factor x the residual scale = {_numbers(rule)} is below"
+                f" half the spread of the outputs at identical regressors, {_numbers(floor)};"
+                " epsilon is raised to it (no Lipschitz function fits a smaller one)",
+                UserWarning,
+                stacklevel=3,
+            )
+        return np.maximum(rule, floor)
+
+    def _gamma(
+        self, points: FloatArray, target: FloatArray, epsilon: FloatArray, k: int
+    ) -> tuple[FloatArray, FloatArray]:
+        """γ_k = margin · γ*(ε_k) (or at a smaller ε where γ*(ε_k) = 0), and γ*(ε_k).
+
+        Where γ*(ε_k) = 0 the fallback is γ*(f ε_k) at the smallest f of ``_FALLBACK_FRACTIONS``
+        for which it is finite and positive (identical regressors can make it infinite below ε_k).
+        """
+        grid = np.vstack([f * epsilon for f in (*_FALLBACK_FRACTIONS, 1.0)])
+        star = _gamma_star(points, target, grid, self.progress)
+        usable = np.where(np.isfinite(star[:-1]) & (star[:-1] > 0), star[:-1], np.nan)
+        first = np.argmax(~np.isnan(usable), axis=0)
+        fallback = usable[first, np.arange(usable.shape[1])]
+        gamma = float(self.gamma_margin) * np.where(star[-1] > 0, star[-1], fallback)
+        flat = np.flatnonzero(~(gamma > 0))
+        if flat.size:
+            c = int(flat[0])
+            raise ValueError(
+                f"output {self.output_names_[c]!r}, horizon {k}: γ*(ε) = 0 at epsilon ="
+                f" {epsilon[c]:.6g} (a constant fits every training target to within ±ε) and no"
+                " ε between ε/2 and ε gives a finite positive γ*, so no Lipschitz constant can"
+                " be learned; give a smaller epsilon"
+            )
+        return gamma, star[-1].copy()
+
+    def invalidation(
+        self, data: IOData | Sequence[IOData]
+    ) -> dict[int, Invalidation | list[Invalidation]]:
+        """Per horizon, which samples of new data fall outside their guaranteed k-step band.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements with the training channels.
+
+        Returns
+        -------
+        dict
+            ``{k: Invalidation}`` for every fitted horizon (a list per horizon when a list was
+            given): ``.fraction`` is the share of samples outside the band of
+            :meth:`predict_ahead`, ``.smallest_epsilon`` the smallest ε_k that would hold them
+            all (γ_k kept). A horizon whose regressor is longer than one of the experiments is
+            left out (so a list's positions always match ``data``).
+        """
+        check_is_fitted(self)
+        experiments = as_experiments(self._with_conditions(data))
+        report: dict[int, Invalidation | list[Invalidation]] = {}
+        for k, model in zip(self.horizons_.tolist(), self.estimators_, strict=True):
+            if all(d.n_samples > model.lags_.max_lag for d in experiments):
+                found = model.invalidation(experiments)
+                report[int(k)] = found[0] if isinstance(data, IOData) else found
+        return report
+
+    def partial_fit(
+        self, data: IOData | Sequence[IOData], *, prior: PriorRule = "adapt"
+    ) -> MultiStepSetMembership:
+        """Add new experiments to the data set of every horizon's predictor.
+
+        Each k-step predictor takes the new k-step regressors
+        (:meth:`SetMembership.partial_fit <neckid.SetMembership.partial_fit>`: its linear part
+        refitted on all its points, ε_k kept, γ_k re-checked with ``prior`` and raised, under
+        ``"adapt"``, to this model's ``gamma_margin`` · γ*(ε_k)). An experiment too short for
+        the regressor of a horizon is left out of that horizon's data.
+
+        Parameters
+        ----------
+        data : IOData or list of IOData
+            New measurements on the model's channels.
+        prior : {"adapt", "keep", "raise"}, default "adapt"
+            As for :meth:`SetMembership.partial_fit <neckid.SetMembership.partial_fit>`.
+
+        Returns
+        -------
+        MultiStepSetMembership
+            ``self``; each predictor's ``last_invalidation_`` reports on its horizon.
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            Data on other channels, or too short for any horizon's regressor.
+        """
+        experiments = update_experiments(self, data)
+        updated = 0
+        for i, model in enumerate(self.estimators_):
+            usable = [d for d in experiments if d.n_samples > model.lags_.max_lag]
+            if not usable:
+                continue
+            model.set_params(gamma_margin=float(self.gamma_margin))
+            model.partial_fit(usable, prior=prior)
+            self.gamma_star_[i] = np.where(
+                np.isfinite(model.gamma_star_), model.gamma_star_, self.gamma_star_[i]
+            )
+            updated += 1
+        if updated == 0:
+            raise ValueError(
+                f"every experiment is too short for the shortest k-step regressor (lags up to"
+                f" {self.estimators_[0].lags_.max_lag}); give longer data"
+            )
+        self.n_samples_ += int(sum(d.n_samples - self.lags_.max_lag for d in experiments))
+        self._set_horizon_arrays()
+        extend_training_ranges(self, experiments)
+        return self
+
+    def _set_horizon_arrays(self) -> None:
+        self.epsilon_ = np.vstack([m.epsilon_ for m in self.estimators_])
+        self.gamma_ = np.vstack([m.gamma_ for m in self.estimators_])
+
+    # ------------------------------------------------------------------ evaluation
+    def _estimator(self, steps: Any) -> SetMembership:
+        if isinstance(steps, bool) or not isinstance(steps, int | np.integer):
+            raise TypeError(f"steps must be a whole number of samples; got {steps!r}")
+        hit = np.flatnonzero(self.horizons_ == int(steps))
+        if not hit.size:
+            raise ValueError(
+                f"steps must be one of the fitted horizons {self.horizons_.tolist()}; got {steps}"
+                " (fit with horizons=[...] to add it)"
+            )
+        return self.estimators_[int(hit[0])]
+
+    def predict_ahead(self, data: IOData, steps: int = 1) -> ModelResult:
+        """Direct ``steps``-ahead prediction with its guaranteed band.
+
+        Row ``s`` of the result is the prediction of ``y(s)`` made at time ``t = s − steps``,
+        from the measured outputs up to ``t`` and the inputs up to ``s``.
+
+        Parameters
+        ----------
+        data : IOData
+            Measured inputs and outputs, the training channels.
+        steps : int, default 1
+            The horizon ``k``, one of ``horizons_``.
+
+        Returns
+        -------
+        ModelResult
+            ``kind="prediction"``; ``n_initial = max_lag_ + steps − 1`` rows are the measured
+            outputs (bands NaN there). ``lower``, ``upper``: the guaranteed band of the
+            measurement, ``[f_l − ε_k, f_u + ε_k]``. ``extras``: ``"band"`` (``"guaranteed"``),
+            ``"steps"``, ``"epsilon"`` and ``"gamma"`` (per output), ``"function_lower"`` and
+            ``"function_upper"`` (``f_l``, ``f_u``: the bounds of the noise-free ``f_k``).
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            If ``steps`` is not a fitted horizon, ``data`` holds no outputs or other channels,
+            or is too short for the k-step regressor.
+        """
+        check_is_fitted(self)
+        data = self._with_conditions(data)
+        self._check_inputs(data)
+        model = self._estimator(steps)
+        if data.n_outputs == 0:
+            raise ValueError(
+                "predict_ahead needs the measured outputs up to each anchor time; data holds"
+                " inputs only (use simulate(data, initial=...) for a free run)"
+            )
+        x, _ = model.lags_.build_one(data)
+        bounds = model._bounds_rows(x)
+        start = model.lags_.max_lag
+        i = int(np.flatnonzero(self.horizons_ == int(steps))[0])
+        epsilon = self.epsilon_[i]
+        y = np.array(data.y, dtype=np.float64)
+        lower, upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+        f_lower, f_upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+        y[start:] = bounds.central
+        f_lower[start:], f_upper[start:] = bounds.lower, bounds.upper
+        lower[start:], upper[start:] = bounds.lower - epsilon, bounds.upper + epsilon
+        extras = {
+            "band": "guaranteed",
+            "steps": int(steps),
+            "epsilon": epsilon.copy(),
+            "gamma": self.gamma_[i].copy(),
+            "function_lower": f_lower,
+            "function_upper": f_upper,
+        }
+        return ModelResult.from_data(
+            "prediction",
+            data,
+            y,
+            start,
+            self.output_names_,
+            self.output_units_,
+            lower,
+            upper,
+            extras,
+        )
+
+    def predict(self, data: IOData) -> ModelResult:
+        """One-step-ahead prediction with the guaranteed band: ``predict_ahead(data, steps=1)``."""
+        return self.predict_ahead(data, steps=1)
+
+    def predict_receding(self, data: IOData) -> ModelResult:
+        """Receding-horizon prediction: re-anchored on the *measured* outputs every ``horizon``.
+
+        Not a free run. The anchors are ``t_j = max_lag_ − 1 + j · horizon``; the samples
+        ``t_j + 1 … t_j + horizon`` are predicted by the direct predictors of horizons
+        ``1 … horizon`` from the measurements up to ``t_j`` (and the inputs), so every band is a
+        guaranteed k-step band. This is what a predictive controller that receives a
+        measurement every ``horizon`` samples sees.
+
+        Returns
+        -------
+        ModelResult
+            ``kind="prediction"``, ``n_initial = max_lag_``; ``extras["steps"]`` holds the
+            horizon of each row (0 for the initial ones), ``extras["band"] == "guaranteed"``.
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            If ``data`` holds no outputs or other channels.
+        """
+        check_is_fitted(self)
+        data = self._with_conditions(data)
+        self._check_inputs(data)
+        if data.n_outputs == 0:
+            raise ValueError("predict_receding needs the measured outputs; data holds inputs only")
+        block = int(self.horizon)
+        m = self.max_lag_
+        n = data.n_samples
+        if n <= m:
+            raise ValueError(
+                f"data has {n} samples, too few for lags up to {m}: it needs at least {m + 1}"
+            )
+        y = np.array(data.y, dtype=np.float64)
+        lower, upper = np.full(y.shape, np.nan), np.full(y.shape, np.nan)
+        steps = np.zeros(n, dtype=np.int64)
+        steps[m:] = (np.arange(m, n) - m) % block + 1
+        for k in range(1, min(block, n - m) + 1):
+            model = self._estimator(k)
+            rows = np.flatnonzero(steps == k)
+            start = model.lags_.max_lag
+            x, _ = model.lags_.build_one(data)
+            bounds = model._bounds_rows(np.ascontiguousarray(x[rows - start]))
+            epsilon = self.epsilon_[k - 1]
+            y[rows], lower[rows], upper[rows] = (
+                bounds.central,
+                bounds.lower - epsilon,
+                bounds.upper + epsilon,
+            )
+        extras = {"band": "guaranteed", "steps": steps}
+        return ModelResult.from_data(
+            "prediction", data, y, m, self.output_names_, self.output_units_, lower, upper, extras
+        )
+
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
+        """Free run: the direct predictors chained in blocks of ``horizon`` samples.
+
+        From the initial outputs (the first ``max_lag_`` of ``data``, or ``initial``), the
+        predictors of horizons ``1 … horizon`` give the next ``horizon`` samples; the last
+        ``max_lag_`` of those (the model's own outputs) anchor the next block, and so on. Only
+        ``data.u`` is used after the initial outputs, so ``data`` may hold inputs only when
+        ``initial`` is given. To re-anchor on measured outputs use :meth:`predict_receding`.
+
+        Returns
+        -------
+        ModelResult
+            ``kind="simulation"``; ``lower``/``upper`` are ``[f_l − ε_k, f_u + ε_k]`` at the
+            chained regressor (``extras["band"] == "chained"``: guaranteed in the first block
+            only); ``extras["steps"]`` the horizon used for each row.
+        """
+        check_is_fitted(self)
+        data = self._with_conditions(data)
+        y = self._initial_outputs(data, initial)
+        m = self.max_lag_
+        y, lower, upper = stepped_run(self.simulator(), data.u, y, m)
+        steps = np.zeros(data.n_samples, dtype=np.int64)
+        steps[m:] = (np.arange(m, data.n_samples) - m) % int(self.horizon) + 1
+        return self._result(
+            "simulation", data, y, lower, upper, {"band": "chained", "steps": steps}
+        )
+
+    def simulator(self) -> MultiStepSimulator:
+        """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``.
+
+        It runs the same chained free run as :meth:`simulate`: after
+        ``reset(y0=y[:max_lag_], u0=u[:max_lag_])``, stepping ``u[max_lag_:]`` gives what
+        ``simulate`` gives.
+        """
+        check_is_fitted(self)
+        return MultiStepSimulator(self)
+
+    # ------------------------------------------------------------------ files
+    def _check_state(self) -> None:
+        super()._check_state()
+        horizons = np.asarray(self.horizons_)
+        expected = self._horizon_set()
+        if horizons.shape != expected.shape or not np.array_equal(horizons, expected):
+            raise ValueError(
+                f"horizons {horizons.tolist()} must be 1..horizon={self.horizon} and the extra"
+                f" horizons {list(self.horizons or [])}"
+            )
+        if len(self.estimators_) != horizons.size:
+            raise ValueError(
+                f"there must be one predictor per horizon ({horizons.size}); got"
+                f" {len(self.estimators_)}"
+            )
+        for k, model in zip(horizons, self.estimators_, strict=True):
+            expected_lags = horizon_lags(self.lags_, int(k))
+            if model.lags_.to_lags() != expected_lags or (
+                model.input_names_,
+                model.output_names_,
+            ) != (self.input_names_, self.output_names_):
+                raise ValueError(
+                    f"the predictor of horizon {int(k)} has the regressor"
+                    f" {model.lags_.to_lags()!r}; the one-step regressor {self.lags_.to_lags()!r}"
+                    f" gives {expected_lags!r}"
+                )
+        shape = (horizons.size, self.n_outputs_)
+        self._check_shape("residual_scale", self.residual_scale_, shape)
+        self._check_shape("gamma_star", self.gamma_star_, shape)
+
+    def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
+        check_is_fitted(self)
+        arrays: dict[str, NDArray[Any]] = {
+            "horizons": self.horizons_,
+            "residual_scale": self.residual_scale_,
+            "gamma_star": self.gamma_star_,
+        }
+        submodels: dict[str, Any] = {}
+        for k, model in zip(self.horizons_, self.estimators_, strict=True):
+            sub_arrays, sub_meta = model._get_state()
+            for name, value in sub_arrays.items():
+                arrays[f"h{int(k)}_{name}"] = value
+            submodels[str(int(k))] = sub_meta
+        epsilon = self.epsilon
+        meta = {
+            "params": {
+                "horizon": int(self.horizon),
+                "horizons": None if self.horizons is None else [int(k) for k in self.horizons],
+                "epsilon_factor": float(self.epsilon_factor),
+                "epsilon": None if epsilon is None else np.asarray(epsilon, float).tolist(),
+                "gamma_margin": float(self.gamma_margin),
+                "scaling": str(self.scaling),
+                "input_weight": float(self.input_weight),
+                "linear_part": bool(self.linear_part),
+                "lipschitz": str(self.lipschitz),
+                "local_neighbours": int(self.local_neighbours),
+            },
+            "submodels": submodels,
+            **self._narx_meta(),
+        }
+        return arrays, meta
+
+    @classmethod
+    def _from_state(
+        cls, arrays: Mapping[str, NDArray[Any]], meta: Mapping[str, Any]
+    ) -> MultiStepSetMembership:
+        model = cls(None, **meta["params"])
+        model._restore_narx_meta(meta)
+        horizons = np.asarray(arrays["horizons"])
+        if horizons.ndim != 1 or horizons.dtype.kind not in "iu":
+            raise ValueError(f"horizons must be a 1-D array of whole numbers; got {horizons!r}")
+        estimators = []
+        for k in horizons.tolist():
+            prefix = f"h{k}_"
+            sub_arrays = {n[len(prefix) :]: v for n, v in arrays.items() if n.startswith(prefix)}
+            if not sub_arrays:
+                raise KeyError(f"{prefix}x_train")
+            estimators.append(SetMembership._from_state(sub_arrays, meta["submodels"][str(k)]))
+        model.horizons_ = horizons.astype(np.int64)
+        model.estimators_ = tuple(estimators)
+        model.residual_scale_ = np.asarray(arrays["residual_scale"], dtype=np.float64)
+        model.gamma_star_ = np.asarray(arrays["gamma_star"], dtype=np.float64)
+        model._set_horizon_arrays()
+        return model
+
+
+class MultiStepSimulator(NarxSimulator):
+    """Step-by-step chained free run of a fitted :class:`MultiStepSetMembership`.
+
+    The history is anchored at its last row; the ``k``-th step after the anchor applies the
+    predictor of horizon ``k`` to the anchored outputs and the inputs since; after ``horizon``
+    steps the model's own last outputs become the new anchor. ``step(u)`` returns the central
+    estimate; after it, :attr:`lower` and :attr:`upper` hold that step's band
+    ``[f_l − ε_k, f_u + ε_k]`` (guaranteed in the first block only).
+    """
+
+    def __init__(self, model: MultiStepSetMembership) -> None:
+        self._model = model
+        self._block = int(model.horizon)
+        self._history = max(model.max_lag_, 1)
+        super().__init__(model.lags_, model.estimators_[0]._predict_rows)
+
+    @property
+    def steps_since_anchor(self) -> int:
+        """Steps taken since the last anchor (0 right after a reset or a re-anchoring)."""
+        return self._steps
+
+    def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
+        """Start again from a constant history, anchored at its last row.
+
+        Parameters
+        ----------
+        y0 : array_like, shape (n_outputs,) or (max_lag, n_outputs), optional
+            Past outputs (oldest first); a single row is repeated. Default zeros.
+        u0 : array_like, shape (n_inputs,) or (max_lag, n_inputs), optional
+            Past inputs (oldest first); a single row is repeated. Default zeros.
+        """
+        super().reset(y0, u0)
+        self._steps = 0
+        self.lower = np.full(self.n_outputs, np.nan)
+        self.upper = np.full(self.n_outputs, np.nan)
+
+    def step_bounds(self, u: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Advance one sample with input ``u``; return ``(y, lower, upper)``, each ``(n_outputs,)``."""
+        u_now = self._input_row(u)
+        self._u = np.vstack([self._u, u_now[None, :]])
+        k = self._steps + 1
+        model = self._model.estimators_[k - 1]
+        t = self._u.shape[0] - 1
+        w = model.lags_.regressor_from_history(self._y, self._u, t)
+        bounds = model._bounds_rows(w[None, :])
+        epsilon = self._model.epsilon_[k - 1]
+        y_now = np.asarray(bounds.central[0], dtype=np.float64)
+        self.lower = bounds.lower[0] - epsilon
+        self.upper = bounds.upper[0] + epsilon
+        self._y = np.vstack([self._y, y_now[None, :]])
+        if k == self._block:
+            self._y = self._y[-self._history :]
+            self._u = self._u[-self._history :]
+            self._steps = 0
+        else:
+            self._steps = k
+        return y_now.copy(), self.lower.copy(), self.upper.copy()
+
+    def step(self, u: ArrayLike) -> FloatArray:
+        """Advance one sample with input ``u`` (shape ``(n_inputs,)``); return ``y`` (``(n_outputs,)``)."""
+        return self.step_bounds(u)[0]
