@@ -1,7 +1,7 @@
 """Plain NumPy references of the Set Membership kernels (brute force, written as the equations read).
 
-:mod:`neckid.models.set_membership._kernels.tree` computes the same quantities with a kd-tree and compiled loops;
-the tests check that both agree (bit for bit for the bounds, to 1e-12 for γ*(ε)).
+The kernels of :mod:`neckid.models.set_membership._kernels` compute the same quantities with a
+kd-tree and compiled loops; the tests check that both agree (bit for bit for the bounds, to 1e-12 for γ*(ε)).
 """
 
 from __future__ import annotations
@@ -9,7 +9,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["bounds_reference", "gamma_star_reference"]
+from neckid.models.set_membership._kernels import SMTree
+from neckid.models.set_membership.training import prior_tolerance
+
+__all__ = [
+    "bounds_reference",
+    "gamma_star_reference",
+    "prior_holds_by_query",
+    "smallest_epsilon_by_query",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -70,3 +78,26 @@ def gamma_star_reference(
             if ratio.size:
                 best[e] = max(best[e], float(ratio.max()))
     return best
+
+
+def prior_holds_by_query(tree: SMTree, epsilon: FloatArray, gamma: FloatArray) -> NDArray[np.bool_]:
+    """Reference of :func:`prior_holds`: ``f_u(w̃_k) >= ỹ_k − ε − τ`` and ``f_l(w̃_k) <= ỹ_k + ε + τ``.
+
+    Evaluates the bounds at every training point (N queries of the tree: about N^1.4 on
+    neck-like data); kept to test :func:`prior_holds` against.
+    """
+    lower, upper = tree.bounds(tree.points, epsilon, gamma)
+    y = tree.targets
+    tolerance = prior_tolerance(y, epsilon)
+    ok_upper = np.all(upper >= y - epsilon - tolerance, axis=0)
+    ok_lower = np.all(lower <= y + epsilon + tolerance, axis=0)
+    return np.asarray(ok_upper & ok_lower, dtype=bool)
+
+
+def smallest_epsilon_by_query(tree: SMTree, gamma: FloatArray) -> FloatArray:
+    """Reference of :func:`smallest_epsilon`: ½ max_k (ỹ_k − f_u(w̃_k)) with f_u at ε = 0.
+
+    Evaluates the bounds at every training point (N queries of the tree).
+    """
+    _, upper = tree.bounds(tree.points, np.zeros_like(gamma), gamma)
+    return np.maximum(0.5 * np.max(tree.targets - upper, axis=0), 0.0)

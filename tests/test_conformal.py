@@ -10,12 +10,8 @@ import pytest
 import neckid
 from neckid import IOData, Lags
 from neckid.metrics import coverage, mean_width
-from neckid.models.conformal import (
-    _iterate_simulator,
-    calibrate,
-    conformal_quantile,
-    predict_ahead,
-)
+from neckid.models.conformal import calibrate, conformal_quantile, predict_ahead
+from neckid.models.kstep import _iterate_simulator
 
 LAGS = Lags.arx(1, 1, 1)
 

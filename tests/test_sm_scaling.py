@@ -16,7 +16,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from _sm_reference import bounds_reference, gamma_star_reference
+from _sm_reference import (
+    bounds_reference,
+    gamma_star_reference,
+    prior_holds_by_query,
+    smallest_epsilon_by_query,
+)
 from neckid import IOData, Lags
 from neckid.models.set_membership._kernels.gamma import gamma_star, gamma_star_blocked
 from neckid.models.set_membership._kernels.tree import SMTree, _permute_rows, build_tree
@@ -24,10 +29,8 @@ from neckid.models.set_membership.narx import SetMembership
 from neckid.models.set_membership.training import (
     check_duplicates,
     prior_holds,
-    prior_holds_by_query,
     prior_tolerance,
     smallest_epsilon,
-    smallest_epsilon_by_query,
     training_tree,
     unscale,
 )

@@ -33,11 +33,15 @@ Three models keep something else: :class:`~neckid.ParallelSetMembership` keeps i
 commands); :class:`~neckid.models.set_membership.multistep.MultiStepSetMembership` keeps the anchor of its
 chained free run, the inputs since and the number of steps since, and replays them (up to
 ``horizon`` model evaluations per sample).
+
+Each system gives its own state functions through one method, ``state_map(bounds=False)``
+(the protocol :class:`~neckid.systems.HasStateMap`, as python-control's ``NonlinearIOSystem``
+takes an update and an output function of the state): :func:`to_iosystem` and
+:func:`initial_state` talk to that method only, so a new kind of system needs no change here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any, Literal
 
 import control
@@ -45,15 +49,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from neckid._typing import FloatArray
-from neckid.loops.model_in_loop import POSITION, VELOCITY, VelocityDrive, channel_names
-from neckid.models.base import Estimator, check_is_fitted, history_rows
+from neckid.models.base import Estimator, check_is_fitted
 from neckid.models.linear.arx import LinearARX
 from neckid.models.linear.rls import RecursiveARX
 from neckid.models.scheduled.model import GainScheduledModel
-from neckid.models.set_membership.multistep import MultiStepSetMembership
-from neckid.models.set_membership.parallel import LINEAR_SUFFIX, ParallelSetMembership
-from neckid.plant.control import InclinationController
-from neckid.validation import check_finite
+from neckid.models.scheduled.state_map import command_channel, scheduled_state_names
+from neckid.systems import StateFunctions, history_names
 
 __all__ = ["initial_state", "output_offset", "to_control", "to_iosystem"]
 
@@ -210,7 +211,7 @@ def _arx_state_space(model: Any, name: str | None) -> control.StateSpace:
     a_mat[n_y - n_out : n_y] = c_mat
     b_mat[n_y - n_out : n_y] = d_mat
     b_mat[n_x - n_in :] = np.eye(n_in)
-    states = _history_names(model.output_names_, m) + _history_names(model.input_names_, m)
+    states = history_names(model.output_names_, m) + history_names(model.input_names_, m)
     return control.StateSpace(
         a_mat,
         b_mat,
@@ -224,15 +225,10 @@ def _arx_state_space(model: Any, name: str | None) -> control.StateSpace:
     )
 
 
-def _command_channel(model: GainScheduledModel) -> int:
-    """Index of the scheduled model's command among its inputs (its one lagged input)."""
-    return int(model.lags_.channel[model.lags_.source == 1][0])
-
-
 def _scheduled_frozen(
     model: GainScheduledModel, inclination: float, form: str, name: str | None
 ) -> control.TransferFunction | control.StateSpace:
-    command = model.input_names_[_command_channel(model)]
+    command = model.input_names_[command_channel(model)]
     output = model.output_names_[0]
     label = name or f"{type(model).__name__}@{inclination:g}deg"
     if form == "tf":
@@ -266,7 +262,7 @@ def _scheduled_frozen(
         dt=ts,
         inputs=[command],
         outputs=[output],
-        states=_scheduled_state_names(model),
+        states=scheduled_state_names(model),
         name=label,
     )
 
@@ -376,341 +372,18 @@ def to_control(
 
 
 # ============================================================================ I/O systems
-def _history_names(names: Sequence[str], m: int) -> list[str]:
-    return [f"{n}[t-{m - r}]" for r in range(m) for n in names]
-
-
-def _scheduled_state_names(model: GainScheduledModel) -> list[str]:
-    output = model.output_names_[0]
-    command = model.input_names_[_command_channel(model)]
-    past = [f"{command}[t-{model.delay_ - k}]" for k in range(model.delay_)]
-    return [f"{output}[t-1]", f"{output}_rate[t-1]", *past]
-
-
-class _StateMap:
-    """A one-step map on a packed state: ``output(x, u)`` and ``update(x, u)``, both pure.
-
-    Subclasses give ``_output(x, u)`` and ``_next(x, u, out)``; ``feedthrough`` says whether the
-    output reads ``u`` (when it does not, one evaluation per state serves every input).
-    """
-
-    inputs: list[str]
-    outputs: list[str]
-    states: list[str]
-    ts: float
-    feedthrough: bool = True
-
-    #: Evaluations kept: python-control asks for the same few several times per sample.
-    CACHE_SIZE = 4
-
-    def __init__(self) -> None:
-        self._cache: dict[tuple[bytes, bytes], FloatArray] = {}
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        raise NotImplementedError  # pragma: no cover - abstract
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        raise NotImplementedError  # pragma: no cover - abstract
-
-    def output(self, x: ArrayLike, u: ArrayLike) -> FloatArray:
-        """The outputs at state ``x`` and input ``u``."""
-        x_arr = np.asarray(x, dtype=np.float64).reshape(-1)
-        u_arr = np.asarray(u, dtype=np.float64).reshape(-1)
-        key = (x_arr.tobytes(), u_arr.tobytes() if self.feedthrough else b"")
-        if key not in self._cache:
-            if len(self._cache) >= self.CACHE_SIZE:
-                self._cache.pop(next(iter(self._cache)))
-            self._cache[key] = self._output(x_arr, u_arr)
-        return self._cache[key].copy()
-
-    def update(self, x: ArrayLike, u: ArrayLike) -> FloatArray:
-        """The state one sample later."""
-        x_arr = np.asarray(x, dtype=np.float64).reshape(-1)
-        u_arr = np.asarray(u, dtype=np.float64).reshape(-1)
-        return self._next(x_arr, u_arr, self.output(x_arr, u_arr))
-
-    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
-        raise NotImplementedError  # pragma: no cover - abstract
-
-
-def _has_lag_zero_input(lags: Any) -> bool:
-    return bool(np.any((lags.source == 1) & (lags.lag == 0)))
-
-
-class _HistoryMap(_StateMap):
-    """Models whose simulator state is its last ``m`` outputs and inputs (the NARX models)."""
-
-    def __init__(self, model: Any, bounds: bool) -> None:
-        super().__init__()
-        self._simulator = model.simulator()
-        self._bounds = bounds and callable(getattr(self._simulator, "step_bounds", None))
-        self.m = max(int(model.max_lag_), 1)
-        self.n_out, self.n_in = len(model.output_names_), len(model.input_names_)
-        self.inputs = list(model.input_names_)
-        self.outputs = list(model.output_names_)
-        if self._bounds:
-            self.outputs += [
-                f"{n}_{side}" for side in ("lower", "upper") for n in model.output_names_
-            ]
-        self.states = self._state_names(model)
-        self.ts = float(model.ts_)
-        self.feedthrough = self._feedthrough(model)
-
-    def _feedthrough(self, model: Any) -> bool:
-        lags = getattr(model, "lags_", None)
-        return lags is None or _has_lag_zero_input(lags)
-
-    def _state_names(self, model: Any) -> list[str]:
-        return _history_names(model.output_names_, self.m) + _history_names(
-            model.input_names_, self.m
-        )
-
-    def _split(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        n_y = self.m * self.n_out
-        return x[:n_y].reshape(self.m, self.n_out), x[n_y:].reshape(self.m, self.n_in)
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        y_hist, u_hist = self._split(x)
-        self._simulator.reset(y0=y_hist, u0=u_hist)
-        if self._bounds:
-            return np.concatenate(self._simulator.step_bounds(u))
-        return np.asarray(self._simulator.step(u), dtype=np.float64)
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        y_hist, u_hist = self._split(x)
-        return np.concatenate([y_hist[1:].ravel(), out[: self.n_out], u_hist[1:].ravel(), u])
-
-    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
-        y_hist = history_rows(y0, self.m, self.n_out, "y0")
-        u_hist = history_rows(u0, self.m, self.n_in, "u0")
-        return np.concatenate([y_hist.ravel(), u_hist.ravel()])
-
-
-class _ParallelMap(_HistoryMap):
-    """ParallelSetMembership: the history holds its linear part's *simulated* outputs."""
-
-    def __init__(self, model: ParallelSetMembership, bounds: bool) -> None:
-        super().__init__(model, bounds)
-        self._linear = model.linear_.simulator()
-        self._m_linear = max(int(model.linear_.max_lag_), 1)
-
-    def _feedthrough(self, model: Any) -> bool:
-        sm_lags = model.sm_.lags_
-        measured = np.isin(sm_lags.channel, np.arange(len(model.input_names_)))
-        direct = bool(np.any((sm_lags.source == 1) & (sm_lags.lag == 0) & measured))
-        through_linear = bool(np.any((sm_lags.source == 1) & (sm_lags.lag == 0) & ~measured))
-        return direct or (through_linear and _has_lag_zero_input(model.linear_.lags_))
-
-    def _state_names(self, model: Any) -> list[str]:
-        linear = [n + LINEAR_SUFFIX for n in model.output_names_]
-        return _history_names(linear, self.m) + _history_names(model.input_names_, self.m)
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        y_hist, u_hist = self._split(x)
-        self._simulator.reset(y0=y_hist, u0=u_hist)
-        y, low, high = self._simulator.step_bounds(u)
-        return np.concatenate([y, low, high]) if self._bounds else y
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        y_hist, u_hist = self._split(x)
-        self._linear.reset(y_hist[-self._m_linear :], u_hist[-self._m_linear :])
-        y_linear = np.asarray(self._linear.step(u), dtype=np.float64)
-        return np.concatenate([y_hist[1:].ravel(), y_linear, u_hist[1:].ravel(), u])
-
-
-class _MultiStepMap(_StateMap):
-    """MultiStepSetMembership: the anchor of its chained free run and the inputs since.
-
-    ``x = [k, y anchor (m rows), u anchor (m rows), u since the anchor (horizon − 1 rows)]``
-    with ``k`` the steps taken since the anchor (rows past ``k`` are zero). The simulator is
-    rebuilt by ``reset`` on the anchor and a replay of the ``k`` inputs (deterministic, so the
-    same bits), then stepped: up to ``horizon`` evaluations per sample.
-    """
-
-    def __init__(self, model: MultiStepSetMembership, bounds: bool) -> None:
-        super().__init__()
-        self._simulator = model.simulator()
-        self._bounds = bounds
-        self.m = max(int(model.max_lag_), 1)
-        self.block = int(model.horizon)
-        self.n_out, self.n_in = len(model.output_names_), len(model.input_names_)
-        self.inputs = list(model.input_names_)
-        self.outputs = list(model.output_names_)
-        if bounds:
-            self.outputs += [
-                f"{n}_{side}" for side in ("lower", "upper") for n in model.output_names_
-            ]
-        since = [f"{n}[anchor+{j}]" for j in range(1, self.block) for n in model.input_names_]
-        self.states = [
-            "steps_since_anchor",
-            *_history_names([f"{n}_anchor" for n in model.output_names_], self.m),
-            *_history_names([f"{n}_anchor" for n in model.input_names_], self.m),
-            *since,
-        ]
-        self.ts = float(model.ts_)
-        self.feedthrough = any(_has_lag_zero_input(e.lags_) for e in model.estimators_)
-
-    def _split(self, x: FloatArray) -> tuple[int, FloatArray, FloatArray, FloatArray]:
-        n_y, n_u = self.m * self.n_out, self.m * self.n_in
-        steps = round(float(x[0]))
-        y_anchor = x[1 : 1 + n_y].reshape(self.m, self.n_out)
-        u_anchor = x[1 + n_y : 1 + n_y + n_u].reshape(self.m, self.n_in)
-        since = x[1 + n_y + n_u :].reshape(self.block - 1, self.n_in)
-        return steps, y_anchor, u_anchor, since
-
-    def _replay(self, x: FloatArray, u: FloatArray) -> tuple[list[FloatArray], FloatArray]:
-        steps, y_anchor, u_anchor, since = self._split(x)
-        self._simulator.reset(y0=y_anchor, u0=u_anchor)
-        outputs = [
-            np.asarray(self._simulator.step(since[j]), dtype=np.float64) for j in range(steps)
-        ]
-        y, low, high = self._simulator.step_bounds(u)
-        outputs.append(np.asarray(y, dtype=np.float64))
-        return outputs, np.concatenate([y, low, high]) if self._bounds else outputs[-1]
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        return self._replay(x, u)[1]
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        steps, y_anchor, u_anchor, since = self._split(x)
-        since = since.copy()
-        if steps + 1 < self.block:
-            since[steps] = u
-            return np.concatenate(
-                [[steps + 1.0], y_anchor.ravel(), u_anchor.ravel(), since.ravel()]
-            )
-        outputs, _ = self._replay(x, u)
-        y_rows = np.vstack([y_anchor, *outputs])[-self.m :]
-        u_rows = np.vstack([u_anchor, since[:steps], u[None, :]])[-self.m :]
-        return np.concatenate([[0.0], y_rows.ravel(), u_rows.ravel(), np.zeros(since.size)])
-
-    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
-        y_hist = history_rows(y0, self.m, self.n_out, "y0")
-        u_hist = history_rows(u0, self.m, self.n_in, "u0")
-        return np.concatenate(
-            [[0.0], y_hist.ravel(), u_hist.ravel(), np.zeros((self.block - 1) * self.n_in)]
-        )
-
-
-class _ScheduledMap(_StateMap):
-    """GainScheduledModel: ``x = [i(t−1), r(t−1), u(t−d), …, u(t−1)]``; no feedthrough."""
-
-    feedthrough = False
-
-    def __init__(self, model: GainScheduledModel) -> None:
-        super().__init__()
-        self._model = model
-        self._channel = _command_channel(model)
-        self.delay = int(model.delay_)
-        self.inputs = list(model.input_names_)
-        self.outputs = list(model.output_names_)
-        self.states = _scheduled_state_names(model)
-        self.ts = float(model.ts_)
-        self._position = getattr(model, "form", "rate") == "position"
-
-    def _advance(self, x: FloatArray) -> tuple[float, float]:
-        incl, rate = float(x[0]), float(x[1])
-        # The same operations, in the same order, as GainScheduledSimulator.step.
-        gain = float(self._model.gain(incl))
-        pole = float(self._model.pole(incl))
-        if self._position:
-            following = pole * incl + gain * float(x[2])
-            return following, (following - incl) / self.ts
-        rate = pole * rate + gain * float(x[2])
-        return incl + self.ts * rate, rate
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        return np.array([self._advance(x)[0]])
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        check_finite(u[None, :], "u")
-        incl, rate = self._advance(x)
-        return np.array([incl, rate, *x[3:], u[self._channel]])
-
-    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
-        # As GainScheduledSimulator.reset: the last row of each, at rest (rate 0).
-        y_last = 0.0 if y0 is None else float(np.asarray(y0, dtype=np.float64).reshape(-1)[-1])
-        u_rows = np.zeros(len(self.inputs)) if u0 is None else np.asarray(u0, dtype=np.float64)
-        u_last = float(u_rows.reshape(-1, len(self.inputs))[-1, self._channel])
-        state = np.array([y_last, 0.0, *([u_last] * self.delay)])
-        check_finite(state[None, :], "initial state")
-        return state
-
-
-class _ControllerMap(_StateMap):
-    """InclinationController: ``x = [integral, last measurement]``; feedthrough of the reference only."""
-
-    def __init__(self, controller: InclinationController) -> None:
-        super().__init__()
-        self._controller = controller
-        planar = controller.configuration == "planar"
-        references = ["reference"] if planar else ["reference_inclination", "reference_orientation"]
-        measured = ["inclination"] if planar else ["inclination", "orientation"]
-        self.inputs = references + measured
-        self.outputs = list(channel_names("velocity_command", controller.n_motors))
-        integrals = ["integral"] if planar else ["integral_x", "integral_y"]
-        self.states = integrals + [f"{n}[t-1]" for n in measured]
-        self.ts = controller.ts
-        self._n_int = controller.n_integrals
-        self._n_ref = controller.n_references
-
-    def _law(self, x: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
-        return self._controller.control_law(x[: self._n_int], u[: self._n_ref], x[self._n_int :])
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        return self._law(x, u)[0]
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        return np.concatenate([self._law(x, u)[1], u[self._n_ref :]])
-
-    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
-        return np.zeros(len(self.states))  # as after reset(), with a zero first measurement
-
-
-class _DriveMap(_StateMap):
-    """VelocityDrive: ``x = [position, velocity]``, output at the start of the sample."""
-
-    feedthrough = False
-
-    def __init__(self, drive: VelocityDrive) -> None:
-        super().__init__()
-        self._drive = drive
-        n = drive.n_motors
-        self.inputs = list(channel_names("velocity_command", n))
-        self.outputs = list(channel_names(POSITION, n) + channel_names(VELOCITY, n))
-        self.states = list(self.outputs)
-        self.ts = drive.ts
-        self._n = n
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        return x.copy()
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        position, velocity = self._drive.advance(x[: self._n], x[self._n :], u)
-        return np.concatenate([position, velocity])
-
-    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
-        return np.zeros(2 * self._n)
-
-
-def _state_map(system: Any, bounds: bool = False) -> _StateMap:
-    if isinstance(system, InclinationController):
-        return _ControllerMap(system)
-    if isinstance(system, VelocityDrive):
-        return _DriveMap(system)
-    if not isinstance(system, Estimator):
+def _state_map(system: Any, bounds: bool = False) -> StateFunctions:
+    """The system's own state functions (:class:`~neckid.systems.HasStateMap`), fitted."""
+    make = None if isinstance(system, type) else getattr(system, "state_map", None)
+    if not callable(make):
         raise TypeError(
             "to_iosystem takes a fitted neckid model, an InclinationController or a"
             f" VelocityDrive; got {type(system).__name__}"
         )
-    check_is_fitted(system)
-    if isinstance(system, GainScheduledModel):
-        return _ScheduledMap(system)
-    if isinstance(system, ParallelSetMembership):
-        return _ParallelMap(system, bounds)
-    if isinstance(system, MultiStepSetMembership):
-        return _MultiStepMap(system, bounds)
-    return _HistoryMap(system, bounds)
+    if callable(getattr(system, "__sklearn_is_fitted__", None)):
+        check_is_fitted(system)
+    state_map: StateFunctions = make(bounds)
+    return state_map
 
 
 def to_iosystem(
@@ -724,7 +397,8 @@ def to_iosystem(
         A model of :func:`neckid.methods`; or the loop's controller (inputs ``reference`` and
         ``inclination``, output ``velocity_command``; ``_1`` .. ``_3`` and orientation channels
         with three tendons); or the motor drive (input ``velocity_command``, outputs
-        ``motor_position`` and ``motor_velocity``).
+        ``motor_position`` and ``motor_velocity``). Any object with a ``state_map`` method
+        (:class:`~neckid.systems.HasStateMap`) fits.
     name : str, optional
         The system's name (default the class name).
     bounds : bool, default False

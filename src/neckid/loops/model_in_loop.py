@@ -35,11 +35,11 @@ from neckid.data.iodata import IOData
 from neckid.metrics import coverage, fit_percent, rmse
 from neckid.models.base import check_is_fitted
 from neckid.plant.control import closed_loop
-from neckid.plant.protocols import BoundedSimulator, Controller, Simulator
 from neckid.plant.soft_neck import SoftNeckParameters
+from neckid.systems import BoundedSimulator, Controller, Simulator, StateMap
 from neckid.validation import check_finite, check_number, check_ts
 
-__all__ = ["LoopComparison", "ModelPlant", "VelocityDrive", "model_in_the_loop"]
+__all__ = ["DriveStateMap", "LoopComparison", "ModelPlant", "VelocityDrive", "model_in_the_loop"]
 
 
 #: Channel prefixes of the drive's state in closed-loop logs (``_1`` .. ``_3`` for three motors).
@@ -190,12 +190,77 @@ class VelocityDrive:
         )
         return now
 
+    def state_map(self, bounds: bool = False) -> DriveStateMap:
+        """The drive's state functions (:class:`DriveStateMap`), for python-control.
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Ignored (the drive has no band); there for the
+            :class:`~neckid.systems.HasStateMap` protocol.
+
+        Returns
+        -------
+        DriveStateMap
+            State ``[position, velocity]``; see :func:`neckid.interop.to_iosystem`.
+        """
+        return DriveStateMap(self)
+
     def __repr__(self) -> str:
         return (
             f"VelocityDrive(ts={self.ts!r}, time_constant={self.time_constant!r},"
             f" speed_limit={self.speed_limit!r}, acceleration_limit={self.acceleration_limit!r},"
             f" n_motors={self.n_motors!r})"
         )
+
+
+class DriveStateMap(StateMap):
+    """State functions of a :class:`VelocityDrive`: ``x = [position, velocity]``, no feedthrough.
+
+    The state is the motor position [rad] and velocity [rad/s] at the start of the sample
+    (``motor_position``, ``motor_velocity``; ``_1`` .. ``_3`` with three motors), which are also
+    the outputs (taken before the command of the sample acts, as :meth:`VelocityDrive.step`
+    returns the position). The input is the velocity command [rad/s]; the update is
+    :meth:`VelocityDrive.advance`.
+
+    Parameters
+    ----------
+    drive : VelocityDrive
+        Its law and limits (its own state is neither read nor changed).
+    """
+
+    feedthrough = False
+
+    def __init__(self, drive: VelocityDrive) -> None:
+        super().__init__()
+        self._drive = drive
+        n = drive.n_motors
+        self.inputs = list(channel_names("velocity_command", n))
+        self.outputs = list(channel_names(POSITION, n) + channel_names(VELOCITY, n))
+        self.states = list(self.outputs)
+        self.ts = drive.ts
+        self._n = n
+
+    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
+        return x.copy()
+
+    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
+        position, velocity = self._drive.advance(x[: self._n], x[self._n :], u)
+        return np.concatenate([position, velocity])
+
+    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
+        """Zeros: the drive at rest at position 0, as after :meth:`VelocityDrive.reset`.
+
+        Parameters
+        ----------
+        y0, u0 : array_like, optional
+            Ignored.
+
+        Returns
+        -------
+        ndarray, shape (2 * n_motors,)
+        """
+        return np.zeros(2 * self._n)
 
 
 class ModelPlant:

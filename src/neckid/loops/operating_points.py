@@ -33,7 +33,7 @@ from neckid.signals import random_binary
 from neckid.validation import check_number, check_ts
 
 if TYPE_CHECKING:
-    from neckid.plant.protocols import Controller, Plant
+    from neckid.systems import Controller, Plant
 
 __all__ = [
     "DEFAULT_INCLINATIONS",

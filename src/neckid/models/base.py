@@ -40,6 +40,7 @@ from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent, mae, rmse
 from neckid.models.io import ModelFile
 from neckid.regressors import Lags, ResolvedLags
+from neckid.systems import HistoryMap, StateMap, history_rows
 from neckid.validation import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
 
 __all__ = [
@@ -477,6 +478,33 @@ class Estimator(BaseEstimator, ModelFile):
         """Free-run simulation (see the module docstring for the contract)."""
         raise NotImplementedError
 
+    def state_map(self, bounds: bool = False) -> StateMap:
+        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+
+        The generic map (:class:`~neckid.systems.HistoryMap`): the state is the simulator's
+        history, ``x = [y(t−m), …, y(t−1), u(t−m), …, u(t−1)]`` with
+        ``m = max(max_lag_, 1)``, in the output and input units. Models whose simulator keeps
+        something else give their own map.
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Add the outputs ``<output>_lower`` and ``<output>_upper`` (the step's band) when the
+            simulator has ``step_bounds``; ignored otherwise.
+
+        Returns
+        -------
+        StateMap
+            A :class:`~neckid.systems.HistoryMap` here.
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        """
+        check_is_fitted(self)
+        return HistoryMap(self, bounds)
+
 
 class NarxModel(Estimator):
     """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
@@ -622,27 +650,6 @@ def stepped_run(
         for t in range(m, y.shape[0]):
             y[t], lower[t], upper[t] = simulator.step_bounds(u[t])
     return y, lower, upper
-
-
-def history_rows(value: ArrayLike | None, m: int, width: int, argument: str) -> FloatArray:
-    """A simulator's initial history: ``(m, width)`` rows, oldest first.
-
-    ``None`` gives zeros; a single row (or a scalar) is repeated ``m`` times; otherwise the shape
-    must be ``(m, width)``. Values must be finite; ``argument`` names them in errors.
-    """
-    if value is None:
-        return np.zeros((m, width))
-    array = np.asarray(value, dtype=np.float64)
-    if array.ndim <= 1:
-        array = np.broadcast_to(
-            array.reshape(1, -1) if array.ndim else array.reshape(1, 1), (m, width)
-        )
-    if array.shape != (m, width):
-        raise ValueError(
-            f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
-        )
-    check_finite(np.asarray(array), argument)
-    return np.array(array, dtype=np.float64)
 
 
 class NarxSimulator:

@@ -17,11 +17,11 @@ from numpy.typing import ArrayLike
 import neckid.plant._kernels as _kernels
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
-from neckid.plant.protocols import Controller, Plant
 from neckid.plant.soft_neck import DIVERGED_MESSAGE, SoftNeck
+from neckid.systems import Controller, Plant, StateMap
 from neckid.validation import check_finite, check_number, check_ts
 
-__all__ = ["InclinationController", "closed_loop"]
+__all__ = ["ControllerStateMap", "InclinationController", "closed_loop"]
 
 
 _TENDON_ANGLES = np.radians([0.0, 120.0, 240.0])
@@ -187,6 +187,78 @@ class InclinationController:
         # Conditional integration: integrate unless saturated and the error pushes further out.
         keep = not saturated or float(np.dot(error, wanted)) < 0.0
         return np.asarray(command, dtype=np.float64), (candidate if keep else start.copy())
+
+    def state_map(self, bounds: bool = False) -> ControllerStateMap:
+        """The controller's state functions (:class:`ControllerStateMap`), for python-control.
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Ignored (a controller has no band); there for the
+            :class:`~neckid.systems.HasStateMap` protocol.
+
+        Returns
+        -------
+        ControllerStateMap
+            State ``[integral, last measurement]``; see :func:`neckid.interop.to_iosystem`.
+        """
+        return ControllerStateMap(self)
+
+
+class ControllerStateMap(StateMap):
+    """State functions of an :class:`InclinationController`; feedthrough of the reference only.
+
+    ``x = [integral, last measurement]``: the PI integral :math:`I_{k-1}` [rad/s] (``integral``,
+    or ``integral_x``, ``integral_y`` for the bending vector with three tendons) and the
+    measurement of the previous sample [deg] (``inclination[t-1]``, and
+    ``orientation[t-1]``). The inputs are the references then the measurements [deg]; the
+    command of sample ``k`` reads the measurement of sample ``k - 1`` from the state, as
+    :func:`closed_loop` does, so the map has no feedthrough from the measurement. The outputs
+    are the velocity commands [rad/s].
+
+    Parameters
+    ----------
+    controller : InclinationController
+        Its :meth:`~InclinationController.control_law` is the map (the controller's own integral
+        is neither read nor changed).
+    """
+
+    def __init__(self, controller: InclinationController) -> None:
+        super().__init__()
+        self._controller = controller
+        planar = controller.configuration == "planar"
+        references = ["reference"] if planar else ["reference_inclination", "reference_orientation"]
+        measured = ["inclination"] if planar else ["inclination", "orientation"]
+        self.inputs = references + measured
+        self.outputs = _names_for("velocity_command", controller.n_motors)
+        integrals = ["integral"] if planar else ["integral_x", "integral_y"]
+        self.states = integrals + [f"{n}[t-1]" for n in measured]
+        self.ts = controller.ts
+        self._n_int = controller.n_integrals
+        self._n_ref = controller.n_references
+
+    def _law(self, x: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return self._controller.control_law(x[: self._n_int], u[: self._n_ref], x[self._n_int :])
+
+    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
+        return self._law(x, u)[0]
+
+    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
+        return np.concatenate([self._law(x, u)[1], u[self._n_ref :]])
+
+    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
+        """Zeros, as after :meth:`InclinationController.reset`, with a zero first measurement.
+
+        Parameters
+        ----------
+        y0, u0 : array_like, optional
+            Ignored.
+
+        Returns
+        -------
+        ndarray, shape (n_integrals + n_references,)
+        """
+        return np.zeros(len(self.states))
 
 
 def _names_for(prefix: str, count: int) -> list[str]:

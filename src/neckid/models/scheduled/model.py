@@ -32,6 +32,7 @@ from neckid.models.scheduled.points import (
     identify_point,
 )
 from neckid.models.scheduled.simulator import GainScheduledSimulator, clipped_polyval
+from neckid.models.scheduled.state_map import ScheduledStateMap
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import (
     Interval,
@@ -564,6 +565,23 @@ class GainScheduledModel(Estimator):
         """A stateful simulator with ``reset(y0, u0, rate0)`` and ``step(u) -> inclination``."""
         check_is_fitted(self)
         return GainScheduledSimulator(self)
+
+    def state_map(self, bounds: bool = False) -> ScheduledStateMap:
+        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Ignored (the model has no band).
+
+        Returns
+        -------
+        ScheduledStateMap
+            State ``[i(t−1), r(t−1), u(t−d), …, u(t−1)]``: inclination [deg], its rate
+            [deg/s] and the last ``delay_`` commands.
+        """
+        check_is_fitted(self)
+        return ScheduledStateMap(self)
 
     @property
     def _channel(self) -> int:

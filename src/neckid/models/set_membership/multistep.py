@@ -50,6 +50,7 @@ from neckid.models.set_membership.narx import (
 )
 from neckid.models.set_membership.prior import ProgressOption, _gamma_star
 from neckid.models.set_membership.scaling import term_weights
+from neckid.models.set_membership.state_maps import MultiStepStateMap
 from neckid.models.set_membership.training import duplicate_spread
 from neckid.models.set_membership.update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
@@ -750,6 +751,23 @@ class MultiStepSetMembership(NarxModel):
         """
         check_is_fitted(self)
         return MultiStepSimulator(self)
+
+    def state_map(self, bounds: bool = False) -> MultiStepStateMap:
+        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Add the outputs ``<output>_lower`` and ``<output>_upper`` (the step's band).
+
+        Returns
+        -------
+        MultiStepStateMap
+            State: the anchor of the chained free run (``max(max_lag_, 1)`` rows of outputs and
+            inputs), the inputs since and the number of steps since.
+        """
+        check_is_fitted(self)
+        return MultiStepStateMap(self, bounds)
 
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar, Literal, NamedTuple
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,15 +24,13 @@ from neckid.models.base import (
     check_is_fitted,
     stepped_run,
 )
-from neckid.models.linear.arx import least_squares, linear_sum
+from neckid.models.linear.arx import least_squares
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.set_membership._kernels import (
     SMTree,
     check_constants,
-    free_run,
-    learn_constants,
-    local_bounds,
 )
+from neckid.models.set_membership.core import FitReport, SMBounds, SMCore, SMSettings, fit_core
 from neckid.models.set_membership.metric import learnt_weights
 from neckid.models.set_membership.prior import (
     GammaCurve,
@@ -43,15 +41,11 @@ from neckid.models.set_membership.prior import (
 )
 from neckid.models.set_membership.scaling import term_weights
 from neckid.models.set_membership.training import (
-    check_duplicates,
-    prior_holds,
-    smallest_epsilon,
     training_tree,
-    unscale,
 )
-from neckid.models.set_membership.update import Invalidation, PriorRule, revise_prior
+from neckid.models.set_membership.update import Invalidation, PriorRule
 from neckid.regressors import Lags
-from neckid.validation import Interval, Options, check_finite, per_output
+from neckid.validation import Interval, Options, check_finite
 
 __all__ = [
     "DEFAULT_GAMMA_MARGIN",
@@ -73,14 +67,6 @@ DEFAULT_GAMMA_MARGIN = 1.1
 
 
 # ====================================================================================== results
-class SMBounds(NamedTuple):
-    """Set Membership bounds at a set of regressors; each array is ``(n_rows, n_outputs)``."""
-
-    lower: FloatArray
-    central: FloatArray
-    upper: FloatArray
-
-
 # ====================================================================================== helpers
 # ====================================================================================== estimator
 class SetMembership(NarxModel):
@@ -307,143 +293,46 @@ class SetMembership(NarxModel):
         ``x`` becomes the kd-tree's points, scaled and reordered in place (the one copy of the
         training regressors the model keeps); ``NarxModel.fit`` does not use it afterwards.
         """
-        n_rows, n_terms = x.shape
-        n_out = y.shape[1]
-        names = self.lags_.output_names
-        if n_rows < 2:
-            raise ValueError(
-                f"SetMembership needs at least 2 training regressors; the data give {n_rows}"
-                f" (lags up to {self.lags_.max_lag}); use a longer record"
-            )
-        margin = float(self.gamma_margin)
-        epsilon = None if self.epsilon is None else per_output(self.epsilon, n_out, "epsilon")
-        if epsilon is not None and np.any(epsilon < 0):
-            raise ValueError(f"epsilon must be >= 0 (a noise bound); got {epsilon.tolist()}")
-        gamma = None if self.gamma is None else per_output(self.gamma, n_out, "gamma")
-        if gamma is not None and np.any(gamma <= 0):
-            raise ValueError(f"gamma must be > 0 (a Lipschitz constant); got {gamma.tolist()}")
-        constant = np.flatnonzero(np.ptp(y, axis=0) == 0)
-        if constant.size:
-            raise ValueError(
-                f"output {names[int(constant[0])]!r} is constant over the training data; there is"
-                " nothing to identify"
-            )
+        self._set_core(*fit_core(x, y, self.lags_, SMSettings.of(self)))
 
-        weights = term_weights(self.scaling, self.input_weight, x, self.lags_)
-        if self.linear_part:
-            coef, intercept = least_squares(x, y, fit_intercept=True)
-        else:
-            coef, intercept = np.zeros((n_terms, n_out)), np.zeros(n_out)
-        weights = learnt_weights(self.scaling, weights, x, y - (x @ coef + intercept))
-        # From here on x is the tree's points: scaled and reordered in place (one copy).
-        tree, outputs = training_tree(x, y, weights, coef, intercept, bool(self.linear_part))
-        del x
+    def _set_core(self, core: SMCore, report: FitReport, *, new_curve: bool = True) -> None:
+        """Take a fitted core and what its fit found (``gamma_curve_`` kept unless ``new_curve``)."""
+        self.core_ = core
+        self.gamma_star_ = report.gamma_star
+        self.prior_valid_ = report.prior_valid
+        if new_curve:
+            self.gamma_curve_ = report.curve
 
-        curve: GammaCurve | None = None
-        gamma_star_at = np.full(n_out, np.nan)
-        if epsilon is not None:
-            check_duplicates(tree, epsilon, names)
-        if gamma is None or self.epsilons is not None:
-            grid = _epsilon_grid(self.epsilons, tree.targets)
-            if epsilon is not None:
-                grid = np.sort(np.vstack([grid, epsilon[None, :]]), axis=0)
-            logger.debug(
-                "gamma*(eps) over %d pairs, %d eps values",
-                n_rows * (n_rows - 1) // 2,
-                grid.shape[0],
-            )
-            values = _gamma_star(tree.points, tree.targets, grid, self.progress, tree)
-            curve = GammaCurve(grid, values, names, n_rows)
-        # The prior holds by construction when γ or ε is derived from the other; only a (ε, γ)
-        # given together is checked (γ >= γ*(ε), by branch and bound from γ).
-        valid = np.ones(n_out, dtype=bool)
-        check = epsilon is not None and gamma is not None
-        if epsilon is None:
-            if gamma is not None:
-                epsilon = smallest_epsilon(tree, gamma)
-            elif curve is not None:
-                epsilon = curve.knee()
-                check_duplicates(tree, epsilon, names)
-            else:  # pragma: no cover - the curve is computed whenever gamma is None
-                raise RuntimeError("internal error: no way to choose epsilon")
-        if curve is not None:
-            for c in range(n_out):
-                hit = np.flatnonzero(curve.epsilons[:, c] == epsilon[c])
-                if hit.size:
-                    gamma_star_at[c] = curve.gamma[hit[0], c]
-        if gamma is None:
-            gamma = margin * gamma_star_at
-            flat = np.flatnonzero(~(gamma > 0))
-            if flat.size:
-                c = int(flat[0])
-                raise ValueError(
-                    f"γ*(ε) is {gamma_star_at[c]!r} for output {names[c]!r} at epsilon ="
-                    f" {epsilon[c]:.6g}: every pair of outputs differs by at most 2ε, so any"
-                    " constant fits; use a smaller epsilon or give gamma"
-                )
-        if check:
-            valid, star = prior_holds(tree, epsilon, gamma)
-            if not valid.all():
-                c = int(np.flatnonzero(~valid)[0])
-                raise ValueError(
-                    f"gamma = {gamma[c]:.6g} is below gamma*(epsilon) = {star[c]:.6g} for output"
-                    f" {names[c]!r} at epsilon = {epsilon[c]:.6g}: no Lipschitz function with"
-                    " that constant fits the data to within ±epsilon (the prior is invalid); use"
-                    f" gamma >= {star[c]:.6g} or a larger epsilon"
-                )
-        self.weights_ = weights
-        self.coef_ = np.ascontiguousarray(coef)
-        self.intercept_ = np.asarray(intercept, dtype=np.float64)
-        self.epsilon_ = np.asarray(epsilon, dtype=np.float64)
-        self.gamma_ = np.asarray(gamma, dtype=np.float64)
-        self.gamma_star_ = gamma_star_at
-        self.gamma_curve_ = curve
-        self.prior_valid_ = valid
-        self._tree = tree
-        self.local_neighbours_ = int(self.local_neighbours)
-        self.point_gamma_ = self._point_gamma(tree, gamma, self.lipschitz == "local")
-        self._outputs = outputs
-        logger.info(
-            "SetMembership fitted on %d regressors: epsilon=%s gamma=%s",
-            n_rows,
-            self.epsilon_.tolist(),
-            self.gamma_.tolist(),
-        )
+    # The fitted state lives in ``core_``; these read it under the names users know.
+    weights_ = property(lambda self: self.core_.weights, doc="Distance weights, (n_terms,).")
+    coef_ = property(lambda self: self.core_.coef, doc="Linear part, (n_terms, n_outputs).")
+    intercept_ = property(lambda self: self.core_.intercept, doc="Linear part's intercept.")
+    epsilon_ = property(lambda self: self.core_.epsilon, doc="Noise bound ε per output.")
+    gamma_ = property(lambda self: self.core_.gamma, doc="Lipschitz constant γ per output.")
+    point_gamma_ = property(
+        lambda self: self.core_.point_gamma, doc="Local constants (tree order), or None."
+    )
+    local_neighbours_ = property(
+        lambda self: self.core_.local_neighbours, doc="Points the local bounds combine."
+    )
+
+    @property
+    def _tree(self) -> SMTree:
+        return self.core_.tree
 
     @property
     def _x_train(self) -> FloatArray:
         """The training regressors (unscaled) in tree order, recovered from the tree's points."""
-        return unscale(self._tree.points, self.weights_)
+        return self.core_.x_train
 
     @property
     def _y_train(self) -> FloatArray:
         """The measured training outputs in tree order (the SM targets without a linear part)."""
-        return self._tree.targets if self._outputs is None else self._outputs
-
-    def _point_gamma(self, tree: SMTree, gamma: FloatArray, local: bool) -> FloatArray | None:
-        """Each training point's constant on ``tree`` (its order) when ``local``, else None."""
-        if not local:
-            return None
-        return learn_constants(tree, self.epsilon_, gamma, float(self.gamma_margin))
+        return self.core_.y_train
 
     # ------------------------------------------------------------------ evaluation
     def _bounds_rows(self, x: FloatArray) -> SMBounds:
-        # The linear part summed as the compiled free run does, intercept first then term by
-        # term, so that the simulator and ``simulate`` agree to the last bit.
-        linear = linear_sum(x, self.coef_, self.intercept_)
-        scaled = x * self.weights_
-        if self.point_gamma_ is not None:
-            lower, upper, _ = local_bounds(
-                self._tree,
-                self.point_gamma_,
-                scaled,
-                self.epsilon_,
-                self.gamma_,
-                self.local_neighbours_,
-            )
-            return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
-        lower, upper = self._tree.bounds(scaled, self.epsilon_, self.gamma_)
-        return SMBounds(linear + lower, linear + 0.5 * (lower + upper), linear + upper)
+        return self.core_.bounds(x)
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return self._bounds_rows(x).central
@@ -515,21 +404,7 @@ class SetMembership(NarxModel):
             # Local constants: no compiled loop; the simulator steps the same bounds.
             y, lower, upper = stepped_run(self.simulator(), data.u, y0, self.lags_.max_lag)
             return self._result("simulation", data, y, lower, upper)
-        r = self.lags_
-        y, lower, upper = free_run(
-            self._tree,
-            data.u,
-            y0,
-            r.source,
-            r.channel,
-            r.lag,
-            r.max_lag,
-            self.weights_,
-            self.coef_,
-            self.intercept_,
-            self.epsilon_,
-            self.gamma_,
-        )
+        y, lower, upper = self.core_.free_run(data.u, y0, self.lags_)
         return self._result("simulation", data, y, lower, upper)
 
     def simulator(self) -> SetMembershipSimulator:
@@ -608,68 +483,66 @@ class SetMembership(NarxModel):
         experiments = update_experiments(self, data)
         invalidation = self.invalidation(experiments)
         x_new, y_new = update_rows(self, experiments)
-        n_old = self.n_samples_
-        x = np.empty((n_old + x_new.shape[0], x_new.shape[1]))
-        unscale(self._tree.points, self.weights_, out=x[:n_old])
-        x[n_old:] = x_new
-        y = np.ascontiguousarray(np.vstack([self._y_train, y_new]))
-        coef, intercept = self.coef_, self.intercept_
-        if self.linear_part:
-            coef, intercept = least_squares(x, y, fit_intercept=True)
-        tree, outputs = training_tree(x, y, self.weights_, coef, intercept, bool(self.linear_part))
-        gamma, star, valid = revise_prior(
-            tree,
-            np.flatnonzero(tree.perm >= n_old),
-            self.epsilon_,
-            self.gamma_,
-            prior_holds(tree, self.epsilon_, self.gamma_)[0],
-            self.gamma_star_,
-            bool(self.linear_part),
-            prior,
-            float(self.gamma_margin),
-            self.output_names_,
-        )
         # Everything that can fail runs before the model changes.
-        constants = self._point_gamma(tree, gamma, self.point_gamma_ is not None)
-        self.gamma_, self.gamma_star_, self.prior_valid_ = gamma, star, valid
-        self.coef_, self.intercept_ = np.ascontiguousarray(coef), intercept
-        self._tree, self._outputs, self.point_gamma_ = tree, outputs, constants
-        self.n_samples_ = int(tree.points.shape[0])
+        core, report = self.core_.extended(
+            x_new,
+            y_new,
+            settings=SMSettings.of(self),
+            gamma_star=self.gamma_star_,
+            prior=prior,
+            output_names=self.output_names_,
+        )
+        self._set_core(core, report, new_curve=False)
+        self.n_samples_ = core.n_samples
         self.last_invalidation_ = invalidation
         extend_training_ranges(self, experiments)
         return self
 
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:
-        self._check_learned(self._tree.points, self._tree.targets)
-        check_constants(self.point_gamma_, self._fitted_lipschitz, self.n_samples_, self.gamma_)
+        core = self.core_
+        self._check_learned(
+            core.tree.points,
+            core.tree.targets,
+            {
+                "weights": core.weights,
+                "coef": core.coef,
+                "intercept": core.intercept,
+                "epsilon": core.epsilon,
+                "gamma": core.gamma,
+            },
+        )
+        check_constants(core.point_gamma, self._fitted_lipschitz, self.n_samples_, core.gamma)
 
     @property
     def _fitted_lipschitz(self) -> str:
         """The form fitted (``set_params`` after ``fit`` changes the setting, not the model)."""
         return "global" if self.point_gamma_ is None else "local"
 
-    def _check_learned(self, x: FloatArray, y: FloatArray) -> None:
-        """:meth:`_check_state` with the training rows given (before the tree is built)."""
+    def _check_learned(
+        self, x: FloatArray, y: FloatArray, learned: Mapping[str, FloatArray]
+    ) -> None:
+        """The shapes and signs of the training rows and of the ``learned`` arrays (by name)."""
         super()._check_state()
         n_terms, n_out, n_rows = self.lags_.n_terms, self.n_outputs_, self.n_samples_
-        for name, value, shape in (
-            ("x_train", x, (n_rows, n_terms)),
-            ("y_train", y, (n_rows, n_out)),
-            ("weights", self.weights_, (n_terms,)),
-            ("coef", self.coef_, (n_terms, n_out)),
-            ("intercept", self.intercept_, (n_out,)),
-            ("epsilon", self.epsilon_, (n_out,)),
-            ("gamma", self.gamma_, (n_out,)),
-        ):
-            self._check_shape(name, value, shape)
-        for name, value, rule in (
-            ("gamma", self.gamma_, self.gamma_ > 0),
-            ("epsilon", self.epsilon_, self.epsilon_ >= 0),
-            ("weights", self.weights_, self.weights_ > 0),
+        shapes = {
+            "weights": (n_terms,),
+            "coef": (n_terms, n_out),
+            "intercept": (n_out,),
+            "epsilon": (n_out,),
+            "gamma": (n_out,),
+        }
+        self._check_shape("x_train", x, (n_rows, n_terms))
+        self._check_shape("y_train", y, (n_rows, n_out))
+        for name, shape in shapes.items():
+            self._check_shape(name, learned[name], shape)
+        for name, rule in (
+            ("gamma", learned["gamma"] > 0),
+            ("epsilon", learned["epsilon"] >= 0),
+            ("weights", learned["weights"] > 0),
         ):
             if not np.all(rule):
-                raise ValueError(f"{name} must be > 0 (epsilon >= 0); got {value.tolist()}")
+                raise ValueError(f"{name} must be > 0 (epsilon >= 0); got {learned[name].tolist()}")
 
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)
@@ -720,14 +593,14 @@ class SetMembership(NarxModel):
         # Own copies: the tree scales and reorders the rows in place.
         x = np.array(arrays["x_train"], dtype=np.float64, order="C")
         y = np.array(arrays["y_train"], dtype=np.float64, order="C")
-        model.weights_ = np.asarray(arrays["weights"], dtype=np.float64)
-        model.coef_ = np.ascontiguousarray(arrays["coef"], dtype=np.float64)
-        model.intercept_ = np.asarray(arrays["intercept"], dtype=np.float64)
-        model.epsilon_ = np.asarray(arrays["epsilon"], dtype=np.float64)
-        model.gamma_ = np.asarray(arrays["gamma"], dtype=np.float64)
-        model.gamma_star_ = np.asarray(arrays["gamma_star"], dtype=np.float64)
-        model.prior_valid_ = np.asarray(arrays["prior_valid"], dtype=bool)
-        model.gamma_curve_ = (
+        learned = {
+            "weights": np.asarray(arrays["weights"], dtype=np.float64),
+            "coef": np.ascontiguousarray(arrays["coef"], dtype=np.float64),
+            "intercept": np.asarray(arrays["intercept"], dtype=np.float64),
+            "epsilon": np.asarray(arrays["epsilon"], dtype=np.float64),
+            "gamma": np.asarray(arrays["gamma"], dtype=np.float64),
+        }
+        curve = (
             GammaCurve(
                 np.asarray(arrays["curve_epsilons"], dtype=np.float64),
                 np.asarray(arrays["curve_gamma"], dtype=np.float64),
@@ -737,18 +610,36 @@ class SetMembership(NarxModel):
             if "curve_epsilons" in arrays
             else None
         )
-        model._check_learned(x, y)  # before the tree is built on the arrays
+        model._check_learned(x, y, learned)  # before the tree is built on the arrays
         saved = arrays.get("point_gamma")
         saved = None if saved is None else np.asarray(saved, dtype=np.float64)
-        check_constants(saved, model.lipschitz, model.n_samples_, model.gamma_)
-        model._tree, model._outputs = training_tree(
-            x, y, model.weights_, model.coef_, model.intercept_, bool(model.linear_part)
+        check_constants(saved, model.lipschitz, model.n_samples_, learned["gamma"])
+        tree, outputs = training_tree(
+            x,
+            y,
+            learned["weights"],
+            learned["coef"],
+            learned["intercept"],
+            bool(model.linear_part),
         )
-        model.local_neighbours_ = int(model.local_neighbours)
-        # The rows were saved in the old tree's order; the new tree reorders them.
-        model.point_gamma_ = (
-            None if saved is None else np.ascontiguousarray(saved[model._tree.perm])
+        core = SMCore(
+            tree,
+            learned["weights"],
+            learned["coef"],
+            learned["intercept"],
+            learned["epsilon"],
+            learned["gamma"],
+            outputs,
+            # The rows were saved in the old tree's order; the new tree reorders them.
+            None if saved is None else np.ascontiguousarray(saved[tree.perm]),
+            int(model.local_neighbours),
         )
+        report = FitReport(
+            np.asarray(arrays["gamma_star"], dtype=np.float64),
+            curve,
+            np.asarray(arrays["prior_valid"], dtype=bool),
+        )
+        model._set_core(core, report)
         return model
 
 

@@ -69,6 +69,7 @@ from neckid.models.set_membership.narx import (
     Invalidation,
     SetMembership,
 )
+from neckid.models.set_membership.state_maps import ParallelStateMap
 from neckid.models.set_membership.update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Options, check_lag_list
@@ -451,6 +452,23 @@ class ParallelSetMembership(Estimator):
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``."""
         check_is_fitted(self)
         return ParallelSetMembershipSimulator(self)
+
+    def state_map(self, bounds: bool = False) -> ParallelStateMap:
+        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Add the outputs ``<output>_lower`` and ``<output>_upper`` (the step's band).
+
+        Returns
+        -------
+        ParallelStateMap
+            State: the linear part's simulated outputs (``<output>_linear``) and the inputs,
+            ``max(max_lag_, 1)`` rows each, oldest first.
+        """
+        check_is_fitted(self)
+        return ParallelStateMap(self, bounds, LINEAR_SUFFIX)
 
     def _check_state(self) -> None:
         super()._check_state()

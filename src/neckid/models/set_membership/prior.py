@@ -23,7 +23,13 @@ from neckid._typing import FloatArray
 from neckid.models.cache import active_cache, array_digest
 from neckid.models.set_membership._kernels import SMTree, gamma_star
 
-__all__ = ["DEFAULT_GRID_POINTS", "DEFAULT_GRID_SPAN", "GammaCurve", "choose_epsilon"]
+__all__ = [
+    "DEFAULT_GRID_POINTS",
+    "DEFAULT_GRID_SPAN",
+    "GammaCurve",
+    "choose_epsilon",
+    "gamma_from_margin",
+]
 
 ProgressOption = bool | Callable[[int, int], None] | None
 
@@ -223,3 +229,18 @@ def _gamma_star(
     if cache is not None:
         cache.put(key, known)
     return out
+
+
+def gamma_from_margin(gamma_star: ArrayLike, margin: float) -> FloatArray:
+    """The rule γ = margin · γ*(ε), the one place it is written.
+
+    γ*(ε) is the smallest Lipschitz constant the *training* data allow at noise bound ε, a lower
+    bound of the true one; the margin (``gamma_margin``, default 1.1) leaves room for what the
+    data did not explore. Used by the fit, the multi-step fit and the online update.
+
+    Examples
+    --------
+    >>> gamma_from_margin([2.0, 0.5], 1.1).tolist()
+    [2.2, 0.55]
+    """
+    return float(margin) * np.asarray(gamma_star, dtype=np.float64)

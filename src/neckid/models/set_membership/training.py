@@ -44,10 +44,8 @@ __all__ = [
     "check_duplicates",
     "duplicate_spread",
     "prior_holds",
-    "prior_holds_by_query",
     "prior_tolerance",
     "smallest_epsilon",
-    "smallest_epsilon_by_query",
     "training_tree",
     "unscale",
 ]
@@ -340,20 +338,6 @@ def prior_holds(
     return valid, np.where(valid, np.nan, best[0])
 
 
-def prior_holds_by_query(tree: SMTree, epsilon: FloatArray, gamma: FloatArray) -> NDArray[np.bool_]:
-    """Reference of :func:`prior_holds`: ``f_u(w̃_k) >= ỹ_k − ε − τ`` and ``f_l(w̃_k) <= ỹ_k + ε + τ``.
-
-    Evaluates the bounds at every training point (N queries of the tree: about N^1.4 on
-    neck-like data); kept to test :func:`prior_holds` against.
-    """
-    lower, upper = tree.bounds(tree.points, epsilon, gamma)
-    y = tree.targets
-    tolerance = prior_tolerance(y, epsilon)
-    ok_upper = np.all(upper >= y - epsilon - tolerance, axis=0)
-    ok_lower = np.all(lower <= y + epsilon + tolerance, axis=0)
-    return np.asarray(ok_upper & ok_lower, dtype=bool)
-
-
 def smallest_epsilon(tree: SMTree, gamma: FloatArray) -> FloatArray:
     r"""ε*(γ) = ½ max_{i≠j} (|ỹ_i − ỹ_j| − γ‖w̃_i − w̃_j‖)⁺: the smallest ε consistent with γ.
 
@@ -383,12 +367,3 @@ def smallest_epsilon(tree: SMTree, gamma: FloatArray) -> FloatArray:
         tree.points, tree.targets, gamma, 64, None, search, adaptive=True, margin=True
     )
     return np.asarray(0.5 * twice[0], dtype=np.float64)
-
-
-def smallest_epsilon_by_query(tree: SMTree, gamma: FloatArray) -> FloatArray:
-    """Reference of :func:`smallest_epsilon`: ½ max_k (ỹ_k − f_u(w̃_k)) with f_u at ε = 0.
-
-    Evaluates the bounds at every training point (N queries of the tree).
-    """
-    _, upper = tree.bounds(tree.points, np.zeros_like(gamma), gamma)
-    return np.maximum(0.5 * np.max(tree.targets - upper, axis=0), 0.0)

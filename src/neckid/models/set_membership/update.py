@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels import SMTree, gamma_star
+from neckid.models.set_membership.prior import gamma_from_margin
 
 __all__ = ["PRIOR_RULES", "Invalidation", "PriorRule", "cross_gamma_star", "revise_prior"]
 
@@ -228,5 +229,5 @@ def revise_prior(
             " epsilon, or prior='keep'"
         )
     revised = gamma.copy()
-    revised[bad] = np.maximum(gamma[bad], float(gamma_margin) * star[bad])
+    revised[bad] = np.maximum(gamma[bad], gamma_from_margin(star[bad], gamma_margin))
     return revised, star, np.ones_like(valid)

@@ -1,8 +1,15 @@
 """Guaranteed (Set Membership) and calibrated (conformal) bands on the real soft-neck stair logs.
 
-Run: ``.venv/bin/python docs/bounds_experiment.py /work/shared/data/softneck`` (about 2 minutes
-on two cores; ``--quick`` skips the neural network, the SM centre's conformal band and the k = 40
-cross-validation). It prints the markdown tables of ``docs/bounds.md``.
+What it shows: the measurements of ``docs/bounds.md`` (it prints its markdown tables): how wide
+the guaranteed k-step bands of ``MultiStepSetMembership`` are and how many held-out samples they
+hold, against split-conformal bands of any model.
+
+Run from the repository, with the folder of the real soft-neck logs (it holds ``stair/``)::
+
+    .venv/bin/python docs/examples/bounds_experiment.py DATA/softneck [--quick]
+
+About 4 minutes on two cores (242 s); ``--quick`` skips the neural network, the SM centre's
+conformal band and the k = 40 cross-validation.
 
 Protocol (the issue "Guaranteed bounds that mean something"):
 
@@ -12,7 +19,7 @@ Protocol (the issue "Guaranteed bounds that mean something"):
 - training logs: the 0 g and 600 g runs (6 logs); test logs: the 200 g and 400 g runs (6 logs),
   used once, after every setting is fixed;
 - one-step regressor ``Lags(outputs=[1, 2], inputs=[0, 1])``, the one the soft-neck benchmark's
-  selection chose on a training log (``docs/softneck_oracle.py``); the k-step regressors follow
+  selection chose on a training log (``docs/examples/softneck_oracle.py``); the k-step regressors follow
   from it (:func:`~neckid.models.set_membership.multistep.horizon_lags`);
 - Set Membership settings (``epsilon_factor``, ``input_weight``, ``lipschitz``) per horizon by leave-one-log-out
   cross-validation over the six training logs: the smallest mean width of the guaranteed band
@@ -37,13 +44,18 @@ import neckid
 from neckid import IOData, Lags, LinearARX, ModelResult
 from neckid.experiments.benchmark import softneck_protocol
 from neckid.metrics import coverage, mean_width, rmse
-from neckid.models.set_membership._kernels.tree import SMTree
-from neckid.models.set_membership._kernels.local import learn_constants, local_bounds
-from neckid.models.linear.arx import least_squares
 from neckid.models.conformal import calibrate
-from neckid.models.set_membership.narx import DEFAULT_GAMMA_MARGIN, _term_weights
-from neckid.models.set_membership.multistep import MultiStepSetMembership, horizon_lags, robust_scale
+from neckid.models.linear.arx import least_squares
+from neckid.models.set_membership._kernels.local import learn_constants, local_bounds
+from neckid.models.set_membership._kernels.tree import SMTree
+from neckid.models.set_membership.multistep import (
+    MultiStepSetMembership,
+    horizon_lags,
+    robust_scale,
+)
+from neckid.models.set_membership.narx import DEFAULT_GAMMA_MARGIN
 from neckid.models.set_membership.prior import _gamma_star
+from neckid.models.set_membership.scaling import term_weights
 
 LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
 HORIZONS = (10, 40)
@@ -88,7 +100,7 @@ def cross_validate(train: dict[str, IOData], steps: int) -> list[dict[str, Any]]
             grid = factors[:, None] * scale[None, :]
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                weights = _term_weights("std", weight, x, resolved)
+                weights = term_weights("std", weight, x, resolved)
             points = np.ascontiguousarray(x * weights)
             # One γ*(ε) pass for every ε and ε/2. The grid holds no value twice: the pass's
             # early exit assumes distinct ε (a repeated ε gives a too small γ* after it).
@@ -392,12 +404,12 @@ def calibrated_bands(train: dict[str, IOData], test: dict[str, IOData], quick: b
     )
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     """Run the whole measurement and print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("folder", type=Path, help="the softneck folder (stair/, step/, id/)")
     parser.add_argument("--quick", action="store_true", help="no NN, no k = 40 cross-validation")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     logs = load(args.folder)
     train = {c + p: logs[c + p] for c in CONTROLLERS for p in TRAIN_PAYLOADS}
     test = {c + p: logs[c + p] for c in CONTROLLERS for p in TEST_PAYLOADS}

@@ -1,6 +1,10 @@
 """Figures of docs/set_membership.md: the γ*(ε) curve and a free run with its bounds.
 
-Run:  MPLBACKEND=Agg .venv/bin/python docs/make_sm_figures.py
+What it shows: how the noise bound ε and the Lipschitz constant γ are chosen, and the guaranteed
+bounds of a Set Membership free run. Run from the repository, with the folder to write the
+figures to (``sm_gamma_curve.png``, ``sm_simulation.png``)::
+
+    MPLBACKEND=Agg .venv/bin/python docs/examples/make_sm_figures.py docs/img
 
 Data come from the simulated planar neck (``neckid.plant.SoftNeck``): the motor follows random
 position targets; the model maps motor position to the tilt sensor's inclination (degrees).
@@ -8,6 +12,7 @@ position targets; the model maps motor position to the tilt sensor's inclination
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -18,7 +23,6 @@ from neckid.models.set_membership.narx import SetMembership
 from neckid.plant import SoftNeck
 from neckid.report.sm_plots import plot_gamma_curve
 
-OUT = Path(__file__).resolve().parent / "img"
 LAGS = Lags(outputs=3, inputs=[1, 2, 3])
 
 
@@ -36,8 +40,13 @@ def experiment(n_samples: int, seed: int) -> IOData:
     return log.select(inputs=["motor_position"], outputs=["inclination"])
 
 
-def main() -> None:
-    OUT.mkdir(exist_ok=True)
+def main(argv: list[str] | None = None) -> None:
+    """Fit the model, write the two figures and print the numbers quoted in the document."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("out", type=Path, help="folder to write the figures to")
+    args = parser.parse_args(argv)
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
     train, test = experiment(8000, seed=1), experiment(3000, seed=2)
     model = SetMembership(LAGS, linear_part=True).fit(train)
     curve = model.gamma_curve_
@@ -48,7 +57,7 @@ def main() -> None:
     fig.axes[0].set_xlim(left=0.0)
     fig.axes[0].set_title("γ*(ε) of the simulated neck (residual of the linear part)")
     fig.tight_layout()
-    fig.savefig(OUT / "sm_gamma_curve.png", dpi=120)
+    fig.savefig(out / "sm_gamma_curve.png", dpi=120)
     plt.close(fig)
 
     sim = model.simulate(test)
@@ -70,7 +79,7 @@ def main() -> None:
     bottom.set_xlabel("time [s]")
     bottom.legend(loc="upper left", ncol=3)
     fig.tight_layout()
-    fig.savefig(OUT / "sm_simulation.png", dpi=120)
+    fig.savefig(out / "sm_simulation.png", dpi=120)
     plt.close(fig)
 
     check = model.invalidation(test)

@@ -1,8 +1,14 @@
 """Calibration figures and numbers of the simulated neck (docs/simulator.md).
 
-Run: ``MPLBACKEND=Agg .venv/bin/python docs/make_simulator_figures.py``. Writes
-``docs/img/simulator_*.png`` and prints the figures quoted in the document. With
-``--real /work/shared/data/softneck`` it also reads the real stair logs for the static-map figure.
+What it shows: the simulated neck's static map, chirp bandwidth, operating-point models and
+open-loop pull and release, beside the paper's figures. Run from the repository, with the folder
+to write the figures to::
+
+    MPLBACKEND=Agg .venv/bin/python docs/examples/make_simulator_figures.py docs/img [--real DATA/softneck]
+
+It writes ``simulator_*.png`` there and prints the figures quoted in the document. With
+``--real`` (the folder of the real soft-neck logs, it holds ``stair/``) it also draws the real
+``int000`` staircase in the static-map figure.
 """
 
 import argparse
@@ -20,15 +26,15 @@ from neckid.plant.calibration import (
     static_map,
 )
 
-IMG = Path(__file__).parent / "img"
 
-
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     """Write the figures and print the numbers."""
-    parser = argparse.ArgumentParser()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("out", type=Path, help="folder to write the simulator_*.png figures to")
     parser.add_argument("--real", type=Path, default=None, help="folder of the real softneck logs")
-    args = parser.parse_args()
-    IMG.mkdir(exist_ok=True)
+    args = parser.parse_args(argv)
+    img = args.out
+    img.mkdir(parents=True, exist_ok=True)
     neck = SoftNeck()
 
     # 1. static map (closed-loop staircase as in the real stair logs)
@@ -49,7 +55,7 @@ def main() -> None:
     ax.set_title(f"closed-loop staircase: {result.slope:.2f} deg/rad (15-30 deg)")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(IMG / "simulator_static_map.png", dpi=110)
+    fig.savefig(img / "simulator_static_map.png", dpi=110)
 
     # 2. chirp bandwidth
     bw, time, reference, response = chirp_bandwidth(neck)
@@ -67,7 +73,7 @@ def main() -> None:
     ax2.set_ylabel("amplitude ratio")
     ax2.legend()
     fig.tight_layout()
-    fig.savefig(IMG / "simulator_chirp.png", dpi=110)
+    fig.savefig(img / "simulator_chirp.png", dpi=110)
 
     # 3. operating-point first-order models
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.6))
@@ -90,7 +96,7 @@ def main() -> None:
     ax2.set_ylabel("pole P")
     ax1.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(IMG / "simulator_operating_points.png", dpi=110)
+    fig.savefig(img / "simulator_operating_points.png", dpi=110)
 
     # 4. open-loop pull and release, payloads
     fig, ax = plt.subplots(figsize=(6, 3.6))
@@ -103,7 +109,7 @@ def main() -> None:
     ax.set_title("wind 0.5 s at 4 rad/s, hold, unwind 0.5 s")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(IMG / "simulator_pull_release.png", dpi=110)
+    fig.savefig(img / "simulator_pull_release.png", dpi=110)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,10 @@
 """Issue 14: how much the neural NARX's free-run fit moves with its seed, one network against the ensemble.
 
-Run:  .venv/bin/python docs/nn_seed_spread.py ../shared/data/softneck
+What it shows: the spread of a neural NARX's free-run fit over seeds, and how much an ensemble
+narrows it. Run from the repository, with the folder of the real soft-neck logs (it holds
+``stair/``; about 200 s)::
+
+    .venv/bin/python docs/examples/nn_seed_spread.py DATA/softneck
 
 Protocol (the cross-run payload split of ``docs/benchmarks.md``): fit on the 0 g and 600 g
 staircases of the three controllers at once, the payload [kg] as a constant input; free run on
@@ -14,9 +18,10 @@ training runs averaged). Prints every fit, and per test log the spread (max − 
 
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -31,8 +36,12 @@ SETTINGS = {
 }
 
 
-def main(folder: str) -> None:
-    data = load_softneck_cross_run(folder, "softneck-payload")
+def main(argv: list[str] | None = None) -> None:
+    """Fit five seeds of both settings and print the fits and their spread."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("softneck", type=Path, help="folder of the real soft-neck logs (stair/)")
+    args = parser.parse_args(argv)
+    data = load_softneck_cross_run(args.softneck, "softneck-payload")
     lags = Lags(outputs=[1, 2], inputs=[1, 2], conditions=["payload"])
     names = [k.split("/")[-1].replace("response.csv", "") for k in data.tests]
     print(f"test logs: {names}")
@@ -53,10 +62,16 @@ def main(folder: str) -> None:
                         fits[i, j] = np.nan
             print(f"  {label}, seed {seed}: " + " ".join(f"{v:6.1f}" for v in fits[i]), flush=True)
         spread = np.nanmax(fits, axis=0) - np.nanmin(fits, axis=0)
-        print(f"{label}: spread over {len(SEEDS)} seeds [points] " + " ".join(f"{v:6.1f}" for v in spread))
-        print(f"{label}: mean fit per seed " + " ".join(f"{v:6.1f}" for v in np.nanmean(fits, axis=1))
-              + f"; largest spread {np.nanmax(spread):.1f}; {time.perf_counter() - start:.0f} s")
+        print(
+            f"{label}: spread over {len(SEEDS)} seeds [points] "
+            + " ".join(f"{v:6.1f}" for v in spread)
+        )
+        print(
+            f"{label}: mean fit per seed "
+            + " ".join(f"{v:6.1f}" for v in np.nanmean(fits, axis=1))
+            + f"; largest spread {np.nanmax(spread):.1f}; {time.perf_counter() - start:.0f} s"
+        )
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "../shared/data/softneck")
+    main()

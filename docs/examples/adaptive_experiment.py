@@ -1,10 +1,14 @@
-"""Adaptive free run on the real soft-neck staircase logs.
+"""Adaptive free run on the real soft-neck staircase logs (docs/benchmarks.md, *Adaptive*).
 
-Train on stair/{ada,fra,int}{000,600}response.csv, test on stair/{ada,fra,int}{200,400}response.csv;
-free-run fit [%] after a 5 s warm-up with adapt = none / offset / update / both, for arx, sm-linear
-and sm-parallel, with and without the payload condition.
+What it shows: how much a model identified on other runs gains when it adapts on the first 5 s of
+a test run. Train on ``stair/{ada,fra,int}{000,600}response.csv``, test on
+``stair/{ada,fra,int}{200,400}response.csv``; free-run fit [%] after a 5 s warm-up with
+adapt = none / offset / update / both, for arx, sm-linear and sm-parallel, with and without the
+payload condition. About 2 minutes on two cores.
 
-Run from the repository: .venv/bin/python docs/adaptive_experiment.py [--prior adapt|keep]
+Run from the repository, with the folder of the real soft-neck logs (it holds ``stair/``)::
+
+    .venv/bin/python docs/examples/adaptive_experiment.py DATA/softneck [--prior adapt|keep]
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import argparse
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -20,22 +25,23 @@ import pandas as pd
 import neckid
 from neckid import IOData, Lags
 from neckid.datasets import load_softneck_log
-from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.experiments.benchmark.datasets import softneck_protocol
 from neckid.experiments.benchmark.settings import arx_error_scale
+from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.models.online import simulate_with_offset
 
-FOLDER = str(Path(__file__).resolve().parents[2] / "shared" / "data" / "softneck" / "stair") + "/"
 TRAIN = [f"{c}{p}" for c in ("ada", "fra", "int") for p in ("000", "600")]
 TEST = [f"{c}{p}" for c in ("ada", "fra", "int") for p in ("200", "400")]
 WARMUP_S = 5.0
 
 
-def load(name: str):
-    return softneck_protocol(load_softneck_log(f"{FOLDER}{name}response.csv"))
+def load(folder: Path, name: str) -> IOData:
+    """The stair log ``name`` (e.g. ``ada200``) of ``folder`` through the benchmark's protocol."""
+    return softneck_protocol(load_softneck_log(Path(folder) / "stair" / f"{name}response.csv"))
 
 
-def models(train, payload: bool):
+def models(train: list[IOData], payload: bool) -> dict[str, Any]:
+    """The three models compared, unfitted (ε from the ARX's errors on ``train``)."""
     base = Lags.arx(2, 2)
     lags = Lags(base.outputs, base.inputs, conditions=["payload"]) if payload else base
     one_step = arx_error_scale(lags, train)
@@ -53,7 +59,7 @@ def models(train, payload: bool):
 JITTER = (-2e-3, -1e-3, 1e-3, 2e-3)
 
 
-def perturbed_fit(run, delta: float) -> float:
+def perturbed_fit(run: Any, delta: float) -> float:
     """Fit of the same adapted run from initial outputs moved by ``delta`` degrees."""
     scored = run.scored
     m = run.result.n_initial
@@ -71,13 +77,15 @@ def perturbed_fit(run, delta: float) -> float:
     return float(result.fit_percent(scored)[0])
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser()
+def main(argv: list[str] | None = None) -> None:
+    """Fit, adapt on every test log and print the tables."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("softneck", type=Path, help="folder of the real soft-neck logs (stair/)")
     parser.add_argument("--prior", default="adapt", choices=["adapt", "keep"])
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     warnings.simplefilter("ignore")
-    train = [load(n) for n in TRAIN]
-    test = {n: load(n) for n in TEST}
+    train = [load(args.softneck, n) for n in TRAIN]
+    test = {n: load(args.softneck, n) for n in TEST}
     rows = []
     for payload in (False, True):
         for method, model in models(train, payload).items():

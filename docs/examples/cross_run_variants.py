@@ -1,10 +1,13 @@
 """SM parallel across runs of the real neck: the benchmark's grid with other SM distances and estimates.
 
-Run from the repository (about 2-3 min per protocol and variant on 2 cores):
+What it shows: whether the learnt SM distance or the projection estimate changes what the
+cross-run benchmark protocols (docs/benchmarks.md, *A learnt distance for SM parallel across
+runs*) choose and score. Run from the repository, with the data folder that holds ``softneck/``
+(about 2-3 min per protocol and variant on 2 cores)::
 
-    .venv/bin/python docs/cross_run_variants.py softneck-payload central-std central-grad proj-std proj-grad
-    .venv/bin/python docs/cross_run_variants.py softneck-controller central-grad
-    .venv/bin/python docs/cross_run_variants.py adaptive
+    .venv/bin/python docs/examples/cross_run_variants.py DATA softneck-payload central-std central-grad proj-std proj-grad
+    .venv/bin/python docs/examples/cross_run_variants.py DATA softneck-controller central-grad
+    .venv/bin/python docs/examples/cross_run_variants.py DATA adaptive
 
 ``adaptive`` runs ``neckid.loops.adaptive.adaptive_free_run`` (5 s warm-up, the four
 adaptation modes) on the payload split for the ARX the benchmark chooses there and SM parallel on
@@ -32,15 +35,14 @@ import numpy as np
 from sklearn.base import clone
 
 from neckid import Lags, LinearARX, ParallelSetMembership
-from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.experiments.benchmark import settings
 from neckid.experiments.benchmark.datasets import load_benchmark
 from neckid.experiments.benchmark.runner import _select
+from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.metrics import fit_percent
 from neckid.registry import methods
 from neckid.selection import free_run
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 VARIANTS = {
     "central-std": {},
     "proj-std": {"estimate": "projection"},
@@ -49,11 +51,11 @@ VARIANTS = {
 }
 
 
-def run(protocol: str, variant: str) -> None:
+def run(data: Path, protocol: str, variant: str) -> None:
     """Select, fit and test one variant on one cross-run protocol; print the result."""
-    bench = load_benchmark(protocol, DATA)
+    bench = load_benchmark(protocol, data)
     if bench is None:
-        raise SystemExit(f"{protocol}: the soft-neck staircases are not under {DATA}")
+        raise SystemExit(f"{protocol}: the soft-neck staircases are not under {data}")
     make = methods()["sm-parallel"].make
     started = time.perf_counter()
     candidates = []
@@ -83,11 +85,11 @@ def run(protocol: str, variant: str) -> None:
     print(f"  fit [%]: {shown}; mean {np.mean(list(fits.values())):.2f}", flush=True)
 
 
-def adaptive() -> None:
+def adaptive(data: Path) -> None:
     """Adaptive free run of the payload split's ARX and learnt-distance SM parallel; print fits."""
-    bench = load_benchmark("softneck-payload", DATA)
+    bench = load_benchmark("softneck-payload", data)
     if bench is None:
-        raise SystemExit(f"the soft-neck staircases are not under {DATA}")
+        raise SystemExit(f"the soft-neck staircases are not under {data}")
     lags = Lags(outputs=[1], inputs=[0], conditions=["payload"])
     models = {
         "arx": LinearARX(lags),
@@ -106,20 +108,21 @@ def adaptive() -> None:
             print(f"{name:30s} {adapt:7s} {shown}  mean {np.mean(fits):.2f}", flush=True)
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     """Run the variants asked for."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("data", type=Path, help="the data folder (it holds softneck/)")
     parser.add_argument("protocol", choices=[*sorted(settings.CROSS_RUN_BENCHMARKS), "adaptive"])
     parser.add_argument("variants", nargs="*", help=f"among {sorted(VARIANTS)}")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     unknown = [v for v in args.variants if v not in VARIANTS]
     if unknown:
         parser.error(f"variants must be among {sorted(VARIANTS)}; got {unknown}")
     warnings.simplefilter("ignore")
     if args.protocol == "adaptive":
-        adaptive()
+        adaptive(args.data)
     for variant in args.variants:
-        run(args.protocol, variant)
+        run(args.data, args.protocol, variant)
 
 
 if __name__ == "__main__":

@@ -1,8 +1,10 @@
 """The learnt SM distance (``scaling="gradient"``) against the std one, on the training records only.
 
-Run from the repository (about 8 min on 2 cores):
+What it shows: whether learning the SM distance from the data beats the hand-made one, on the
+benchmarks' selection splits (docs/benchmarks.md, *The learnt distance*). Run from the repository,
+with the data folder that holds ``benchmarks/`` (about 8 min on 2 cores; without a part, all)::
 
-    .venv/bin/python docs/learnt_metric_experiment.py [silverbox-linear] [tanks-parallel] [silverbox-poly]
+    .venv/bin/python docs/examples/learnt_metric_experiment.py DATA [silverbox-linear] [tanks-parallel] [silverbox-poly] [silverbox-projection]
 
 Every figure is a selection score: fit on the first 75 % of the training record, free-run RMSE on
 the last 25 % (the benchmark's rule); the cascaded-tanks lines also print the validation record's
@@ -22,10 +24,11 @@ RMSE of the same setting refitted on the whole training record.
 
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,14 +36,12 @@ from neckid import IOData, Lags, ParallelSetMembership, PolynomialNARX, SetMembe
 from neckid.experiments.benchmark.datasets import load_benchmark
 from neckid.selection import free_run
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
-
-def split(name: str) -> tuple[IOData, IOData, object]:
+def split(data: Path, name: str) -> tuple[IOData, IOData, Any]:
     """The benchmark's selection split of ``name``'s training record, and the benchmark."""
-    bench = load_benchmark(name, DATA)
+    bench = load_benchmark(name, data)
     if bench is None:
-        raise SystemExit(f"{name} is not under {DATA}")
+        raise SystemExit(f"{name} is not under {data}")
     cut = int(0.75 * bench.train.n_samples)
     return bench.train[:cut], bench.train[cut:], bench
 
@@ -51,9 +52,9 @@ def rmse(model: object, record: IOData) -> float:
     return float(np.sqrt(np.mean((y[skip:, 0] - record.y[skip:, 0]) ** 2)))
 
 
-def silverbox_linear() -> None:
+def silverbox_linear(data: Path) -> None:
     """SM + linear part on Silverbox: hand-made against learnt distance."""
-    fit, check, _ = split("silverbox")
+    fit, check, _ = split(data, "silverbox")
     lags = Lags(outputs=[1, 2], inputs=[0, 1, 2, 3])
     for eps in (0.3e-3, 0.45e-3, 0.64e-3, 1e-3):
         for scaling, weight in (("std", 0.03), ("gradient", 1.0)):
@@ -71,9 +72,9 @@ def silverbox_linear() -> None:
                 )
 
 
-def tanks_parallel() -> None:
+def tanks_parallel(data: Path) -> None:
     """SM on a parallel ARX on the cascaded tanks: std against learnt distance."""
-    fit, check, bench = split("cascaded_tanks")
+    fit, check, bench = split(data, "cascaded_tanks")
     for linear_lags in ((0,), (0, 1), (0, 1, 2)):
         for input_lags in ((), (1,)):
             for scaling in ("std", "gradient"):
@@ -92,9 +93,9 @@ def tanks_parallel() -> None:
                     )
 
 
-def silverbox_poly() -> None:
+def silverbox_poly(data: Path) -> None:
     """SM on a parallel polynomial on Silverbox: std against learnt distance."""
-    fit, check, _ = split("silverbox")
+    fit, check, _ = split(data, "silverbox")
     lags = Lags.arx(3, 4, 0)
     polynomial = PolynomialNARX(lags).fit(fit)
     scale = float(np.sqrt(np.mean(np.square(polynomial.fit_report_["rmse"]))))
@@ -118,9 +119,9 @@ def silverbox_poly() -> None:
                     )
 
 
-def silverbox_projection() -> None:
+def silverbox_projection(data: Path) -> None:
     """The benchmark's SM on the polynomial (projection) beside the polynomial alone, test records."""
-    bench = load_benchmark("silverbox", DATA)
+    bench = load_benchmark("silverbox", data)
     assert bench is not None
     lags = Lags.arx(3, 4, 0)
     polynomial = PolynomialNARX(lags).fit(bench.train)
@@ -147,10 +148,27 @@ def silverbox_projection() -> None:
         )
 
 
-PARTS = {"silverbox-linear": silverbox_linear, "tanks-parallel": tanks_parallel,
-         "silverbox-poly": silverbox_poly, "silverbox-projection": silverbox_projection}  # fmt: skip
+PARTS = {
+    "silverbox-linear": silverbox_linear,
+    "tanks-parallel": tanks_parallel,
+    "silverbox-poly": silverbox_poly,
+    "silverbox-projection": silverbox_projection,
+}
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the parts asked for (all of them without one)."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("data", type=Path, help="the data folder (it holds benchmarks/)")
+    parser.add_argument("parts", nargs="*", help=f"among {list(PARTS)} (default: all)")
+    args = parser.parse_args(argv)
+    unknown = [p for p in args.parts if p not in PARTS]
+    if unknown:
+        parser.error(f"parts must be among {list(PARTS)}; got {unknown}")
+    warnings.simplefilter("ignore")
+    for part in args.parts or list(PARTS):
+        PARTS[part](args.data)
+
 
 if __name__ == "__main__":
-    warnings.simplefilter("ignore")
-    for part in sys.argv[1:] or list(PARTS):
-        PARTS[part]()
+    main()

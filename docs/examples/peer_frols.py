@@ -4,7 +4,10 @@ Run (SysIdentPy is not a dependency of neckid; install it beside it, in its own 
 asks for other NumPy versions):
 
     pip install -e ".[data]" sysidentpy
-    python docs/peer_frols.py ../shared/data/benchmarks/silverbox
+    python docs/examples/peer_frols.py DATA/benchmarks/silverbox
+
+What it shows: what a Python user's usual polynomial NARX (SysIdentPy's FROLS) gets on Silverbox
+beside neckid's polynomial NARX fitted for simulation, on the same regressor and split.
 
 Both models use the same regressor: y(t-1), y(t-2) and u(t), ..., u(t-3), degree 3. FROLS (SysIdentPy)
 selects its terms by forward orthogonal least squares with AIC and fits them by least squares on
@@ -16,8 +19,10 @@ in mV after those 50. Prints the times of both fits.
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -27,13 +32,20 @@ from neckid.datasets.benchmarks import load_silverbox
 TESTS = ("multisine", "arrow_no_extrapolation", "arrow_full")
 
 
-def main(folder: str) -> None:
+def main(argv: list[str] | None = None) -> None:
+    """Fit both models on the training record and print their free-run RMSE on the tests."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("silverbox", type=Path, help="the Silverbox folder (benchmarks/silverbox)")
+    args = parser.parse_args(argv)
+    folder = args.silverbox
     try:
         from sysidentpy.basis_function import Polynomial
         from sysidentpy.model_structure_selection import FROLS
         from sysidentpy.parameter_estimation import LeastSquares
     except ImportError:
-        sys.exit("SysIdentPy is not installed: pip install sysidentpy (the peer of this comparison)")
+        sys.exit(
+            "SysIdentPy is not installed: pip install sysidentpy (the peer of this comparison)"
+        )
     data = load_silverbox(folder)
     train = data.train if not isinstance(data.train, list) else data.train[0]
     rows = {}
@@ -62,11 +74,13 @@ def main(folder: str) -> None:
             key = next(k for k in rows if k.startswith(label))
             error = sim[50 : y.size] - y[50:]
             rows[key].append(1000 * float(np.sqrt(np.mean(error**2))))
-    print(f"Silverbox, free-run RMSE [mV] after 50 initial samples; FROLS kept {len(frols.final_model)} terms")
+    print(
+        f"Silverbox, free-run RMSE [mV] after 50 initial samples; FROLS kept {len(frols.final_model)} terms"
+    )
     print(f"{'model':42s} {'fit [s]':>8s} " + " ".join(f"{t:>24s}" for t in TESTS))
     for key, (fit_s, *errors) in rows.items():
         print(f"{key:42s} {fit_s:8.1f} " + " ".join(f"{e:24.3f}" for e in errors))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "../shared/data/benchmarks/silverbox")
+    main()
