@@ -11,7 +11,7 @@ $(BIN)/python:
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(STAMP): $(BIN)/python pyproject.toml
-	$(BIN)/python -m pip install --quiet -e ".[test]"
+	$(BIN)/python -m pip install --quiet -e ".[test,docs]"
 	$(BIN)/neckid warmup
 	touch $(STAMP)
 
@@ -19,8 +19,8 @@ demo: $(STAMP)
 	$(BIN)/neckid demo --force
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks docs/examples
-	$(BIN)/ruff format --check src tests benchmarks docs/examples
+	$(BIN)/ruff check src tests benchmarks docs/examples docs/_hooks.py
+	$(BIN)/ruff format --check src tests benchmarks docs/examples docs/_hooks.py
 
 typecheck: $(STAMP)
 	$(BIN)/mypy src
@@ -28,14 +28,14 @@ typecheck: $(STAMP)
 pytest: $(STAMP)
 	$(BIN)/python -m pytest
 
-test: lint typecheck pytest
+# docs: mkdocs build --strict, 7-8 s on the 2-core machine.
+test: lint typecheck pytest docs
 
 bench: $(STAMP)
 	for f in benchmarks/bench_*.py; do $(BIN)/python $$f || exit 1; done
 
 # The documentation site (mkdocs.yml): docs/*.md and an API reference from the docstrings.
 docs: $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[docs]"
 	$(BIN)/mkdocs build --strict --site-dir build/site
 
 clean:

@@ -19,4 +19,3 @@ def test_constraints_and_init_name_the_same_parameters(name: str) -> None:
     cls = neckid.methods()[name].estimator_class()
     init = set(inspect.signature(cls.__init__).parameters) - {"self"}
     assert set(cls._parameter_constraints) == init
-

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -15,6 +15,9 @@ from neckid.models.base import ModelResult
 from neckid.models.scheduled.model import GainScheduledModel
 from neckid.outputs import StagedFolder
 from neckid.regressors import Lags
+
+if TYPE_CHECKING:
+    from neckid.report.html import Link, Report
 
 __all__ = ["BANDWIDTH_COMMAND", "CHIRP_RUN", "SETTING_UNITS", "SIMULATION_FIGURES", "write_outputs"]
 
@@ -86,55 +89,108 @@ def write_outputs(
     import matplotlib
 
     matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
 
-    from neckid.report.html import Figure, Link, Report, library_versions, settings_frame
-    from neckid.report.plots import plot_simulation
-    from neckid.report.scheduled_plots import GAIN_UNIT, operating_points_frame, plot_gain_schedule
-    from neckid.report.signal_plots import plot_bandwidth
-    from neckid.report.sm_plots import plot_gamma_curve
+    from neckid.report.html import Report
+    from neckid.report.scheduled_plots import operating_points_frame
 
-    files: dict[str, Path] = {}
-    figures: list[Figure] = []
+    saver = _FigureSaver(out)
+    files = saver.files
+    dropped = _dropped_points_text(points, scheduled)
+    _write_chirp_run(out, files, chirp_run)
+    _save_figures(saver, chirp, records, results, narx_models, scheduled, points, dropped)
+    links = _save_models(out, files, settings, chirp, narx_models, scheduled)
 
-    def save(fig: Any, name: str, number: str, caption: str) -> None:
-        path = out.path(f"{name}.png")
+    report = Report("neckid demo: the soft-neck paper's protocol on the simulated neck")
+    _add_result_tables(report, chirp, table, maes, lags, loop)
+    report.add_table(
+        f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f}), Fig. 6",
+        operating_points_frame(points.table),
+        note="converged: the estimate stayed in its band over the last window of the log"
+        f" (settled at: the sample from which it did).{dropped}",
+    )
+    if selection_table is not None:
+        report.add_table(
+            "Lag selection (neural NARX, validation fit)",
+            _selection_display(selection_table),
+            formats={"terms [count]": "{:.0f}", "max lag [samples]": "{:.0f}"},
+            note=_paper_lags_note(selection_table, settings.ts, sensor_delay),
+        )
+    report.add_figures("Figures", saver.figures)
+    report.add_links(
+        "Files in this folder",
+        links,
+        intro="How to use each (Python: import"
+        " neckid, json, pathlib first; the command runs in a shell in this folder).",
+    )
+    _add_settings(report, settings, chirp, lags, sensor_delay)
+    report.write(out.path("report.html"))
+    files["report"] = out.final("report.html")
+    return files
+
+
+class _FigureSaver:
+    """Saves figures into a staged folder, noting each file and its report caption."""
+
+    def __init__(self, out: StagedFolder) -> None:
+        from neckid.report.html import Figure
+
+        self.out = out
+        self.files: dict[str, Path] = {}
+        self.figures: list[Figure] = []
+
+    def save(self, fig: Any, name: str, number: str, caption: str) -> None:
+        """Write ``fig`` as ``name.png`` (110 dpi), close it, and note its file and caption."""
+        import matplotlib.pyplot as plt
+
+        from neckid.report.html import Figure
+
+        path = self.out.path(f"{name}.png")
         fig.savefig(path, dpi=110)
         plt.close(fig)
-        files[name] = out.final(path.name)
-        figures.append(Figure(path, caption, number))
+        self.files[name] = self.out.final(path.name)
+        self.figures.append(Figure(path, caption, number))
 
-    def save_simulation(experiment: str) -> None:
-        name, number = SIMULATION_FIGURES[experiment]
-        title = f"{number} — {experiment}: measured inclination and free-run simulations"
-        view = records[experiment].select(outputs=[OUTPUT])
-        fig = plot_simulation(view, results[experiment], title=title, residuals=True)
-        save(
-            fig,
-            name,
-            number,
-            f"{experiment[0].upper()}{experiment[1:]}: measured inclination"
-            " and each model's free run (top; Set Membership bounds shaded), and each model's"
-            f" error y − ŷ [deg] (bottom).{_extrapolation_text(narx_models, results[experiment])}",
-        )
 
-    # The chirp run, so that `neckid bandwidth` can be tried on a log.
+def _dropped_points_text(points: Any, scheduled: GainScheduledModel) -> str:
+    """A sentence on the operating points left out of the schedule's lines, if any."""
+    left_out = len(points.table) - scheduled.inclinations_.size
+    dropped = f" {left_out} operating point(s) whose estimate did not converge are left out of"
+    return f"{dropped} the lines N(i), P(i) (drawn hollow in Fig. 6)." if left_out else ""
+
+
+def _write_chirp_run(
+    out: StagedFolder, files: dict[str, Path], chirp_run: tuple[Any, Any, Any]
+) -> None:
+    """The chirp run as a CSV file, so that `neckid bandwidth` can be tried on a log."""
     columns = dict(zip(("time", "reference", "inclination"), map(np.ravel, chirp_run), strict=True))
     pd.DataFrame(columns).to_csv(out.path(CHIRP_RUN), index=False, float_format="%.10g")
     files["chirp_run"] = out.final(CHIRP_RUN)
-    save(
+
+
+def _save_figures(
+    saver: _FigureSaver,
+    chirp: Any,
+    records: dict[str, IOData],
+    results: dict[str, dict[str, ModelResult]],
+    narx_models: dict[str, Any],
+    scheduled: GainScheduledModel,
+    points: Any,
+    dropped: str,
+) -> None:
+    """Figs. 3 and 5-9 (bandwidth, free runs, schedule) and S1 (γ*(ε)), in the report's order."""
+    from neckid.report.scheduled_plots import GAIN_UNIT, plot_gain_schedule
+    from neckid.report.signal_plots import plot_bandwidth
+
+    saver.save(
         plot_bandwidth(chirp),
         "fig3_bandwidth",
         "Fig. 3",
         "Amplitude of the up-chirp reference"
         f" and of the inclination; bandwidth {chirp.bandwidth:.2f} rad/s (paper: 4.2 rad/s).",
     )
-    save_simulation(EXPERIMENTS[0])
-    left_out = len(points.table) - scheduled.inclinations_.size
-    dropped = f" {left_out} operating point(s) whose estimate did not converge are left out of"
-    dropped = f"{dropped} the lines N(i), P(i) (drawn hollow in Fig. 6)." if left_out else ""
+    _save_simulation(saver, EXPERIMENTS[0], records, results, narx_models)
     title = "Fig. 6 — CFF-RLS first-order models G(z, i) = N(i) / (z − P(i))"
-    save(
+    saver.save(
         plot_gain_schedule(scheduled, points=points.table, title=title),
         "fig6_schedule",
         "Fig. 6",
@@ -142,14 +198,44 @@ def write_outputs(
         f" first-order models against the inclination [deg], with the fitted lines.{dropped}",
     )
     for experiment in EXPERIMENTS[1:]:
-        save_simulation(experiment)
-    sm = narx_models["Set Membership"]
+        _save_simulation(saver, experiment, records, results, narx_models)
+    _save_gamma_curve(saver, narx_models["Set Membership"])
+
+
+def _save_simulation(
+    saver: _FigureSaver,
+    experiment: str,
+    records: dict[str, IOData],
+    results: dict[str, dict[str, ModelResult]],
+    narx_models: dict[str, Any],
+) -> None:
+    """The figure of one experiment's measured inclination and free-run simulations."""
+    from neckid.report.plots import plot_simulation
+
+    name, number = SIMULATION_FIGURES[experiment]
+    title = f"{number} — {experiment}: measured inclination and free-run simulations"
+    view = records[experiment].select(outputs=[OUTPUT])
+    fig = plot_simulation(view, results[experiment], title=title, residuals=True)
+    saver.save(
+        fig,
+        name,
+        number,
+        f"{experiment[0].upper()}{experiment[1:]}: measured inclination"
+        " and each model's free run (top; Set Membership bounds shaded), and each model's"
+        f" error y − ŷ [deg] (bottom).{_extrapolation_text(narx_models, results[experiment])}",
+    )
+
+
+def _save_gamma_curve(saver: _FigureSaver, sm: Any) -> None:
+    """Fig. S1, γ*(ε) of the Set Membership model, when it has the curve."""
+    from neckid.report.sm_plots import plot_gamma_curve
+
     if sm.gamma_curve_ is not None:
         title = "Fig. S1 — γ*(ε) of the Set Membership model (not in the paper)"
         fig = plot_gamma_curve(
             sm.gamma_curve_, unit="deg", chosen=(sm.epsilon_, sm.gamma_), title=title
         )
-        save(
+        saver.save(
             fig,
             "gamma_curve",
             "Fig. S1",
@@ -158,6 +244,18 @@ def write_outputs(
             " edge). The star marks the ε and γ the Set Membership model uses"
             f" (ε = {float(sm.epsilon_[0]):.3g} deg, γ = {float(sm.gamma_[0]):.3g}).",
         )
+
+
+def _save_models(
+    out: StagedFolder,
+    files: dict[str, Path],
+    settings: DemoSettings,
+    chirp: Any,
+    narx_models: dict[str, Any],
+    scheduled: GainScheduledModel,
+) -> list[Link]:
+    """Save every model file; the report's links to them, the chirp run and the metrics."""
+    from neckid.report.html import Link
 
     described = {}
     for name, model in narx_models.items():
@@ -169,7 +267,7 @@ def write_outputs(
     described["model_scheduled_cff_rls"] = (
         "Scheduled CFF-RLS: velocity command [rad/s] → inclination [deg]"
     )
-    links = [
+    return [
         *(
             Link(
                 files[key].name,
@@ -192,7 +290,16 @@ def write_outputs(
         ),
     ]
 
-    report = Report("neckid demo: the soft-neck paper's protocol on the simulated neck")
+
+def _add_result_tables(
+    report: Report,
+    chirp: Any,
+    table: pd.DataFrame,
+    maes: pd.DataFrame,
+    lags: Lags,
+    loop: dict[str, pd.DataFrame] | None,
+) -> None:
+    """The report's "What ran" text, its fit and error tables, and the models-in-the-loop table."""
     report.add_text(
         "What ran",
         "The simulated tendon-driven neck (neckid.plant.SoftNeck, planar) stands in for the real one."
@@ -215,45 +322,38 @@ def write_outputs(
     )
     report.add_table("Mean absolute error [deg]", errors, float_format="{:.3f}")
     if loop is not None:
-        tests = list(loop["fit"].columns)
-        free = table.loc[list(loop["fit"].index), tests]
-        both = pd.concat(
-            {
-                "free run, fit [%]": free,
-                "in the loop, fit [%]": loop["fit"],
-                "in the loop, command fit [%]": loop["command_fit"],
-            },
-            axis=1,
-        )
-        both.columns = [f"{column[1]}: {column[0]}" for column in both.columns]
-        report.add_table(
-            "Models in the loop: tests 1-3, fit [%]",
-            both.reset_index(names="model"),
-            note="Free run: the model driven by the motor signal recorded in the neck's closed"
-            " loop. In the loop: the model in place of the neck, with the same PI controller and"
-            " references; the command fit compares the controller's velocity command [rad/s]"
-            " with the one recorded on the neck. Fits skip each model's initial samples.",
-        )
+        _add_loop_table(report, table, loop)
+
+
+def _add_loop_table(report: Report, table: pd.DataFrame, loop: dict[str, pd.DataFrame]) -> None:
+    """The table of tests 1-3: free-run fit against the fits of each model in the loop."""
+    tests = list(loop["fit"].columns)
+    free = table.loc[list(loop["fit"].index), tests]
+    both = pd.concat(
+        {
+            "free run, fit [%]": free,
+            "in the loop, fit [%]": loop["fit"],
+            "in the loop, command fit [%]": loop["command_fit"],
+        },
+        axis=1,
+    )
+    both.columns = [f"{column[1]}: {column[0]}" for column in both.columns]
     report.add_table(
-        f"Operating points (CFF-RLS, λ = {settings.forgetting_factor:.2f}), Fig. 6",
-        operating_points_frame(points.table),
-        note="converged: the estimate stayed in its band over the last window of the log"
-        f" (settled at: the sample from which it did).{dropped}",
+        "Models in the loop: tests 1-3, fit [%]",
+        both.reset_index(names="model"),
+        note="Free run: the model driven by the motor signal recorded in the neck's closed"
+        " loop. In the loop: the model in place of the neck, with the same PI controller and"
+        " references; the command fit compares the controller's velocity command [rad/s]"
+        " with the one recorded on the neck. Fits skip each model's initial samples.",
     )
-    if selection_table is not None:
-        report.add_table(
-            "Lag selection (neural NARX, validation fit)",
-            _selection_display(selection_table),
-            formats={"terms [count]": "{:.0f}", "max lag [samples]": "{:.0f}"},
-            note=_paper_lags_note(selection_table, settings.ts, sensor_delay),
-        )
-    report.add_figures("Figures", figures)
-    report.add_links(
-        "Files in this folder",
-        links,
-        intro="How to use each (Python: import"
-        " neckid, json, pathlib first; the command runs in a shell in this folder).",
-    )
+
+
+def _add_settings(
+    report: Report, settings: DemoSettings, chirp: Any, lags: Lags, sensor_delay: int
+) -> None:
+    """The report's settings table (with the values the demo derives) and library versions."""
+    from neckid.report.html import library_versions, settings_frame
+
     derived = {
         "bandwidth (measured)": round(float(chirp.bandwidth), 2),
         "regressor (NARX)": repr(lags),
@@ -262,9 +362,6 @@ def write_outputs(
     frame = settings_frame({**asdict(settings), **derived}, SETTING_UNITS, ts=settings.ts)
     report.add_table("Settings", frame)
     report.add_mapping("Versions", library_versions())
-    report.write(out.path("report.html"))
-    files["report"] = out.final("report.html")
-    return files
 
 
 def _extrapolation_text(narx_models: dict[str, Any], results: dict[str, ModelResult]) -> str:

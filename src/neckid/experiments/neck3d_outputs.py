@@ -4,16 +4,20 @@ from __future__ import annotations
 
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from neckid.data.iodata import IOData
+from neckid.experiments.demo_outputs import _FigureSaver
 from neckid.experiments.neck3d_settings import TESTS_3D, Demo3DSettings
 from neckid.models.base import ModelResult
 from neckid.outputs import StagedFolder
 from neckid.regressors import Lags
+
+if TYPE_CHECKING:
+    from neckid.report.html import Link, Report
 
 __all__ = ["SETTING_UNITS_3D", "write_outputs_3d"]
 
@@ -69,22 +73,40 @@ def write_outputs_3d(
     import matplotlib
 
     matplotlib.use("Agg", force=False)
+
+    from neckid.report.html import Report, library_versions, settings_frame
+
+    saver = _FigureSaver(out)
+    files = saver.files
+    _save_bandwidth_figure(saver, chirps)
+    _save_record_figures(saver, views, references, results)
+    links = _save_models_3d(out, files, models)
+
+    report = Report("neckid demo --3d: the three-tendon neck, tendons in, tilt out")
+    _add_what_ran(report, settings, chirps, lags)
+    _add_tables_3d(report, settings, fit, mae, selection_table)
+    report.add_figures("Figures", saver.figures)
+    report.add_links(
+        "Files in this folder",
+        links,
+        intro="Python: import neckid, json, pathlib first.",
+    )
+    derived = {"regressor (NARX)": repr(lags)}
+    frame = settings_frame({**asdict(settings), **derived}, SETTING_UNITS_3D, ts=settings.ts)
+    report.add_table("Settings", frame)
+    report.add_mapping("Versions", library_versions())
+    report.write(out.path("report.html"))
+    files["report"] = out.final("report.html")
+    return files
+
+
+def _save_bandwidth_figure(
+    saver: _FigureSaver, chirps: dict[float, tuple[Any, Any, Any, Any]]
+) -> None:
+    """Fig. 1: the amplitudes of each bandwidth chirp, one panel per direction."""
     import matplotlib.pyplot as plt
 
-    from neckid.report.html import Figure, Link, Report, library_versions, settings_frame
-    from neckid.report.plots import plot_simulation
     from neckid.report.signal_plots import plot_bandwidth
-    from neckid.report.tilt_plots import plot_tilt_plane
-
-    files: dict[str, Path] = {}
-    figures: list[Figure] = []
-
-    def save(fig: Any, name: str, number: str, caption: str) -> None:
-        path = out.path(f"{name}.png")
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        files[name] = out.final(path.name)
-        figures.append(Figure(path, caption, number))
 
     fig, axes = plt.subplots(
         1, len(chirps), figsize=(5.2 * len(chirps), 3.8), layout="constrained", squeeze=False
@@ -92,7 +114,7 @@ def write_outputs_3d(
     for ax, (direction, run) in zip(axes[0], chirps.items(), strict=True):
         plot_bandwidth(run[0], ax=ax, unit="deg")
         ax.set_title(f"towards {direction:g}°: {run[0].bandwidth:.2f} rad/s", fontsize=10)
-    save(
+    saver.save(
         fig,
         "fig1_bandwidth",
         "Fig. 1",
@@ -101,25 +123,33 @@ def write_outputs_3d(
         " line is the bandwidth (90 % rule).",
     )
 
-    def save_components(record: str, title: str, caption: str) -> None:
-        fig, axes = plt.subplots(2, 1, figsize=(10, 6.4), sharex=True, layout="constrained")
-        for k, ax in enumerate(axes):
-            plot_simulation(views[record], results[record], output=k, ax=ax)
-        axes[0].set_title(title)
-        axes[0].set_xlabel("")
-        save(fig, *_FIGURES[record], caption)
+
+def _save_record_figures(
+    saver: _FigureSaver,
+    views: dict[str, IOData],
+    references: dict[str, np.ndarray],
+    results: dict[str, dict[str, ModelResult]],
+) -> None:
+    """Figs. 2-5: the tilt components of the validation record and test 3, the tilt plane of tests 1-2."""
+    from neckid.report.tilt_plots import plot_tilt_plane
 
     bands_text = (
         " with the Set Membership bands shaded (each component's band is guaranteed under that"
         " model's prior ε, γ)."
     )
-    save_components(
+    _save_components(
+        saver,
+        views,
+        results,
         TESTS_3D[0],
         "Fig. 2 — validation record: measured tilt vector and free-run simulations",
         "Validation record (open loop, other multisine phases): tilt_x (top) and tilt_y"
         " (bottom) [deg] against time [s], measured and each model's free run," + bands_text,
     )
-    save_components(
+    _save_components(
+        saver,
+        views,
+        results,
         TESTS_3D[3],
         f"Fig. 5 — {TESTS_3D[3]}: measured tilt vector and free-run simulations",
         "Test 3 (closed loop on the neck, a 20° step towards 45° at 1 s): tilt_x (top) and"
@@ -134,7 +164,7 @@ def write_outputs_3d(
             reference=references.get(record),
             title=f"{number} — {record}: tilt plane",
         )
-        save(
+        saver.save(
             fig,
             name,
             number,
@@ -144,12 +174,40 @@ def write_outputs_3d(
             " inclination, dashed lines the tendon directions.",
         )
 
+
+def _save_components(
+    saver: _FigureSaver,
+    views: dict[str, IOData],
+    results: dict[str, dict[str, ModelResult]],
+    record: str,
+    title: str,
+    caption: str,
+) -> None:
+    """One record's tilt_x and tilt_y, measured and simulated, in two panels."""
+    import matplotlib.pyplot as plt
+
+    from neckid.report.plots import plot_simulation
+
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6.4), sharex=True, layout="constrained")
+    for k, ax in enumerate(axes):
+        plot_simulation(views[record], results[record], output=k, ax=ax)
+    axes[0].set_title(title)
+    axes[0].set_xlabel("")
+    saver.save(fig, *_FIGURES[record], caption)
+
+
+def _save_models_3d(
+    out: StagedFolder, files: dict[str, Path], models: dict[str, Any]
+) -> list[Link]:
+    """Save every model file; the report's links to them and to the metrics."""
+    from neckid.report.html import Link
+
     described = {}
     for label, model in models.items():
         slug = label.lower().replace(" + ", "_").replace(" ", "_").replace("-", "_")
         files[f"model_{slug}"] = out.final(model.save(out.path(f"model_{slug}.npz")).name)
         described[f"model_{slug}"] = f"{label}: three motor positions [rad] → tilt_x, tilt_y [deg]"
-    links = [
+    return [
         *(
             Link(files[k].name, f"{text}. Load it with", f'neckid.load_model("{files[k].name}")')
             for k, text in described.items()
@@ -161,7 +219,14 @@ def write_outputs_3d(
         ),
     ]
 
-    report = Report("neckid demo --3d: the three-tendon neck, tendons in, tilt out")
+
+def _add_what_ran(
+    report: Report,
+    settings: Demo3DSettings,
+    chirps: dict[float, tuple[Any, Any, Any, Any]],
+    lags: Lags,
+) -> None:
+    """The report's "What ran" text: the neck, the bandwidths, the excitation and the models."""
     bands = ", ".join(f"{d:g}°: {run[0].bandwidth:.2f}" for d, run in chirps.items())
     report.add_text(
         "What ran",
@@ -177,6 +242,16 @@ def write_outputs_3d(
         " model's tilt vector back. The inclination-scheduled CFF-RLS model is planar (a scalar schedule)"
         " and is not run here.",
     )
+
+
+def _add_tables_3d(
+    report: Report,
+    settings: Demo3DSettings,
+    fit: pd.DataFrame,
+    mae: pd.DataFrame,
+    selection_table: pd.DataFrame,
+) -> None:
+    """The report's fit, error and lag-selection tables."""
     report.add_table("Free-run fit [%] per tilt component", _flat(fit, "%"))
     report.add_table(
         "Mean absolute error [deg]",
@@ -199,16 +274,3 @@ def write_outputs_3d(
         note="Each candidate is fitted on one half of the identification record and free-run on"
         " the other, both ways; the validation record and the tests are not used to choose.",
     )
-    report.add_figures("Figures", figures)
-    report.add_links(
-        "Files in this folder",
-        links,
-        intro="Python: import neckid, json, pathlib first.",
-    )
-    derived = {"regressor (NARX)": repr(lags)}
-    frame = settings_frame({**asdict(settings), **derived}, SETTING_UNITS_3D, ts=settings.ts)
-    report.add_table("Settings", frame)
-    report.add_mapping("Versions", library_versions())
-    report.write(out.path("report.html"))
-    files["report"] = out.final("report.html")
-    return files

@@ -138,8 +138,6 @@ def run_demo(
 def _run_protocol(
     out: StagedFolder, settings: DemoSettings | None, on_step: Callable[[str], None] | None
 ) -> DemoResult:
-    from neckid.loops.operating_points import identify_operating_points
-
     started = time.perf_counter()
     settings = settings if settings is not None else DemoSettings.make()
     notify = on_step if on_step is not None else (lambda _text: None)
@@ -170,83 +168,20 @@ def _run_protocol(
         if not settings.paper_regressor
         else "regressor: the paper's"
     )
-    selection_table = None
-    # --quick is a smoke run: the registry's small networks there (as the 3-D demo does)
-    network = methods()["nn"].make(PAPER_LAGS, quick=settings.quick, random_state=int(seeds[3]))
-    if settings.paper_regressor:
-        lags = PAPER_LAGS
-    else:
-        if settings.quick:
-            candidates = [*lag_grid([1, 2], [3], input_delays=[1]), PAPER_LAGS]
-        else:
-            candidates = [*lag_grid([1, 2, 3], [2, 3], input_delays=[1]), PAPER_LAGS]
-        # Two worker processes for the full demo; the quick one's small networks fit in less
-        # time than starting the processes takes (about 2 s), so it stays in this one.
-        selection = select_lags(
-            _narx_view(train),
-            _narx_view(validation),
-            candidates,
-            network,
-            n_jobs=1 if settings.quick else 2,
-            progress=False,
-        )
-        selection_table = selection.table
-        lags = selection.best_lags
+    lags, selection_table = _choose_lags(settings, int(seeds[3]), train, validation)
 
     # 4. models ----------------------------------------------------------------------------------
     notify("models: Set Membership, neural NARX, ARX")
-    narx_models: dict[str, Any] = {}
-    for name in DEMO_METHODS:
-        method = methods()[name]
-        seeded = "random_state" in method.estimator_class()._parameter_constraints
-        params: dict[str, Any] = {"random_state": int(seeds[3])} if seeded else {}
-        narx_models[method.label] = method.make(
-            lags, quick=settings.quick and name == "nn", **params
-        )
-    fit_times = {}
-    for name, model in narx_models.items():
-        t0 = time.perf_counter()
-        model.fit(_narx_view(train))
-        fit_times[name] = time.perf_counter() - t0
+    narx_models, fit_times = _fit_narx_models(settings, int(seeds[3]), lags, train)
 
     notify("CFF-RLS at each inclination, scheduled model")
     t0 = time.perf_counter()
-    rls_neck = SoftNeck(ts=settings.ts, seed=int(seeds[4]))
-    points = identify_operating_points(
-        rls_neck,
-        inclinations=settings.inclinations,
-        ts=settings.ts,
-        # The tilt sensor's latency (2 samples on the simulated neck, as on the bench) plus the
-        # one sample of the paper's G(z) = N / (z - P).
-        delay=rls_neck.delay_samples + 1,
-        forgetting_factor=settings.forgetting_factor,
-        seed=int(seeds[5]),
-    )
-    scheduled = points.fit_schedule(converged_only=int(points.converged.sum()) >= 2)
+    points, scheduled = _fit_scheduled(settings, int(seeds[4]), int(seeds[5]))
     fit_times["Scheduled CFF-RLS"] = time.perf_counter() - t0
 
     # 5-6. validation and tests ------------------------------------------------------------------
     notify("validation and closed-loop tests")
-    results: dict[str, dict[str, ModelResult]] = {e: {} for e in records}
-    for experiment, record in records.items():
-        view = _narx_view(record)
-        for name, model in narx_models.items():
-            results[experiment][name] = model.simulate(view)
-        results[experiment]["Scheduled CFF-RLS"] = scheduled.simulate(
-            record.select(inputs=[SCHEDULED_INPUT], outputs=[OUTPUT])
-        )
-    model_names = [*narx_models, "Scheduled CFF-RLS"]
-    fits = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
-    maes = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
-    rmses = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
-    for experiment, record in records.items():
-        for name in model_names:
-            result = results[experiment][name]
-            fits.loc[name, experiment] = float(
-                result.fit_percent(record.select(outputs=[OUTPUT]).y)[0]
-            )
-            maes.loc[name, experiment] = float(result.mae(record.select(outputs=[OUTPUT]).y)[0])
-            rmses.loc[name, experiment] = float(result.rmse(record.select(outputs=[OUTPUT]).y)[0])
+    results, fits, maes, rmses = _validate(records, narx_models, scheduled)
     # 6b. the models in the loop: each model in place of the neck, same PI and references ---------
     notify("models in the loop: tests 1-3")
     loop = _models_in_the_loop({**narx_models, "Scheduled CFF-RLS": scheduled}, records, settings)
@@ -289,6 +224,116 @@ def _run_protocol(
             k: dict(zip(EXPERIMENTS, v, strict=True)) for k, v in PAPER_FITS.items()
         },
         "fit_time_s": fit_times,
+        **_model_metrics(loop, narx_models, scheduled, points),
+        "files": {k: str(v.name) for k, v in files.items()},
+    }
+    wall = time.perf_counter() - started
+    metrics["wall_time_s"] = wall
+    out.path("metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
+    files["metrics"] = out.final("metrics.json")
+    return DemoResult(table, maes, metrics, bandwidth, lags, files, wall)
+
+
+def _choose_lags(
+    settings: DemoSettings, seed: int, train: IOData, validation: IOData
+) -> tuple[Lags, pd.DataFrame | None]:
+    """Step 3: the paper's regressor, or the best of candidate lag sets; and the selection table."""
+    selection_table = None
+    # --quick is a smoke run: the registry's small networks there (as the 3-D demo does)
+    network = methods()["nn"].make(PAPER_LAGS, quick=settings.quick, random_state=seed)
+    if settings.paper_regressor:
+        lags = PAPER_LAGS
+    else:
+        if settings.quick:
+            candidates = [*lag_grid([1, 2], [3], input_delays=[1]), PAPER_LAGS]
+        else:
+            candidates = [*lag_grid([1, 2, 3], [2, 3], input_delays=[1]), PAPER_LAGS]
+        # Two worker processes for the full demo; the quick one's small networks fit in less
+        # time than starting the processes takes (about 2 s), so it stays in this one.
+        selection = select_lags(
+            _narx_view(train),
+            _narx_view(validation),
+            candidates,
+            network,
+            n_jobs=1 if settings.quick else 2,
+            progress=False,
+        )
+        selection_table = selection.table
+        lags = selection.best_lags
+    return lags, selection_table
+
+
+def _fit_narx_models(
+    settings: DemoSettings, seed: int, lags: Lags, train: IOData
+) -> tuple[dict[str, Any], dict[str, float]]:
+    """Step 4: the NARX models fitted on the identification record, and each one's fit time [s]."""
+    narx_models: dict[str, Any] = {}
+    for name in DEMO_METHODS:
+        method = methods()[name]
+        seeded = "random_state" in method.estimator_class()._parameter_constraints
+        params: dict[str, Any] = {"random_state": seed} if seeded else {}
+        narx_models[method.label] = method.make(
+            lags, quick=settings.quick and name == "nn", **params
+        )
+    fit_times = {}
+    for name, model in narx_models.items():
+        t0 = time.perf_counter()
+        model.fit(_narx_view(train))
+        fit_times[name] = time.perf_counter() - t0
+    return narx_models, fit_times
+
+
+def _fit_scheduled(settings: DemoSettings, neck_seed: int, seed: int) -> tuple[Any, Any]:
+    """Step 4, scheduled model: CFF-RLS at each inclination on a fresh neck, then the schedule."""
+    from neckid.loops.operating_points import identify_operating_points
+
+    rls_neck = SoftNeck(ts=settings.ts, seed=neck_seed)
+    points = identify_operating_points(
+        rls_neck,
+        inclinations=settings.inclinations,
+        ts=settings.ts,
+        # The tilt sensor's latency (2 samples on the simulated neck, as on the bench) plus the
+        # one sample of the paper's G(z) = N / (z - P).
+        delay=rls_neck.delay_samples + 1,
+        forgetting_factor=settings.forgetting_factor,
+        seed=seed,
+    )
+    scheduled = points.fit_schedule(converged_only=int(points.converged.sum()) >= 2)
+    return points, scheduled
+
+
+def _validate(
+    records: dict[str, IOData], narx_models: dict[str, Any], scheduled: Any
+) -> tuple[dict[str, dict[str, ModelResult]], pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Steps 5-6: every model's free run on every record; fit [%], MAE and RMSE [deg] tables."""
+    results: dict[str, dict[str, ModelResult]] = {e: {} for e in records}
+    for experiment, record in records.items():
+        view = _narx_view(record)
+        for name, model in narx_models.items():
+            results[experiment][name] = model.simulate(view)
+        results[experiment]["Scheduled CFF-RLS"] = scheduled.simulate(
+            record.select(inputs=[SCHEDULED_INPUT], outputs=[OUTPUT])
+        )
+    model_names = [*narx_models, "Scheduled CFF-RLS"]
+    fits = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
+    maes = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
+    rmses = pd.DataFrame(index=model_names, columns=list(EXPERIMENTS), dtype=float)
+    for experiment, record in records.items():
+        for name in model_names:
+            result = results[experiment][name]
+            fits.loc[name, experiment] = float(
+                result.fit_percent(record.select(outputs=[OUTPUT]).y)[0]
+            )
+            maes.loc[name, experiment] = float(result.mae(record.select(outputs=[OUTPUT]).y)[0])
+            rmses.loc[name, experiment] = float(result.rmse(record.select(outputs=[OUTPUT]).y)[0])
+    return results, fits, maes, rmses
+
+
+def _model_metrics(
+    loop: dict[str, pd.DataFrame], narx_models: dict[str, Any], scheduled: Any, points: Any
+) -> dict[str, Any]:
+    """The metrics of the models in the loop, the Set Membership constants and the schedule."""
+    return {
         "model_in_the_loop": {
             "fit_percent": _nested(loop["fit"]),
             "command_fit_percent": _nested(loop["command_fit"]),
@@ -305,13 +350,7 @@ def _run_protocol(
             "pole_coefficients": scheduled.pole_coefficients_.tolist(),
             "points": json.loads(points.table.to_json(orient="records")),
         },
-        "files": {k: str(v.name) for k, v in files.items()},
     }
-    wall = time.perf_counter() - started
-    metrics["wall_time_s"] = wall
-    out.path("metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
-    files["metrics"] = out.final("metrics.json")
-    return DemoResult(table, maes, metrics, bandwidth, lags, files, wall)
 
 
 def _models_in_the_loop(

@@ -43,12 +43,13 @@ from neckid.models.base import (
 )
 from neckid.models.linear.arx import least_squares
 from neckid.models.online import extend_training_ranges, update_experiments
+from neckid.models.set_membership.core import SMSettings, fit_core
 from neckid.models.set_membership.narx import (
     DEFAULT_GAMMA_MARGIN,
     Invalidation,
     SetMembership,
 )
-from neckid.models.set_membership.prior import ProgressOption, _gamma_star
+from neckid.models.set_membership.prior import ProgressOption, _gamma_star, gamma_from_margin
 from neckid.models.set_membership.scaling import term_weights
 from neckid.models.set_membership.state_maps import MultiStepStateMap
 from neckid.models.set_membership.training import duplicate_spread
@@ -405,15 +406,26 @@ class MultiStepSetMembership(NarxModel):
         epsilon = np.empty((horizons.size, n_out))
         gamma_star_at = np.empty((horizons.size, n_out))
         for i, k in enumerate(horizons):
-            lags_k = horizon_lags(self.lags_, int(k))
-            resolved = lags_k.resolve(experiments)
-            x, y = lags_k.build(experiments)
+            model = SetMembership(
+                horizon_lags(self.lags_, int(k)),
+                scaling=self.scaling,
+                linear_part=bool(self.linear_part),
+                input_weight=float(self.input_weight),
+                lipschitz=self.lipschitz,
+                local_neighbours=int(self.local_neighbours),
+            )
+            # The k-step regressor, built once: the residual scale, ε and γ below and the
+            # horizon's SM core all come from these rows.
+            with warnings.catch_warnings():
+                # Reported once, by this estimator's own checks below.
+                warnings.simplefilter("ignore", UserWarning)
+                x, y = model._prepare_fit(experiments)
             coef, intercept = least_squares(x, y, fit_intercept=True)
             residual = y - (x @ coef + intercept)
             scale[i] = robust_scale(residual)
             target = np.ascontiguousarray(residual if self.linear_part else y)
             # The estimator's own distance (it warns about constant terms here, once).
-            weights = term_weights(self.scaling, self.input_weight, x, resolved)
+            weights = term_weights(self.scaling, self.input_weight, x, model.lags_)
             points = np.ascontiguousarray(x * weights)
             epsilon[i] = (
                 given[i]
@@ -421,20 +433,21 @@ class MultiStepSetMembership(NarxModel):
                 else self._rule_epsilon(points, target, scale[i], int(k))
             )
             gamma, gamma_star_at[i] = self._gamma(points, target, epsilon[i], int(k))
-            model = SetMembership(
-                lags_k,
-                epsilon=epsilon[i].tolist(),
-                gamma=gamma.tolist(),
-                scaling=self.scaling,
-                linear_part=bool(self.linear_part),
-                input_weight=float(self.input_weight),
-                lipschitz=self.lipschitz,
-                local_neighbours=int(self.local_neighbours),
-            )
+            model.set_params(epsilon=epsilon[i].tolist(), gamma=gamma.tolist())
             with warnings.catch_warnings():
                 # Constant regressor terms were reported once, above.
                 warnings.simplefilter("ignore", UserWarning)
-                estimators.append(model.fit(experiments))
+                core = fit_core(
+                    x,
+                    y,
+                    model.lags_,
+                    SMSettings.of(model),
+                    linear=(coef, intercept),
+                    base_weights=weights,
+                )
+            model._set_core(*core)
+            model._mark_fitted()
+            estimators.append(model)
             logger.info("horizon %d: epsilon=%s gamma=%s", k, epsilon[i].tolist(), gamma.tolist())
         self.horizons_ = horizons
         self.estimators_ = tuple(estimators)
@@ -478,7 +491,7 @@ class MultiStepSetMembership(NarxModel):
         usable = np.where(np.isfinite(star[:-1]) & (star[:-1] > 0), star[:-1], np.nan)
         first = np.argmax(~np.isnan(usable), axis=0)
         fallback = usable[first, np.arange(usable.shape[1])]
-        gamma = float(self.gamma_margin) * np.where(star[-1] > 0, star[-1], fallback)
+        gamma = gamma_from_margin(np.where(star[-1] > 0, star[-1], fallback), self.gamma_margin)
         flat = np.flatnonzero(~(gamma > 0))
         if flat.size:
             c = int(flat[0])
@@ -626,7 +639,7 @@ class MultiStepSetMembership(NarxModel):
                 " inputs only (use simulate(data, initial=...) for a free run)"
             )
         x, _ = model.lags_.build_one(data)
-        bounds = model._bounds_rows(x)
+        bounds = model.core_.bounds(x)
         start = model.lags_.max_lag
         i = int(np.flatnonzero(self.horizons_ == int(steps))[0])
         epsilon = self.epsilon_[i]
@@ -703,7 +716,7 @@ class MultiStepSetMembership(NarxModel):
             rows = np.flatnonzero(steps == k)
             start = model.lags_.max_lag
             x, _ = model.lags_.build_one(data)
-            bounds = model._bounds_rows(np.ascontiguousarray(x[rows - start]))
+            bounds = model.core_.bounds(np.ascontiguousarray(x[rows - start]))
             epsilon = self.epsilon_[k - 1]
             y[rows], lower[rows], upper[rows] = (
                 bounds.central,
@@ -899,7 +912,7 @@ class MultiStepSimulator(NarxSimulator):
         model = self._model.estimators_[k - 1]
         t = self._u.shape[0] - 1
         w = model.lags_.regressor_from_history(self._y, self._u, t)
-        bounds = model._bounds_rows(w[None, :])
+        bounds = model.core_.bounds(w[None, :])
         epsilon = self._model.epsilon_[k - 1]
         y_now = np.asarray(bounds.central[0], dtype=np.float64)
         self.lower = bounds.lower[0] - epsilon

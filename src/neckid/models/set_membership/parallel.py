@@ -564,7 +564,7 @@ class ParallelSetMembershipSimulator:
         self._v = np.vstack([self._v, np.concatenate([u_now, y_linear])[None, :]])
         t = self._v.shape[0] - 1
         w = self._sm_lags.regressor_from_history(np.empty((t + 1, 0)), self._v, t)
-        bounds = self._model.sm_._bounds_rows(np.ascontiguousarray(w[None, :]))
+        bounds = self._model.sm_.core_.bounds(np.ascontiguousarray(w[None, :]))
         self._v = self._v[1:]
         self.lower = bounds.lower[0].copy()
         self.upper = bounds.upper[0].copy()
