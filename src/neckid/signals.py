@@ -28,9 +28,9 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import integrate
 from scipy import signal as sps
 
+from neckid._chirp_windows import chirp_phase, window_envelopes
 from neckid._typing import FloatArray
 from neckid.validation import (
     check_number,
@@ -750,60 +750,6 @@ class BandwidthResult:
         return self.bandwidth / (2.0 * math.pi)
 
 
-def _phase_from_frequency(time: FloatArray, omega: FloatArray) -> FloatArray:
-    return np.asarray(integrate.cumulative_trapezoid(omega, time, initial=0.0), dtype=np.float64)
-
-
-def _cycle_bounds(phase: FloatArray) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """For each sample, the first and last index of the cycle centred on it (phase ± pi)."""
-    last = phase.size - 1
-    lo = np.minimum(np.searchsorted(phase, phase - math.pi, side="left"), last)
-    hi = np.minimum(np.searchsorted(phase, phase + math.pi, side="right") - 1, last)
-    return lo, np.maximum(hi, lo)
-
-
-def _hilbert_phase(values: FloatArray) -> FloatArray:
-    phase = np.unwrap(np.angle(sps.hilbert(values)))
-    # Noise can make the estimated phase step back a little; the windows need a monotone phase.
-    return np.asarray(np.maximum.accumulate(phase), dtype=np.float64)
-
-
-def _phase_from_command(time: FloatArray, command: FloatArray) -> FloatArray:
-    """Phase of a chirp command estimated from the samples (no frequency given).
-
-    1. Phase of the analytic signal (Hilbert transform) of the mean-removed command.
-    2. The command's local offset, its mean over the cycle centred on each sample, is removed and
-       the analytic-signal phase taken again (a record-wide mean leaves a slowly varying offset
-       that makes the phase wobble once per cycle).
-    3. The instantaneous frequency is averaged over the cycle centred on each sample
-       (phase advance / time) and integrated back into a phase.
-    """
-    phase = _hilbert_phase(command - command.mean())
-    lo, hi = _cycle_bounds(phase)
-    sums = np.concatenate([[0.0], np.cumsum(command)])
-    local_mean = (sums[hi + 1] - sums[lo]) / (hi - lo + 1)
-    phase = _hilbert_phase(command - local_mean)
-    lo, hi = _cycle_bounds(phase)
-    span = time[hi] - time[lo]
-    omega = np.gradient(phase, time)
-    wide = span > 0
-    omega[wide] = (phase[hi[wide]] - phase[lo[wide]]) / span[wide]
-    return _phase_from_frequency(time, omega)
-
-
-def _harmonic_amplitude(time: FloatArray, phase: FloatArray, values: FloatArray) -> float:
-    """First-harmonic amplitude at the window centre, by least squares.
-
-    ``values ≈ a + b s + (c + e s) cos(phase) + (d + f s) sin(phase)`` with ``s = t - t_centre``;
-    the amplitude at the centre is ``hypot(c, d)``.
-    """
-    centred = time - time.mean()
-    cos, sin = np.cos(phase), np.sin(phase)
-    basis = np.column_stack([np.ones_like(time), centred, cos, sin, centred * cos, centred * sin])
-    coef, *_ = np.linalg.lstsq(basis, values, rcond=None)
-    return float(math.hypot(coef[2], coef[3]))
-
-
 def bandwidth_from_chirp(
     t: ArrayLike,
     command: ArrayLike,
@@ -935,131 +881,31 @@ def bandwidth_from_chirp(
     >>> result.status, round(result.bandwidth, 1)
     ('found', 9.7)
     """
-    time = check_time_vector(t, "t")
-    check_uniform_time(time, "t")
-    cmd = check_vector(command, "command")
-    out = check_vector(response, "response")
-    if cmd.size != time.size or out.size != time.size:
-        raise ValueError(
-            "t, command and response must have the same length; got"
-            f" {time.size}, {cmd.size} and {out.size}"
-        )
+    time, cmd, out = _chirp_arrays(t, command, response)
     threshold_value = check_number(threshold, "threshold", low=0, closed="neither")
     cycles = check_number(cycles_per_window, "cycles_per_window", low=1, integer=True)
     min_samples = check_number(min_samples_per_cycle, "min_samples_per_cycle", low=6, integer=True)
     min_below = check_number(min_windows_below, "min_windows_below", low=1, integer=True)
-
-    if frequency is None:
-        if np.ptp(cmd) == 0:
-            raise ValueError("command is constant; a chirp command must oscillate")
-        phase = _phase_from_command(time, cmd)
-    else:
-        omega_raw = frequency(time) if callable(frequency) else frequency
-        omega = check_vector(omega_raw, "frequency")
-        if omega.size != time.size:
-            raise ValueError(
-                f"frequency must give one value per time stamp ({time.size}); got {omega.size}"
-            )
-        negative = np.flatnonzero(omega < 0)
-        if negative.size:
-            raise ValueError(
-                f"frequency must be >= 0 rad/s; got {float(omega[negative[0]])!r} at row {negative[0]}"
-            )
-        phase = _phase_from_frequency(time, omega)
-
-    # Window boundaries at every half cycle of phase.
-    n_half = int(np.floor((phase[-1] - phase[0]) / math.pi))
-    span = 2 * cycles  # half cycles per window
-    if n_half < span + 2:
-        raise ValueError(
-            f"the record holds {(phase[-1] - phase[0]) / (2 * math.pi):.2f} cycles of the command;"
-            f" the bandwidth needs at least {cycles + 1} (cycles_per_window={cycles} plus one)"
-        )
-    levels = phase[0] + math.pi * np.arange(n_half + 1)
-    edges = np.searchsorted(phase, levels, side="left")
-    edges = np.minimum(edges, time.size - 1)
-
-    centres: list[float] = []
-    freqs: list[float] = []
-    sweeps: list[float] = []
-    cmd_amp: list[float] = []
-    out_amp: list[float] = []
-    for k in range(n_half - span + 1):
-        lo, mid, hi = int(edges[k]), int(edges[k + cycles]), int(edges[k + span])
-        if hi - lo + 1 < min_samples * cycles:
-            break
-        window = slice(lo, hi + 1)
-        tw, pw = time[window], phase[window]
-        duration = tw[-1] - tw[0]
-        centres.append(0.5 * (tw[0] + tw[-1]))
-        freqs.append(float((pw[-1] - pw[0]) / duration))
-        sweeps.append(_window_sweep(time, phase, lo, mid, hi))
-        cmd_amp.append(_harmonic_amplitude(tw, pw, cmd[window]))
-        out_amp.append(_harmonic_amplitude(tw, pw, out[window]))
-
-    if len(centres) < 2:
-        raise ValueError(
-            "fewer than two windows of the command hold at least"
-            f" min_samples_per_cycle={min_samples} samples; sample faster or lower the chirp rate"
-        )
-    command_amplitude = np.asarray(cmd_amp)
-    response_amplitude = np.asarray(out_amp)
-    tiny = np.flatnonzero(command_amplitude <= 1e-12 * max(1.0, float(np.abs(cmd).max())))
-    if tiny.size:
-        raise ValueError(
-            f"command has no oscillation in the window around t={centres[tiny[0]]:g} s"
-            f" (amplitude {float(command_amplitude[tiny[0]])!r}); is it a chirp?"
-        )
+    phase = chirp_phase(time, cmd, frequency)
+    centres, freq_array, sweeps, command_amplitude, response_amplitude = window_envelopes(
+        time, phase, cmd, out, cycles, min_samples
+    )
     ratio = response_amplitude / command_amplitude
-    freq_array = np.asarray(freqs)
 
     # The first window holds the plant's start transient (and the Hilbert edge effect when the
     # phase is estimated): never measured. Then those that sweep too fast.
     unmeasured = np.asarray(sweeps) > _MAX_WINDOW_SWEEP
     unmeasured[0] = True
     first = int(np.argmin(unmeasured)) if not unmeasured.all() else ratio.size
-    above = np.flatnonzero(ratio[first:] >= threshold_value) + first
-    status: BandwidthStatus
-    skipped = _skipped_windows(first, freq_array, sweeps)
-    if first == ratio.size:
-        status, bandwidth, crossing = "not_reached", math.nan, -1
-        start, rate = _advised_chirp(float(freq_array[0]), cycles)
-        reason = (
-            f"no window can be measured: {skipped}; sweep slower, at most {rate:.2g} rad/s^2 at"
-            f" {start:.3g} rad/s"
-        )
-    elif above.size == 0:
-        status, bandwidth, crossing = "below_at_start", math.nan, first
-        start, rate = _advised_chirp(float(freq_array[first]), cycles)
-        reason = (
-            f"the amplitude ratio is below threshold={threshold_value:g} in every measured window,"
-            f" already {ratio[first]:.3g} at {freq_array[first]:.3g} rad/s (the first measured),"
-            f" so the bandwidth is below about {freq_array[first]:.3g} rad/s, or the response is"
-            f" not in the command's unit (its gain at low frequency is not 1); {skipped}."
-            f" To measure it, start the chirp at or below {start:.3g} rad/s and sweep it no"
-            f" faster than {rate:.2g} rad/s^2 (neckid.signals.chirp with"
-            f" omega_start <= {start:.3g} and (omega_end - omega_start) / duration <= {rate:.2g})"
-        )
-    elif ratio.size - 1 - above[-1] < min_below:
-        status, bandwidth, crossing = "not_reached", math.nan, -1
-        reason = (
-            f"the amplitude ratio has not stayed below threshold={threshold_value:g} for"
-            f" {min_below} windows by the end of the record (last frequency"
-            f" {freq_array[-1]:.4g} rad/s); use a longer or faster chirp"
-        )
-    else:
-        i = int(above[-1])
-        crossing = i + 1
-        r0, r1 = ratio[i], ratio[i + 1]
-        f0, f1 = freq_array[i], freq_array[i + 1]
-        fraction = (r0 - threshold_value) / (r0 - r1) if r0 != r1 else 0.0
-        bandwidth = float(f0 + fraction * (f1 - f0))
-        status = "found"
-        reason = (
-            f"the amplitude ratio falls below threshold={threshold_value:g} for good between"
-            f" {f0:.4g} and {f1:.4g} rad/s (ratio {r0:.3g} and {r1:.3g}), at {bandwidth:.4g} rad/s"
-            f" by linear interpolation; {skipped}"
-        )
+    status, bandwidth, crossing, reason = _bandwidth_rule(
+        ratio,
+        freq_array,
+        first,
+        _skipped_windows(first, freq_array, sweeps),
+        threshold_value,
+        cycles,
+        min_below,
+    )
     if status != "found":
         warnings.warn(reason, stacklevel=2)
     return BandwidthResult(
@@ -1077,15 +923,70 @@ def bandwidth_from_chirp(
     )
 
 
-def _window_sweep(time: FloatArray, phase: FloatArray, lo: int, mid: int, hi: int) -> float:
-    """How much the mean frequency changes between the two halves of a window (0: not at all)."""
-    if not lo < mid < hi:
-        return math.inf
-    first = (phase[mid] - phase[lo]) / (time[mid] - time[lo])
-    second = (phase[hi] - phase[mid]) / (time[hi] - time[mid])
-    if first <= 0 or second <= 0:
-        return math.inf
-    return float(max(second / first, first / second) - 1.0)
+def _chirp_arrays(
+    t: ArrayLike, command: ArrayLike, response: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The checked time stamps, command and response of a chirp run (same length, uniform time)."""
+    time = check_time_vector(t, "t")
+    check_uniform_time(time, "t")
+    cmd = check_vector(command, "command")
+    out = check_vector(response, "response")
+    if cmd.size != time.size or out.size != time.size:
+        raise ValueError(
+            "t, command and response must have the same length; got"
+            f" {time.size}, {cmd.size} and {out.size}"
+        )
+    return time, cmd, out
+
+
+def _bandwidth_rule(
+    ratio: FloatArray,
+    freq_array: FloatArray,
+    first: int,
+    skipped: str,
+    threshold_value: float,
+    cycles: int,
+    min_below: int,
+) -> tuple[BandwidthStatus, float, int, str]:
+    """Status, bandwidth, crossing index and reason from the amplitude ratio of each window."""
+    above = np.flatnonzero(ratio[first:] >= threshold_value) + first
+    if first == ratio.size:
+        start, rate = _advised_chirp(float(freq_array[0]), cycles)
+        reason = (
+            f"no window can be measured: {skipped}; sweep slower, at most {rate:.2g} rad/s^2 at"
+            f" {start:.3g} rad/s"
+        )
+        return "not_reached", math.nan, -1, reason
+    if above.size == 0:
+        start, rate = _advised_chirp(float(freq_array[first]), cycles)
+        reason = (
+            f"the amplitude ratio is below threshold={threshold_value:g} in every measured window,"
+            f" already {ratio[first]:.3g} at {freq_array[first]:.3g} rad/s (the first measured),"
+            f" so the bandwidth is below about {freq_array[first]:.3g} rad/s, or the response is"
+            f" not in the command's unit (its gain at low frequency is not 1); {skipped}."
+            f" To measure it, start the chirp at or below {start:.3g} rad/s and sweep it no"
+            f" faster than {rate:.2g} rad/s^2 (neckid.signals.chirp with"
+            f" omega_start <= {start:.3g} and (omega_end - omega_start) / duration <= {rate:.2g})"
+        )
+        return "below_at_start", math.nan, first, reason
+    if ratio.size - 1 - above[-1] < min_below:
+        reason = (
+            f"the amplitude ratio has not stayed below threshold={threshold_value:g} for"
+            f" {min_below} windows by the end of the record (last frequency"
+            f" {freq_array[-1]:.4g} rad/s); use a longer or faster chirp"
+        )
+        return "not_reached", math.nan, -1, reason
+    i = int(above[-1])
+    r0, r1 = ratio[i], ratio[i + 1]
+    f0, f1 = freq_array[i], freq_array[i + 1]
+    fraction = (r0 - threshold_value) / (r0 - r1) if r0 != r1 else 0.0
+    bandwidth = float(f0 + fraction * (f1 - f0))
+    reason = (
+        f"the amplitude ratio falls below threshold={threshold_value:g} for good between"
+        f" {f0:.4g} and {f1:.4g} rad/s (ratio {r0:.3g} and {r1:.3g}), at {bandwidth:.4g} rad/s"
+        f" by linear interpolation; {skipped}"
+    )
+    return "found", bandwidth, i + 1, reason
 
 
 def _advised_chirp(frequency: float, cycles: int) -> tuple[float, float]:

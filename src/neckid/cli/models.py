@@ -226,16 +226,17 @@ def _print_band(result: Any, data: Any) -> None:
     if result.lower is None or result.upper is None:
         return
     from neckid.metrics import coverage, mean_width
+    from neckid.models.bands import band_meaning
 
-    kind = result.extras.get("band", "guaranteed bounds of the noise-free output (SM)")
+    kind = band_meaning(result.extras)
     skip = result.n_initial
     widths = mean_width(result.lower, result.upper, skip=skip)
     covered = coverage(data.y, result.lower, result.upper, skip=skip)
     for j, name in enumerate(data.output_names):
         unit = f" {data.output_units[j]}" if data.output_units[j] else ""
         console.print(
-            f"band of {name} ({kind}): mean width {widths[j]:.4g}{unit}, holds"
-            f" {covered[j]:.1%} of the measured samples",
+            f"band of {name}: mean width {widths[j]:.4g}{unit}, holds {covered[j]:.1%} of the"
+            f" measured samples. {kind}",
             markup=False,
         )
 

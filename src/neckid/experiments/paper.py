@@ -27,7 +27,7 @@ import json
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +53,7 @@ from neckid.outputs import StagedFolder
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.plant.calibration import chirp_bandwidth
 from neckid.registry import methods
+from neckid.regressors import Lags
 from neckid.selection import lag_grid, select_lags
 from neckid.signals import multisine, sine, staircase, step
 
@@ -138,12 +139,87 @@ def run_demo(
 def _run_protocol(
     out: StagedFolder, settings: DemoSettings | None, on_step: Callable[[str], None] | None
 ) -> DemoResult:
+    """Steps 1-8 of the protocol, the files written into the staged folder."""
     started = time.perf_counter()
     settings = settings if settings is not None else DemoSettings.make()
     notify = on_step if on_step is not None else (lambda _text: None)
-    rng = np.random.default_rng(settings.seed)
-    seeds = rng.integers(0, 2**31 - 1, size=8)
+    seeds = np.random.default_rng(settings.seed).integers(0, 2**31 - 1, size=8)
 
+    data = _measure(settings, seeds, notify)
+
+    # 3. regressor -----------------------------------------------------------------------------
+    notify(
+        "regressor: networks over candidate lag sets"
+        if not settings.paper_regressor
+        else "regressor: the paper's"
+    )
+    lags, selection_table = _choose_lags(settings, int(seeds[3]), data.train, data.validation)
+
+    # 4. models ----------------------------------------------------------------------------------
+    notify("models: Set Membership, neural NARX, ARX")
+    narx_models, fit_times = _fit_narx_models(settings, int(seeds[3]), lags, data.train)
+
+    notify("CFF-RLS at each inclination, scheduled model")
+    t0 = time.perf_counter()
+    points, scheduled = _fit_scheduled(settings, int(seeds[4]), int(seeds[5]))
+    fit_times["Scheduled CFF-RLS"] = time.perf_counter() - t0
+
+    # 5-6. validation and tests ------------------------------------------------------------------
+    notify("validation and closed-loop tests")
+    results, fits, maes, rmses = _validate(data.records, narx_models, scheduled)
+    # 6b. the models in the loop: each model in place of the neck, same PI and references ---------
+    notify("models in the loop: tests 1-3")
+    loop = _models_in_the_loop(
+        {**narx_models, "Scheduled CFF-RLS": scheduled}, data.records, settings
+    )
+    table = _with_paper_fits(fits)
+    maes.index.name = "model"
+
+    # 7-8. files -----------------------------------------------------------------------------------
+    notify("figures, models, report")
+    files = write_outputs(
+        out,
+        settings,
+        data.chirp,
+        data.chirp_run,
+        data.records,
+        results,
+        narx_models,
+        scheduled,
+        points,
+        table,
+        maes,
+        selection_table,
+        lags,
+        sensor_delay=data.neck.delay_samples,
+        loop=loop,
+    )
+    metrics = _metrics(
+        settings, data, lags, (fits, maes, rmses), fit_times, loop, narx_models, scheduled, points
+    )
+    metrics["files"] = {k: str(v.name) for k, v in files.items()}
+    wall = time.perf_counter() - started
+    metrics["wall_time_s"] = wall
+    out.path("metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
+    files["metrics"] = out.final("metrics.json")
+    return DemoResult(table, maes, metrics, data.bandwidth, lags, files, wall)
+
+
+@dataclass(frozen=True)
+class _Measured:
+    """What steps 1-2 measure on the neck: the chirp run, its bandwidth and the records."""
+
+    neck: SoftNeck
+    chirp: Any
+    chirp_run: tuple[Any, Any, Any]
+    bandwidth: float
+    train: IOData
+    validation: IOData
+    records: dict[str, IOData]
+
+
+def _measure(settings: DemoSettings, seeds: Any, notify: Callable[[str], None]) -> _Measured:
+    """Steps 1-2: the bandwidth chirp, the identification and validation records, tests 1-3."""
     # 1. bandwidth --------------------------------------------------------------------------
     notify("bandwidth: the paper's up-chirp in closed loop")
     neck = SoftNeck(ts=settings.ts, seed=int(seeds[0]))
@@ -161,77 +237,15 @@ def _run_protocol(
     )
     tests = _closed_loop_tests(neck, settings)
     records = {EXPERIMENTS[0]: validation, **tests}
-
-    # 3. regressor -----------------------------------------------------------------------------
-    notify(
-        "regressor: networks over candidate lag sets"
-        if not settings.paper_regressor
-        else "regressor: the paper's"
-    )
-    lags, selection_table = _choose_lags(settings, int(seeds[3]), train, validation)
-
-    # 4. models ----------------------------------------------------------------------------------
-    notify("models: Set Membership, neural NARX, ARX")
-    narx_models, fit_times = _fit_narx_models(settings, int(seeds[3]), lags, train)
-
-    notify("CFF-RLS at each inclination, scheduled model")
-    t0 = time.perf_counter()
-    points, scheduled = _fit_scheduled(settings, int(seeds[4]), int(seeds[5]))
-    fit_times["Scheduled CFF-RLS"] = time.perf_counter() - t0
-
-    # 5-6. validation and tests ------------------------------------------------------------------
-    notify("validation and closed-loop tests")
-    results, fits, maes, rmses = _validate(records, narx_models, scheduled)
-    # 6b. the models in the loop: each model in place of the neck, same PI and references ---------
-    notify("models in the loop: tests 1-3")
-    loop = _models_in_the_loop({**narx_models, "Scheduled CFF-RLS": scheduled}, records, settings)
-    paper = pd.DataFrame(PAPER_FITS, index=list(EXPERIMENTS)).T
-    table = pd.concat([fits, paper])
-    table.index.name = "model"
-    maes.index.name = "model"
-
-    # 7-8. files -----------------------------------------------------------------------------------
-    notify("figures, models, report")
-    files = write_outputs(
-        out,
-        settings,
+    return _Measured(
+        neck,
         chirp,
         (chirp_time, chirp_reference, chirp_response),
+        bandwidth,
+        train,
+        validation,
         records,
-        results,
-        narx_models,
-        scheduled,
-        points,
-        table,
-        maes,
-        selection_table,
-        lags,
-        sensor_delay=neck.delay_samples,
-        loop=loop,
     )
-    metrics: dict[str, Any] = {
-        "settings": {
-            k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(settings).items()
-        },
-        "bandwidth_rad_s": bandwidth,
-        "bandwidth_status": chirp.status,
-        "paper_bandwidth_rad_s": 4.2,
-        "lags": repr(lags),
-        "fit_percent": _nested(fits),
-        "mae_deg": _nested(maes),
-        "rmse_deg": _nested(rmses),
-        "paper_fit_percent": {
-            k: dict(zip(EXPERIMENTS, v, strict=True)) for k, v in PAPER_FITS.items()
-        },
-        "fit_time_s": fit_times,
-        **_model_metrics(loop, narx_models, scheduled, points),
-        "files": {k: str(v.name) for k, v in files.items()},
-    }
-    wall = time.perf_counter() - started
-    metrics["wall_time_s"] = wall
-    out.path("metrics.json").write_text(json.dumps(_json_ready(metrics), indent=2, allow_nan=False))
-    files["metrics"] = out.final("metrics.json")
-    return DemoResult(table, maes, metrics, bandwidth, lags, files, wall)
 
 
 def _choose_lags(
@@ -329,11 +343,42 @@ def _validate(
     return results, fits, maes, rmses
 
 
-def _model_metrics(
-    loop: dict[str, pd.DataFrame], narx_models: dict[str, Any], scheduled: Any, points: Any
+def _with_paper_fits(fits: pd.DataFrame) -> pd.DataFrame:
+    """The fit table with the paper's fits as extra rows, its index named "model"."""
+    paper = pd.DataFrame(PAPER_FITS, index=list(EXPERIMENTS)).T
+    table = pd.concat([fits, paper])
+    table.index.name = "model"
+    return table
+
+
+def _metrics(
+    settings: DemoSettings,
+    data: _Measured,
+    lags: Lags,
+    scores: tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame],
+    fit_times: dict[str, float],
+    loop: dict[str, pd.DataFrame],
+    narx_models: dict[str, Any],
+    scheduled: Any,
+    points: Any,
 ) -> dict[str, Any]:
-    """The metrics of the models in the loop, the Set Membership constants and the schedule."""
+    """The numbers of ``metrics.json`` but the files and the wall time."""
+    fits, maes, rmses = scores
     return {
+        "settings": {
+            k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(settings).items()
+        },
+        "bandwidth_rad_s": data.bandwidth,
+        "bandwidth_status": data.chirp.status,
+        "paper_bandwidth_rad_s": 4.2,
+        "lags": repr(lags),
+        "fit_percent": _nested(fits),
+        "mae_deg": _nested(maes),
+        "rmse_deg": _nested(rmses),
+        "paper_fit_percent": {
+            k: dict(zip(EXPERIMENTS, v, strict=True)) for k, v in PAPER_FITS.items()
+        },
+        "fit_time_s": fit_times,
         "model_in_the_loop": {
             "fit_percent": _nested(loop["fit"]),
             "command_fit_percent": _nested(loop["command_fit"]),

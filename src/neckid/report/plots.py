@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from neckid.data.iodata import IOData
+from neckid.models.bands import band_label
 from neckid.models.base import ModelResult
 
 __all__ = ["plot_simulation"]
@@ -96,7 +97,7 @@ def plot_simulation(
                     color=color,
                     alpha=0.15,
                     lw=0,
-                    label=f"{name} bounds",
+                    label=f"{name}: {band_label(result.extras)}",
                 )
     values = np.concatenate(shown)
     low, high = float(np.min(values)), float(np.max(values))
@@ -104,13 +105,14 @@ def plot_simulation(
     ax.set_ylim(low - margin, high + margin)
     handles, labels = ax.get_legend_handles_labels()
     for name, result in results.items():
-        if result.lower is not None and result.upper is not None and f"{name} bounds" in labels:
+        band = f"{name}: {band_label(result.extras)}"
+        if result.lower is not None and result.upper is not None and band in labels:
             wider = (
                 np.nanmin(result.lower[:, output]) < low - margin
                 or np.nanmax(result.upper[:, output]) > high + margin
             )
             if wider:
-                labels[labels.index(f"{name} bounds")] = f"{name} bounds (cut at the plot edges)"
+                labels[labels.index(band)] = f"{band} (cut at the plot edges)"
     if n_initial:
         ax.axvspan(t[0], t[min(n_initial, t.size - 1)], color="0.85", lw=0, zorder=0)
         handles.append(plt.Rectangle((0, 0), 1, 1, color="0.85"))

@@ -295,7 +295,7 @@ def _choose_prior(
             "gamma*(eps) over %d pairs, %d eps values", n_rows * (n_rows - 1) // 2, grid.shape[0]
         )
         values = _gamma_star(tree.points, tree.targets, grid, settings.progress, tree)
-        curve = GammaCurve(grid, values, names, n_rows)
+        curve = GammaCurve(grid, values, tuple(names), n_rows)
     # The prior holds by construction when γ or ε is derived from the other; only a (ε, γ)
     # given together is checked (γ >= γ*(ε), by branch and bound from γ).
     valid = np.ones(len(names), dtype=bool)

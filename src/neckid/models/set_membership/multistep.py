@@ -528,7 +528,10 @@ class MultiStepSetMembership(NarxModel):
         for k, model in zip(self.horizons_.tolist(), self.estimators_, strict=True):
             if all(d.n_samples > model.lags_.max_lag for d in experiments):
                 found = model.invalidation(experiments)
-                report[int(k)] = found[0] if isinstance(data, IOData) else found
+                if isinstance(data, IOData) and isinstance(found, list):
+                    report[int(k)] = found[0]
+                else:
+                    report[int(k)] = found
         return report
 
     def partial_fit(

@@ -387,7 +387,7 @@ class SetMembership(NarxModel):
         lower = np.full(y.shape, np.nan)
         upper = np.full(y.shape, np.nan)
         y[m:], lower[m:], upper[m:] = result.central, result.lower, result.upper
-        return self._result("prediction", data, y, lower, upper)
+        return self._result("prediction", data, y, lower, upper, {"band": "sm-one-step"})
 
     def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation (compiled loop): the regressor holds the model's own past outputs.
@@ -403,9 +403,9 @@ class SetMembership(NarxModel):
         if self.point_gamma_ is not None:
             # Local constants: no compiled loop; the simulator steps the same bounds.
             y, lower, upper = stepped_run(self.simulator(), data.u, y0, self.lags_.max_lag)
-            return self._result("simulation", data, y, lower, upper)
+            return self._result("simulation", data, y, lower, upper, {"band": "sm-free-run"})
         y, lower, upper = self.core_.free_run(data.u, y0, self.lags_)
-        return self._result("simulation", data, y, lower, upper)
+        return self._result("simulation", data, y, lower, upper, {"band": "sm-free-run"})
 
     def simulator(self) -> SetMembershipSimulator:
         """A stateful simulator with ``reset(y0=..., u0=...)`` and ``step(u) -> y``.

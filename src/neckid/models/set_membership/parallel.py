@@ -369,7 +369,7 @@ class ParallelSetMembership(Estimator):
         y[m:] = self._estimate(
             result.y[m:], augmented.u[m:, -self.n_outputs_ :], lower[m:], upper[m:]
         )
-        return self._result("simulation", data, y, lower, upper)
+        return self._result("simulation", data, y, lower, upper, {"band": "sm-free-run"})
 
     def _estimate(
         self, central: FloatArray, parallel: FloatArray, lower: FloatArray, upper: FloatArray
