@@ -256,3 +256,30 @@ def test_demo_quick_writes_report_metrics_figures_models(tmp_path: Path) -> None
     for experiment in EXPERIMENTS:
         assert experiment in page
     assert "88.75" in page  # the paper's row is in the table
+
+
+def test_validate_says_when_a_log_contradicts_the_sm_prior(
+    neck_logs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    train, _ = neck_logs
+    model_path = tmp_path / "sm.npz"
+    args = ["--inputs", "motor_position", "--outputs", "inclination", "--lags", "1-2/1-3"]
+    result = runner.invoke(
+        app, ["identify", str(train), *args, "--method", "sm", "--save", str(model_path)]
+    )
+    assert result.exit_code == 0, result.output
+    same = runner.invoke(app, ["validate", str(model_path), str(train)])
+    assert same.exit_code == 0, same.output
+    assert "does not contradict the prior" in _plain(same.output)
+    assert "SM free-run band: bounds f at the simulated regressor, not the trajectory" in _plain(
+        same.output
+    )
+    shifted = pd.read_csv(train)
+    shifted["inclination"] += 3.0  # the same run with the sensor offset by 3 deg
+    moved = tmp_path / "moved.csv"
+    shifted.to_csv(moved, index=False)
+    other = runner.invoke(app, ["validate", str(model_path), str(moved)])
+    assert other.exit_code == 0, other.output
+    text = _plain(other.output)
+    assert "prior contradicted:" in text and "the smallest ε that holds them all is" in text.lower()
+    assert "guaranteed bounds of the noise-free output" not in text

@@ -18,6 +18,9 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "neckid"
 #: Lines of code (docstrings, comments and blank lines excluded) a module may have.
 MAX_CODE_LINES = 500
 
+#: Lines of code (docstring, comments and blank lines excluded) a function or method may have.
+MAX_FUNCTION_LINES = 80
+
 #: What a layer must never import.
 FORBIDDEN = {
     "neckid.data": (
@@ -269,6 +272,80 @@ def _code_lines(path: Path) -> int:
 def test_no_module_is_a_god_module() -> None:
     sizes = {_module_name(p): _code_lines(p) for p in PACKAGE.rglob("*.py")}
     assert {k: v for k, v in sizes.items() if v > MAX_CODE_LINES} == {}
+
+
+def _has_docstring(body: list[ast.stmt]) -> bool:
+    return (
+        bool(body)
+        and isinstance(body[0], ast.Expr)
+        and isinstance(body[0].value, ast.Constant)
+        and isinstance(body[0].value.value, str)
+    )
+
+
+def _function_sizes(source: str) -> dict[str, int]:
+    """Lines of code of every function and method, by ``name:line``: from the first statement
+    after the docstring to the function's last line, blank and comment-only lines excluded
+    (a nested function counts in its parent too)."""
+    lines = source.splitlines()
+    sizes: dict[str, int] = {}
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef):
+                name = f"{prefix}{child.name}"
+                body = child.body[1:] if _has_docstring(child.body) else child.body
+                if body:
+                    sizes[f"{name}:{child.lineno}"] = sum(
+                        1
+                        for line in lines[body[0].lineno - 1 : child.end_lineno]
+                        if line.strip() and not line.strip().startswith("#")
+                    )
+                visit(child, f"{name}.")
+            elif isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.")
+            else:
+                visit(child, prefix)
+
+    visit(ast.parse(source), "")
+    return sizes
+
+
+def test_the_function_size_counts_code_lines_only() -> None:
+    source = '''
+def f(x):
+    """A docstring.
+
+    Over lines.
+    """
+    # a comment
+
+    y = x + 1
+
+
+    return (
+        y
+    )
+
+
+class C:
+    def m(self):
+        def inner():
+            return 1
+        return inner()
+'''
+    assert _function_sizes(source) == {"f:2": 4, "C.m:18": 3, "C.m.inner:19": 1}
+
+
+def test_no_function_is_a_god_function() -> None:
+    """Split, don't compress: no function or method over ``MAX_FUNCTION_LINES`` lines of code."""
+    offenders = {
+        f"{_module_name(p)}.{name}": size
+        for p in sorted(PACKAGE.rglob("*.py"))
+        for name, size in _function_sizes(p.read_text(encoding="utf-8")).items()
+        if size > MAX_FUNCTION_LINES
+    }
+    assert offenders == {}, f"functions over {MAX_FUNCTION_LINES} lines of code: {offenders}"
 
 
 def test_private_names_stay_in_their_family() -> None:

@@ -109,3 +109,26 @@ def test_model_file_refusals(tmp_path) -> None:
     np.savez(future, __neckid__=np.array(json.dumps(header)))
     with pytest.raises(ValueError, match="newer than this neckid reads"):
         load_model(future)
+
+
+def test_a_free_run_that_leaves_the_envelope_of_the_training_outputs_is_a_divergence() -> None:
+    from neckid import DivergenceError, IOData, Lags, LinearARX
+    from neckid.models.base import DIVERGENCE_SPANS
+
+    rng = np.random.default_rng(5)
+    u = rng.uniform(-1.0, 1.0, 600)
+    y = np.zeros(600)
+    for t in range(1, 600):
+        y[t] = 0.8 * y[t - 1] + 0.5 * u[t - 1]
+    data = IOData(u, y, ts=0.02)
+    model = LinearARX(Lags.arx(1, 1), fit_intercept=False).fit(data)
+    assert model.simulate(data).y.shape == (600, 1)  # the stable model stays inside
+    low, high = model.divergence_envelope()["y"]
+    width = y.max() - y.min()
+    assert low == pytest.approx(y.min() - DIVERGENCE_SPANS * width)
+    assert high == pytest.approx(y.max() + DIVERGENCE_SPANS * width)
+    model.coef_[0, 0] = 1.05  # y(t) = 1.05 y(t-1) + ...: finite for 600 samples, but runs away
+    with pytest.raises(DivergenceError, match="ran away: output 'y'") as caught:
+        model.simulate(data)
+    run = caught.value.result.y[:, 0]
+    assert np.all(np.isfinite(run)) and np.abs(run).max() > high

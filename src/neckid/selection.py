@@ -35,7 +35,7 @@ from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
 from neckid.registry import get_method
-from neckid.regressors import Lags
+from neckid.regressors import Lags, ResolvedLags
 
 __all__ = [
     "LagSelection",
@@ -837,6 +837,54 @@ def lipschitz_quotients(
     >>> bool(index[2, 2] > 0.5 * index[1, 1])
     True
     """
+    _check_quotient_arguments(max_output_lag, max_input_lag, input_delay, fraction, max_samples)
+    experiments = as_experiments(data)
+    first = experiments[0]
+    if first.n_outputs == 0:
+        raise ValueError("data has no output channel; the Lipschitz index needs outputs")
+    x_all, y_all, resolved = _quotient_rows(
+        experiments, max_output_lag, max_input_lag, input_delay, max_samples, seed, standardize
+    )
+    n_rows = x_all.shape[0]
+    p = max(1, round(fraction * n_rows))
+    block = max(1, int(2_000_000 // max(1, n_rows * max(1, resolved.n_terms))))
+
+    records = []
+    for na in range(max_output_lag + 1):
+        for nb in range(max_input_lag + 1):
+            if na == 0 and nb == 0:
+                continue
+            columns = ((resolved.source == 0) & (resolved.lag <= na)) | (
+                (resolved.source == 1) & (resolved.lag < input_delay + nb)
+            )
+            x = np.ascontiguousarray(x_all[:, columns])
+            n_terms = int(columns.sum())
+            for j, name in enumerate(first.output_names):
+                records.append(
+                    {
+                        "output": name,
+                        "output_order": na,
+                        "input_order": nb,
+                        "n_terms": n_terms,
+                        "index": _lipschitz_index(x, y_all[:, j], n_terms, p, block),
+                        "n_rows": n_rows,
+                        "p": p,
+                    }
+                )
+    table = pd.DataFrame.from_records(records)
+    table.attrs["input_delay"] = int(input_delay)
+    table.attrs["reference"] = "He & Asada, ACC 1993"
+    return table
+
+
+def _check_quotient_arguments(
+    max_output_lag: int,
+    max_input_lag: int,
+    input_delay: int,
+    fraction: float,
+    max_samples: int | None,
+) -> None:
+    """Raise the ValueError of :func:`lipschitz_quotients` for a bad order, delay, fraction or size."""
     for name, value in (("max_output_lag", max_output_lag), ("max_input_lag", max_input_lag)):
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
             raise ValueError(f"{name} must be an int >= 0; got {value!r}")
@@ -856,11 +904,18 @@ def lipschitz_quotients(
         or max_samples < 10
     ):
         raise ValueError(f"max_samples must be an int >= 10 or None; got {max_samples!r}")
-    experiments = as_experiments(data)
-    first = experiments[0]
-    if first.n_outputs == 0:
-        raise ValueError("data has no output channel; the Lipschitz index needs outputs")
 
+
+def _quotient_rows(
+    experiments: list[IOData],
+    max_output_lag: int,
+    max_input_lag: int,
+    input_delay: int,
+    max_samples: int | None,
+    seed: int | np.random.Generator | None,
+    standardize: bool,
+) -> tuple[FloatArray, FloatArray, ResolvedLags]:
+    """The rows of the largest regressor and their outputs (scaled, subsampled) and its terms."""
     # The largest regressor: every candidate is a subset of its columns, and all use the same rows.
     full = Lags(
         outputs=list(range(1, max_output_lag + 1)),
@@ -886,37 +941,12 @@ def lipschitz_quotients(
         n_rows = int(max_samples)
     if n_rows < 2:
         raise ValueError(f"the Lipschitz index needs at least 2 regressor rows; got {n_rows}")
-    p = max(1, round(fraction * n_rows))
-    block = max(1, int(2_000_000 // max(1, n_rows * max(1, resolved.n_terms))))
+    return x_all, y_all, resolved
 
-    records = []
-    for na in range(max_output_lag + 1):
-        for nb in range(max_input_lag + 1):
-            if na == 0 and nb == 0:
-                continue
-            columns = ((resolved.source == 0) & (resolved.lag <= na)) | (
-                (resolved.source == 1) & (resolved.lag < input_delay + nb)
-            )
-            x = np.ascontiguousarray(x_all[:, columns])
-            n_terms = int(columns.sum())
-            for j, name in enumerate(first.output_names):
-                top, _ = _top_quotients(x, y_all[:, j], p, block)
-                if top.size == 0 or np.any(top == 0):
-                    index = 0.0 if top.size else np.nan
-                else:
-                    index = float(np.exp(np.mean(np.log(np.sqrt(n_terms) * top))))
-                records.append(
-                    {
-                        "output": name,
-                        "output_order": na,
-                        "input_order": nb,
-                        "n_terms": n_terms,
-                        "index": index,
-                        "n_rows": n_rows,
-                        "p": p,
-                    }
-                )
-    table = pd.DataFrame.from_records(records)
-    table.attrs["input_delay"] = int(input_delay)
-    table.attrs["reference"] = "He & Asada, ACC 1993"
-    return table
+
+def _lipschitz_index(x: FloatArray, y: FloatArray, n_terms: int, p: int, block: int) -> float:
+    """He & Asada's index of one output: the geometric mean of the ``p`` largest scaled quotients."""
+    top, _ = _top_quotients(x, y, p, block)
+    if top.size == 0 or np.any(top == 0):
+        return 0.0 if top.size else np.nan
+    return float(np.exp(np.mean(np.log(np.sqrt(n_terms) * top))))

@@ -283,6 +283,39 @@ def _print_horizons(model: Any, data: Any) -> None:
         )
 
 
+def _print_prior_check(model: Any, data: Any) -> None:
+    """For an SM model: does the log contradict its prior, one step ahead? And what to do."""
+    check = getattr(model, "invalidation", None)
+    epsilon = getattr(model, "epsilon_", None)
+    if check is None or hasattr(model, "horizons_") or getattr(epsilon, "ndim", 0) != 1:
+        return
+    found = check(data)
+    for j, name in enumerate(data.output_names):
+        unit = f" {data.output_units[j]}" if data.output_units[j] else ""
+        share = float(found.fraction[j])
+        if share == 0:
+            console.print(
+                f"prior check of {name} (one step ahead, measured regressors): every sample lies"
+                f" in [f_l − ε, f_u + ε] (ε = {float(epsilon[j]):.4g}{unit}); the log does not"
+                " contradict the prior",
+                markup=False,
+            )
+            continue
+        advice = (
+            f"{share:.1%} of the samples of {name} fall outside [f_l − ε, f_u + ε] one step"
+            f" ahead (ε = {float(epsilon[j]):.4g}{unit}, γ kept): the SM bounds are not"
+            " guaranteed on this log. The smallest ε that holds them all is"
+            f" {float(found.smallest_epsilon[j]):.4g}{unit}. Identify again with this log among"
+            " the training logs, or with a larger --set epsilon=..., or update the model with"
+            " it (SetMembership.partial_fit in Python)."
+        )
+        error_console.print(
+            f"[yellow]prior contradicted:[/yellow] {escape(advice)}",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
 def _report_extrapolation(result: Any) -> None:
     from neckid.models.base import EXTRAPOLATION_WARNING
 
@@ -351,6 +384,7 @@ def validate(
     console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
     _print_prior(model)
     _print_band(result, data)
+    _print_prior_check(model, data)
     _print_horizons(model, data)
     _report_extrapolation(result)
     if plot is not None:

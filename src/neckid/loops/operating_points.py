@@ -362,18 +362,7 @@ def operating_points_from_logs(
     if not experiments:
         raise ValueError("logs is empty; give at least one IOData")
     as_experiments(experiments[:1])
-    target_values: list[float]
-    if targets is None:
-        target_values = [
-            float(log.channel("reference")[-1])
-            if "reference" in (*log.input_names, *log.output_names)
-            else math.nan
-            for log in experiments
-        ]
-    else:
-        target_values = [float(v) for v in np.asarray(targets, dtype=np.float64).reshape(-1)]
-        if len(target_values) != len(experiments):
-            raise ValueError(f"targets has {len(target_values)} values for {len(experiments)} logs")
+    target_values = _log_targets(experiments, targets)
     if isinstance(skip, bool) or not isinstance(skip, int | np.integer) or skip < 0:
         raise ValueError(f"skip must be a whole number of samples >= 0; got {skip!r}")
     lam = float(forgetting_factor)
@@ -383,19 +372,7 @@ def operating_points_from_logs(
     models: list[RecursiveARX] = []
     ts = experiments[0].ts
     for index, log in enumerate(experiments):
-        if not isinstance(log, IOData):
-            raise TypeError(f"logs[{index}] must be an IOData; got {type(log).__name__}")
-        label = log.name or f"logs[{index}]"
-        try:
-            u = np.asarray(log.channel(input))[skip:]
-            incl = np.asarray(log.channel(output))[skip:]
-        except KeyError as exc:
-            raise KeyError(f"{label}: {exc.args[0]}; set input=... and output=...") from None
-        if incl.size < window + 3:
-            raise ValueError(
-                f"{label} has {log.n_samples} samples; the protocol needs at least"
-                f" skip + window + 3 = {skip + window + 3}"
-            )
+        label, u, incl = _log_signals(log, index, input, output, skip, window)
         point = identify_point(
             u,
             incl,
@@ -439,3 +416,38 @@ def operating_points_from_logs(
         "form": str(form),
     }
     return OperatingPointResult(table, tuple(experiments), tuple(models), ts, settings)
+
+
+def _log_targets(experiments: list[Any], targets: ArrayLike | None) -> list[float]:
+    """The target inclination of each log: ``targets``, else the last reference value, else NaN."""
+    if targets is None:
+        return [
+            float(log.channel("reference")[-1])
+            if "reference" in (*log.input_names, *log.output_names)
+            else math.nan
+            for log in experiments
+        ]
+    target_values = [float(v) for v in np.asarray(targets, dtype=np.float64).reshape(-1)]
+    if len(target_values) != len(experiments):
+        raise ValueError(f"targets has {len(target_values)} values for {len(experiments)} logs")
+    return target_values
+
+
+def _log_signals(
+    log: Any, index: int, input: str, output: str, skip: int, window: int
+) -> tuple[str, FloatArray, FloatArray]:
+    """A log's label and its command and inclination after ``skip``, checked long enough."""
+    if not isinstance(log, IOData):
+        raise TypeError(f"logs[{index}] must be an IOData; got {type(log).__name__}")
+    label = log.name or f"logs[{index}]"
+    try:
+        u = np.asarray(log.channel(input))[skip:]
+        incl = np.asarray(log.channel(output))[skip:]
+    except KeyError as exc:
+        raise KeyError(f"{label}: {exc.args[0]}; set input=... and output=...") from None
+    if incl.size < window + 3:
+        raise ValueError(
+            f"{label} has {log.n_samples} samples; the protocol needs at least"
+            f" skip + window + 3 = {skip + window + 3}"
+        )
+    return label, u, incl

@@ -44,6 +44,7 @@ from neckid.systems import HistoryMap, StateMap, history_rows
 from neckid.validation import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
 
 __all__ = [
+    "DIVERGENCE_SPANS",
     "EXTRAPOLATION_WARNING",
     "DivergenceError",
     "Estimator",
@@ -84,6 +85,11 @@ class ExtrapolationWarning(UserWarning):
 
 #: Share of samples outside the training range above which a simulation warns.
 EXTRAPOLATION_WARNING = 0.05
+
+#: A free run whose output leaves its training range widened by this many times the range's
+#: width on each side has run away: it raises :class:`DivergenceError` as a non-finite run does
+#: (:meth:`Estimator.divergence_envelope`).
+DIVERGENCE_SPANS = 10.0
 
 
 class DivergenceError(ValueError, ArithmeticError):
@@ -280,6 +286,73 @@ class Estimator(BaseEstimator, ModelFile):
                 ranges[name] = (float(values[:, j].min()), float(values[:, j].max()))
         self.training_ranges_ = ranges
 
+    def divergence_envelope(
+        self, spans: float = DIVERGENCE_SPANS
+    ) -> dict[str, tuple[float, float]]:
+        """Per output, the values a free run may take: the training range widened on each side.
+
+        ``[low − spans · (high − low), high + spans · (high − low)]`` of the output's training
+        range, in its units. A free run that leaves it raises :class:`DivergenceError` (a run
+        there is a runaway, not a prediction: no model here was identified on such values).
+
+        Parameters
+        ----------
+        spans : float, default DIVERGENCE_SPANS (10)
+            How many widths of the training range the envelope adds on each side.
+
+        Returns
+        -------
+        dict of str to (float, float)
+            Output name -> (lowest, highest); empty for a model without training ranges (an
+            old model file).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from neckid import IOData, Lags, LinearARX
+        >>> u = np.sin(np.arange(200) / 10.0)
+        >>> y = np.convolve(u, [0.0, 0.5, 0.25])[:200]
+        >>> model = LinearARX(Lags.arx(1, 2)).fit(IOData(u, y, ts=0.1))
+        >>> low, high = model.divergence_envelope(spans=1.0)["y"]
+        >>> bool(low < y.min() and high > y.max())
+        True
+        """
+        ranges: dict[str, tuple[float, float]] = getattr(self, "training_ranges_", {})
+        envelope = {}
+        for name in getattr(self, "output_names_", ()):
+            if name in ranges:
+                low, high = ranges[name]
+                width = high - low
+                envelope[name] = (low - spans * width, high + spans * width)
+        return envelope
+
+    def _check_envelope(self, data: IOData, y: FloatArray, result: ModelResult) -> None:
+        """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope."""
+        envelope = self.divergence_envelope()
+        m = self.max_lag_
+        first: tuple[int, int] | None = None
+        for j, name in enumerate(self.output_names_):
+            if name not in envelope:
+                continue
+            low, high = envelope[name]
+            out = np.flatnonzero((y[m:, j] < low) | (y[m:, j] > high))
+            if out.size and (first is None or out[0] + m < first[0]):
+                first = (int(out[0]) + m, j)
+        if first is None:
+            return
+        row, j = first
+        name, unit = self.output_names_[j], self.output_units_[j]
+        low, high = envelope[name]
+        shown = f" {unit}" if unit else ""
+        raise DivergenceError(
+            f"the {type(self).__name__} free run ran away: output {name!r} = {y[row, j]:.4g}{shown}"
+            f" at sample {row} (t = {data.time[row]:.6g} s) of {data.name or 'the log'} leaves"
+            f" [{low:.4g}, {high:.4g}]{shown}, its training range widened {DIVERGENCE_SPANS:g}"
+            " times its width on each side; the model is unstable, or the log leaves the region"
+            " it was identified on (the whole run is in the exception's .result)",
+            result,
+        )
+
     def extrapolation(self, data: IOData) -> dict[str, float]:
         """Share of the samples of each channel of ``data`` outside the range seen in training.
 
@@ -445,6 +518,8 @@ class Estimator(BaseEstimator, ModelFile):
                 " (the whole run is in the exception's .result)",
                 result,
             )
+        if kind == "simulation":
+            self._check_envelope(data, y, result)
         return result
 
     def _check_state(self) -> None:

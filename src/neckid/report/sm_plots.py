@@ -61,7 +61,6 @@ def plot_gamma_curve(
     ('log', 'inclination: ε = 0.02 deg, γ = 6')
     """
     import matplotlib.pyplot as plt
-    import matplotlib.ticker as mticker
     import matplotlib.transforms as mtransforms
 
     if ax is None:
@@ -77,64 +76,99 @@ def plot_gamma_curve(
         shown = np.isfinite(gamma) & (eps > 0)
         (line,) = ax.plot(eps[shown], gamma[shown], ".-", label=name)
         color = line.get_color()
-        at_zero = (eps == 0) & np.isfinite(gamma) & (gamma > 0)
-        if at_zero.any():
-            ax.plot(
-                [0.0],
-                [gamma[at_zero][0]],
-                marker=">",
-                color=color,
-                ms=8,
-                transform=edge,
-                clip_on=False,
-                ls="none",
-                label=None if zero_noted else "γ*(0) (ε = 0 is off the log axis)",
-            )
-            zero_noted = True
+        zero_noted = _mark_gamma_at_zero(ax, edge, eps, gamma, color, zero_noted)
         if picks is None:
-            k = choose_epsilon(eps, gamma)
-            if eps[k] > 0:
-                ax.plot(
-                    [eps[k]],
-                    [gamma[k]],
-                    "o",
-                    mfc="none",
-                    ms=10,
-                    color=color,
-                    label=f"{name}: knee of the curve",
-                )
-            continue
-        epsilon, lipschitz = float(picks[0][c]), float(picks[1][c])
-        text = f"{name}: ε = {epsilon:.3g} {unit}, γ = {lipschitz:.3g}"
-        if not lipschitz > 0 or not np.isfinite(lipschitz):
-            # Nothing to mark on a log axis: the values are still written on the figure.
-            ax.text(0.02, 0.04 + 0.07 * c, text, transform=ax.transAxes, fontsize=9)
-            continue
-        # ε = 0 (a noise bound given as 0) sits on the left edge, like γ*(0).
-        where = (0.0, edge) if epsilon == 0 else (epsilon, ax.transData)
+            _mark_knee(ax, eps, gamma, color, name)
+        else:
+            epsilon, lipschitz = float(picks[0][c]), float(picks[1][c])
+            _mark_chosen(ax, edge, c, name, color, (epsilon, lipschitz), unit)
+    _format_gamma_axes(ax, unit, title)
+    return fig
+
+
+def _mark_gamma_at_zero(
+    ax: Any, edge: Any, eps: Any, gamma: Any, color: Any, zero_noted: bool
+) -> bool:
+    """γ*(0) as a triangle on the left edge (labelled once); whether the label is given now."""
+    at_zero = (eps == 0) & np.isfinite(gamma) & (gamma > 0)
+    if at_zero.any():
         ax.plot(
-            [where[0]],
-            [lipschitz],
-            "*",
-            ms=14,
+            [0.0],
+            [gamma[at_zero][0]],
+            marker=">",
             color=color,
-            mec="black",
-            mew=0.6,
-            zorder=4,
-            transform=where[1],
+            ms=8,
+            transform=edge,
             clip_on=False,
-            label=f"{name}: chosen (ε, γ)",
+            ls="none",
+            label=None if zero_noted else "γ*(0) (ε = 0 is off the log axis)",
         )
-        ax.annotate(
-            text,
-            xy=(where[0], lipschitz),
-            xycoords=where[1],
-            xytext=(14, 12 + 16 * c),
-            textcoords="offset points",
-            fontsize=9,
-            arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.8},
-            bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7"},
+        zero_noted = True
+    return zero_noted
+
+
+def _mark_knee(ax: Any, eps: Any, gamma: Any, color: Any, name: str) -> None:
+    """The knee of one output's curve as a hollow circle (when its ε is above 0)."""
+    k = choose_epsilon(eps, gamma)
+    if eps[k] > 0:
+        ax.plot(
+            [eps[k]],
+            [gamma[k]],
+            "o",
+            mfc="none",
+            ms=10,
+            color=color,
+            label=f"{name}: knee of the curve",
         )
+
+
+def _mark_chosen(
+    ax: Any,
+    edge: Any,
+    c: int,
+    name: str,
+    color: Any,
+    pick: tuple[float, float],
+    unit: str,
+) -> None:
+    """The chosen (ε, γ) of output ``c`` as a star with its values, or only its values."""
+    epsilon, lipschitz = pick
+    text = f"{name}: ε = {epsilon:.3g} {unit}, γ = {lipschitz:.3g}"
+    if not lipschitz > 0 or not np.isfinite(lipschitz):
+        # Nothing to mark on a log axis: the values are still written on the figure.
+        ax.text(0.02, 0.04 + 0.07 * c, text, transform=ax.transAxes, fontsize=9)
+        return
+    # ε = 0 (a noise bound given as 0) sits on the left edge, like γ*(0).
+    where = (0.0, edge) if epsilon == 0 else (epsilon, ax.transData)
+    ax.plot(
+        [where[0]],
+        [lipschitz],
+        "*",
+        ms=14,
+        color=color,
+        mec="black",
+        mew=0.6,
+        zorder=4,
+        transform=where[1],
+        clip_on=False,
+        label=f"{name}: chosen (ε, γ)",
+    )
+    ax.annotate(
+        text,
+        xy=(where[0], lipschitz),
+        xycoords=where[1],
+        xytext=(14, 12 + 16 * c),
+        textcoords="offset points",
+        fontsize=9,
+        arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.8},
+        bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.7"},
+    )
+
+
+def _format_gamma_axes(ax: Any, unit: str, title: str | None) -> None:
+    """Log axes with plain-number γ ticks, labels, title, grid and legend."""
+    import matplotlib.ticker as mticker
+
     ax.set_xscale("log")
     ax.set_yscale("log")
     # Plain numbers on the γ axis (1, 2, 3, 5, 10, 20 ...), not a mix of 10^1 and 6x10^0.
@@ -149,7 +183,6 @@ def plot_gamma_curve(
     )
     ax.grid(alpha=0.3, which="both")
     ax.legend(loc="upper right", fontsize=8)
-    return fig
 
 
 def _minor_label(value: float, _position: Any) -> str:

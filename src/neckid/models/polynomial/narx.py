@@ -254,84 +254,13 @@ class PolynomialNARX(NarxModel):
         self, experiments: list[IOData], budget: int, linear: FloatArray | None
     ) -> None:
         """Levenberg–Marquardt on the free-run error of ``experiments`` from ``coef_`` (or better)."""
-        r = self.lags_
-        m = r.max_lag
-        _, parent, var, lower = monomial_tables(r.n_terms, int(self.degree))
-        n_rows = sum(d.n_samples - m for d in experiments)
-        n_out = self.n_outputs_
-        free = (np.flatnonzero(self.active_)[:, None] * n_out + np.arange(n_out)).ravel()
-        n_params = free.size
-        size = n_rows * n_out * self.coef_.size * 8  # the sensitivities of every coefficient
-        if size > MAX_JACOBIAN_BYTES:
-            raise ValueError(
-                f"the simulation fit needs a {n_rows * n_out} x {self.coef_.size} Jacobian"
-                f" ({size / 1024**3:.1f} GiB, above 2 GiB); fit on fewer samples, a lower degree"
-                " or fewer lags, or use fit_for='prediction'"
-            )
-        y_all = np.vstack([d.y for d in experiments])
-        weight = 1.0 / np.where(y_all.std(axis=0) > 0, y_all.std(axis=0), 1.0)
-        span = np.ptp(y_all, axis=0)
-        low, high = y_all.min(axis=0) - CLIP_SPANS * span, y_all.max(axis=0) + CLIP_SPANS * span
-        tables = (
-            r.source,
-            r.channel,
-            r.lag,
-            self.center_,
-            self.scale_,
-            self.low_,
-            self.high_,
-            parent,
-            var,
-        )
-
-        def full(theta: FloatArray) -> FloatArray:
-            coef = np.zeros(self.coef_.size)
-            coef[free] = theta
-            return np.ascontiguousarray(coef.reshape(self.coef_.shape))
-
-        def run(theta: FloatArray, jacobian: FloatArray | None) -> FloatArray:
-            coef = full(theta)
-            errors, row = [], 0
-            for d in experiments:
-                u = np.ascontiguousarray(d.u, dtype=np.float64)
-                ysim = np.array(d.y, dtype=np.float64)
-                n = d.n_samples - m
-                if jacobian is None:
-                    with np.errstate(all="ignore"):
-                        poly_free_run(u, ysim, *tables, coef, m, low, high)
-                else:
-                    block = jacobian[row : row + n]
-                    poly_sensitivity(
-                        u, ysim, *tables, self.powers_, lower, coef, m, low, high, block
-                    )
-                errors.append((ysim[m:] - d.y[m:]) * weight)
-                row += n
-            return np.concatenate(errors).ravel()
-
-        evaluations = [0]
-
-        def residuals(theta: FloatArray) -> FloatArray:
-            errors = run(theta, None)
-            evaluations[0] += 1
-            logger.info(
-                "polynomial NARX simulation fit: free run %d of at most %d, weighted RMS error %.4g",
-                evaluations[0],
-                budget,
-                float(np.sqrt(np.mean(errors**2))),
-            )
-            return errors
-
-        def jacobian(theta: FloatArray) -> FloatArray:
-            jac = np.zeros((n_rows, n_out, self.coef_.size))
-            run(theta, jac)
-            jac *= weight[None, :, None]
-            return np.ascontiguousarray(jac.reshape(n_rows * n_out, -1)[:, free])
-
+        problem = _FreeRunProblem(self, experiments, budget)
+        free, weight = problem.free, problem.weight
         start, label = self.coef_.ravel()[free], "polynomial"
-        errors = residuals(start)
+        errors = problem.residuals(start)
         cost = float(np.sum(errors**2))
         if linear is not None:
-            linear_errors = residuals(linear.ravel()[free])
+            linear_errors = problem.residuals(linear.ravel()[free])
             linear_cost = float(np.sum(linear_errors**2))
             if linear_cost < cost or not np.isfinite(cost):
                 start, label, cost, errors = (
@@ -340,13 +269,18 @@ class PolynomialNARX(NarxModel):
                     linear_cost,
                     linear_errors,
                 )
-        method = "lm" if n_rows * n_out >= n_params else "trf"
+        method = "lm" if problem.n_rows * problem.n_out >= free.size else "trf"
         solution = _levenberg_marquardt(
-            residuals, start, jac=jacobian, method=method, x_scale="jac", max_nfev=budget
+            problem.residuals,
+            start,
+            jac=problem.jacobian,
+            method=method,
+            x_scale="jac",
+            max_nfev=budget,
         )
         improved = 2 * solution.cost <= cost  # least_squares' cost is half the sum of squares
         theta = solution.x if improved else start
-        self.coef_ = full(theta)
+        self.coef_ = problem.full(theta)
         self.fit_report_ = {
             "start": label,
             "rmse_start": self._rmse(errors, weight),
@@ -508,6 +442,93 @@ class PolynomialNARX(NarxModel):
             raise ValueError("a PolynomialNARX file must hold its least-squares statistics")
         model.statistics_ = statistics
         return model
+
+
+class _FreeRunProblem:
+    """The weighted free-run errors of a PolynomialNARX and their Jacobian, in its free coefficients."""
+
+    def __init__(self, model: PolynomialNARX, experiments: list[IOData], budget: int) -> None:
+        r = model.lags_
+        self.m = m = r.max_lag
+        _, parent, var, self.lower = monomial_tables(r.n_terms, int(model.degree))
+        self.n_rows = n_rows = sum(d.n_samples - m for d in experiments)
+        self.n_out = n_out = model.n_outputs_
+        self.free = (np.flatnonzero(model.active_)[:, None] * n_out + np.arange(n_out)).ravel()
+        size = n_rows * n_out * model.coef_.size * 8  # the sensitivities of every coefficient
+        if size > MAX_JACOBIAN_BYTES:
+            raise ValueError(
+                f"the simulation fit needs a {n_rows * n_out} x {model.coef_.size} Jacobian"
+                f" ({size / 1024**3:.1f} GiB, above 2 GiB); fit on fewer samples, a lower degree"
+                " or fewer lags, or use fit_for='prediction'"
+            )
+        y_all = np.vstack([d.y for d in experiments])
+        self.weight = 1.0 / np.where(y_all.std(axis=0) > 0, y_all.std(axis=0), 1.0)
+        span = np.ptp(y_all, axis=0)
+        self.low = y_all.min(axis=0) - CLIP_SPANS * span
+        self.high = y_all.max(axis=0) + CLIP_SPANS * span
+        self.tables = (
+            r.source,
+            r.channel,
+            r.lag,
+            model.center_,
+            model.scale_,
+            model.low_,
+            model.high_,
+            parent,
+            var,
+        )
+        self.powers = model.powers_
+        self.coef_shape = model.coef_.shape
+        self.coef_size = model.coef_.size
+        self.experiments = experiments
+        self.budget = budget
+        self.evaluations = 0
+
+    def full(self, theta: FloatArray) -> FloatArray:
+        """The whole coefficient array, zero outside the free coefficients ``theta``."""
+        coef = np.zeros(self.coef_size)
+        coef[self.free] = theta
+        return np.ascontiguousarray(coef.reshape(self.coef_shape))
+
+    def run(self, theta: FloatArray, jacobian: FloatArray | None) -> FloatArray:
+        """Free-run every experiment; the weighted errors (and the sensitivities into ``jacobian``)."""
+        coef = self.full(theta)
+        m, low, high, tables = self.m, self.low, self.high, self.tables
+        errors, row = [], 0
+        for d in self.experiments:
+            u = np.ascontiguousarray(d.u, dtype=np.float64)
+            ysim = np.array(d.y, dtype=np.float64)
+            n = d.n_samples - m
+            if jacobian is None:
+                with np.errstate(all="ignore"):
+                    poly_free_run(u, ysim, *tables, coef, m, low, high)
+            else:
+                block = jacobian[row : row + n]
+                poly_sensitivity(
+                    u, ysim, *tables, self.powers, self.lower, coef, m, low, high, block
+                )
+            errors.append((ysim[m:] - d.y[m:]) * self.weight)
+            row += n
+        return np.concatenate(errors).ravel()
+
+    def residuals(self, theta: FloatArray) -> FloatArray:
+        """The weighted free-run errors, logging each evaluation."""
+        errors = self.run(theta, None)
+        self.evaluations += 1
+        logger.info(
+            "polynomial NARX simulation fit: free run %d of at most %d, weighted RMS error %.4g",
+            self.evaluations,
+            self.budget,
+            float(np.sqrt(np.mean(errors**2))),
+        )
+        return errors
+
+    def jacobian(self, theta: FloatArray) -> FloatArray:
+        """The Jacobian of :meth:`residuals` in the free coefficients."""
+        jac = np.zeros((self.n_rows, self.n_out, self.coef_size))
+        self.run(theta, jac)
+        jac *= self.weight[None, :, None]
+        return np.ascontiguousarray(jac.reshape(self.n_rows * self.n_out, -1)[:, self.free])
 
 
 def _independent_monomials(statistics: LeastSquaresStatistics) -> NDArray[np.bool_]:
