@@ -7,6 +7,8 @@ The public API, re-exported here:
 - models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
   :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
+- which model, how far to trust it: :func:`compare` (safe selection on the training logs, one
+  free run per test log), :func:`select_safely`
 - the operating-point protocol: :func:`identify_operating_points`, :func:`operating_points_from_logs`
 - modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`,
   :mod:`neckid.interop` (python-control)
@@ -33,6 +35,7 @@ _numba_setup.configure_numba_cache()
 
 if TYPE_CHECKING:
     from neckid import datasets, interop, metrics, plant, signals
+    from neckid.comparison import Comparison, SafeSelection, compare, select_safely
     from neckid.data.iodata import IOData, as_experiments
     from neckid.loops.operating_points import (
         OperatingPointResult,
@@ -54,6 +57,7 @@ if TYPE_CHECKING:
     from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
 __all__ = [
+    "Comparison",
     "DivergenceError",
     "GainScheduledModel",
     "IOData",
@@ -68,9 +72,11 @@ __all__ = [
     "ParallelSetMembership",
     "PolynomialNARX",
     "RecursiveARX",
+    "SafeSelection",
     "SetMembership",
     "__version__",
     "as_experiments",
+    "compare",
     "datasets",
     "fit_percent",
     "gamma_curve",
@@ -87,12 +93,17 @@ __all__ = [
     "plant",
     "rmse",
     "select_lags",
+    "select_safely",
     "signals",
 ]
 
 # Public submodules, and the module each other public name lives in (the same imports as above).
 _SUBMODULES = frozenset({"datasets", "interop", "metrics", "plant", "signals"})
 _NAME_TO_MODULE = {
+    "Comparison": "neckid.comparison",
+    "SafeSelection": "neckid.comparison",
+    "compare": "neckid.comparison",
+    "select_safely": "neckid.comparison",
     "IOData": "neckid.data.iodata",
     "as_experiments": "neckid.data.iodata",
     "OperatingPointResult": "neckid.loops.operating_points",

@@ -447,7 +447,8 @@ def score_candidates(
         failed candidate, per fold). A candidate that fails in a fold (a training error, a free
         run that diverges) has fit ``-inf`` and RMSE ``inf`` for every score not computed there,
         so its mean and worst fold are ``-inf`` / ``inf`` too. ``table.attrs["folds"]`` lists
-        the names (or positions) of the held-out experiments per fold.
+        the names (or positions) of the held-out experiments per fold, and
+        ``table.attrs["fold_scores"]["fit_<kind>"][candidate]`` the fit of each fold.
 
     Raises
     ------
@@ -535,6 +536,17 @@ def score_candidates(
     table = pd.DataFrame(rows, columns=columns)
     table.attrs["scheme"] = scheme
     table.attrs["folds"] = names
+    # Every fold's score of every candidate (the standard error of the mean needs them).
+    table.attrs["fold_scores"] = {
+        f"fit_{kind}": [
+            [
+                float(f.get(f"fit_{kind}", -np.inf))
+                for f in fold_rows[i * n_folds : (i + 1) * n_folds]
+            ]
+            for i in range(len(options))
+        ]
+        for kind in kinds
+    }
     return table
 
 

@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
+import signal
+import sys
+import threading
 import warnings
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any, TypeVar
 
 import typer
@@ -27,7 +31,46 @@ app = typer.Typer(
     # Markdown joins the lines of a docstring paragraph, so help text reflows to the terminal.
     rich_markup_mode="markdown",
 )
-console = Console()
+
+
+class _Stdout:
+    """The current ``sys.stdout``, whose reader going away (``neckid ... | head -1``) ends the
+    output but not the command: what is left to print is dropped, files are still written and
+    the exit status is that of the command (a ``BrokenPipeError`` would have made a saved model
+    look like a failure)."""
+
+    closed = False
+
+    def write(self, text: str) -> int:
+        if not _Stdout.closed:
+            try:
+                return sys.stdout.write(text)
+            except BrokenPipeError:
+                self._reader_gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not _Stdout.closed:
+            try:
+                sys.stdout.flush()
+            except BrokenPipeError:
+                self._reader_gone()
+
+    @staticmethod
+    def _reader_gone() -> None:
+        _Stdout.closed = True
+        # The interpreter's last flush at exit would fail again: point fd 1 at /dev/null (not
+        # possible for a test runner's buffer, which has no file descriptor).
+        with suppress(Exception):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+            os.close(devnull)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(sys.stdout, name)
+
+
+console = Console(file=_Stdout())  # type: ignore[arg-type]
 error_console = Console(stderr=True)
 
 #: Set by ``--debug``: unexpected errors show their traceback.
@@ -109,13 +152,51 @@ def _show_warning(
     )
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGTERM or SIGHUP during a command: handled like Ctrl-C, exit status 128 + the signal."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_interrupted(signum: int, frame: Any) -> None:
+    signal.signal(signum, signal.SIG_IGN)  # a second signal must not cut the clean-up short
+    raise Interrupted(signum)
+
+
+#: The signals a command handles like Ctrl-C (SIGINT is Python's KeyboardInterrupt already).
+STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
+
+
+@contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise :class:`Interrupted` while the block runs (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous: dict[int, Any] = {}
+    for number in STOP_SIGNALS:
+        try:
+            previous[number] = signal.signal(number, _raise_interrupted)
+        except (OSError, ValueError):  # pragma: no cover - not settable here
+            continue
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 def handled(command: Command) -> Command:
     """Run a command with the one error policy of the command line.
 
     What the user gave wrong (:data:`_USER_ERRORS`) prints one ``error:`` line and exits with
-    status 2; Ctrl-C says that the run was interrupted and that no output was half written
-    (status 130); anything else prints one line with the error's type and the hint to rerun
-    with ``--debug`` (status 1), or the traceback with ``--debug``.
+    status 2; Ctrl-C, SIGTERM and SIGHUP say that the run was interrupted and that no output was
+    half written (status 128 + the signal: 130, 143, 129); anything else prints one line with
+    the error's type and the hint to rerun with ``--debug`` (status 1), or the traceback with
+    ``--debug``. A closed standard output (``| head``) is not an error. The outputs the command
+    claimed (:func:`neckid.outputs.check_output_file`) are released when it ends.
     """
 
     @functools.wraps(command)
@@ -123,9 +204,11 @@ def handled(command: Command) -> Command:
         from rich.markup import escape
 
         from neckid.models.base import ExtrapolationWarning
+        from neckid.outputs import release_outputs
 
+        _Stdout.closed = False
         try:
-            with warnings.catch_warnings():
+            with _signals_interrupt(), warnings.catch_warnings():
                 # The commands report extrapolation themselves; other warnings get one line each,
                 # once, without the library's file path.
                 warnings.simplefilter("ignore", ExtrapolationWarning)
@@ -133,12 +216,17 @@ def handled(command: Command) -> Command:
                 return command(*args, **kwargs)
         except (typer.Exit, typer.Abort):
             raise
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:
+            signum = getattr(exc, "signum", int(signal.SIGINT))
+            name = signal.Signals(signum).name if signum != signal.SIGINT else "Ctrl-C"
             error_console.print(
-                "[yellow]interrupted[/yellow]: stopped before the end; outputs are written whole"
-                " or not at all, so no file was left half written"
+                f"[yellow]interrupted[/yellow] ({name}): stopped before the end; outputs are"
+                " written whole or not at all, so no file was left half written"
             )
-            raise typer.Exit(code=130) from None
+            raise typer.Exit(code=128 + signum) from None
+        except BrokenPipeError:
+            _Stdout._reader_gone()  # the reader of the output went away: nothing more to say
+            raise typer.Exit(code=128 + int(getattr(signal, "SIGPIPE", 13))) from None
         except _USER_ERRORS as exc:
             _fail(_message(exc))
         except Exception as exc:
@@ -151,6 +239,8 @@ def handled(command: Command) -> Command:
                 soft_wrap=True,
             )
             raise typer.Exit(code=1) from None
+        finally:
+            release_outputs()
 
     return run  # type: ignore[return-value]
 

@@ -287,7 +287,7 @@ def _print_prior_check(model: Any, data: Any) -> None:
     """For an SM model: does the log contradict its prior, one step ahead? And what to do."""
     check = getattr(model, "invalidation", None)
     epsilon = getattr(model, "epsilon_", None)
-    if check is None or hasattr(model, "horizons_") or getattr(epsilon, "ndim", 0) != 1:
+    if check is None or epsilon is None or hasattr(model, "horizons_") or epsilon.ndim != 1:
         return
     found = check(data)
     for j, name in enumerate(data.output_names):

@@ -1,6 +1,6 @@
 """What every identified model shares: the fitted check, results, the NARX loop, simulators.
 
-Contracts (see DESIGN.md):
+Contracts (the architecture page, docs/architecture.md, shows where each part lives):
 
 - ``fit(data)`` takes an :class:`~neckid.IOData` or a list of them and returns ``self``; learned
   values end in ``_``.
