@@ -279,7 +279,7 @@ def select_safely(
                 "n_terms": terms[i],
                 "fit_mean": float(np.mean(fits)) if finite else -np.inf,
                 "fit_se": float(np.std(fits, ddof=1) / np.sqrt(fits.size))
-                if fits.size > 1
+                if finite and fits.size > 1
                 else 0.0,
                 "fit_worst": float(np.min(fits)),
                 "fold_fits": [float(f) for f in fits],
@@ -339,7 +339,7 @@ class Comparison:
                 {
                     "method": method,
                     "settings": setting,
-                    "fold_fits": list(row["fold_fits"]),
+                    "fold_fits": [_plain(f) for f in row["fold_fits"]],
                     "fit_mean_folds": _plain(row["fit_mean"]),
                     "status": row["status"],
                     "reason": row["reason"],

@@ -224,6 +224,12 @@ def check_output_file(
     """
     target = Path(path)
     _refuse_degenerate(target, path, option)
+    for given in inputs:
+        if _same_file(target, Path(given)) or target.resolve() == Path(given).resolve():
+            raise OutputError(
+                f"{option} {str(target)!r} is an input of this command; it would be overwritten:"
+                " choose another file"
+            )
     allowed = tuple(suffixes) if suffixes is not None else WRITTEN_AS.get(option)
     if allowed and target.suffix.lower() not in {s.lower() for s in allowed}:
         what = " or ".join(allowed)
@@ -231,12 +237,6 @@ def check_output_file(
             f"{option} {str(target)!r}: the file is written as {what[1:].upper()}, so its name"
             f" must end in {what}; got {target.suffix or 'no extension'!r}"
         )
-    for given in inputs:
-        if _same_file(target, Path(given)) or target.resolve() == Path(given).resolve():
-            raise OutputError(
-                f"{option} {str(target)!r} is an input of this command; it would be overwritten:"
-                " choose another file"
-            )
     _refuse_special(target, option)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
@@ -286,7 +286,9 @@ def _temporary(target: Path) -> tuple[Path, int]:
         mode = stat.S_IMODE(os.fstat(handle).st_mode)
         os.close(handle)
         return name, mode
-    raise FileExistsError(f"cannot create a temporary file beside {str(target)!r}")  # pragma: no cover
+    raise FileExistsError(
+        f"cannot create a temporary file beside {str(target)!r}"
+    )  # pragma: no cover
 
 
 def _place(temporary: Path, target: Path, claim: _Claim | None) -> None:

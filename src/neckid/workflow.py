@@ -8,17 +8,30 @@ from pathlib import Path
 from typing import Any, Literal
 
 from neckid.data.iodata import IOData
+from neckid.data.preprocess import (
+    LowPass,
+    Pipeline,
+    Relative,
+    RemoveOffset,
+    Resample,
+    Restamp,
+    Tilt,
+)
 from neckid.regressors import Lags
 
 __all__ = [
     "describe_log",
     "describe_model",
+    "fit_model",
     "make_estimator",
     "map_channels",
     "parse_channels",
     "parse_lags",
     "parse_mapping",
+    "pipeline_from_options",
+    "prepare_log",
     "read_log",
+    "read_log_for_model",
 ]
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
@@ -76,8 +89,10 @@ def read_log(
     channels: Sequence[str] = (),
     conditions: Sequence[str] = (),
     tilt: bool = False,
+    maps: Mapping[str, str] | None = None,
+    preprocessing: Pipeline | None = None,
 ) -> IOData:
-    """Read a log for identification, with its experimental conditions.
+    r"""Read a log for identification, with its experimental conditions, renamed and preprocessed.
 
     Parameters
     ----------
@@ -106,24 +121,60 @@ def read_log(
         A 3-D neck's log: read its ``inclination`` and ``orientation`` outputs [deg] and return
         the tilt vector ``tilt_x``, ``tilt_y`` [deg] in their place (:mod:`neckid.tilt`).
         ``tilt_x``/``tilt_y`` among ``outputs`` (a model's channels) stand for those two.
+    maps : mapping of str to str, optional
+        Log channel name -> model channel name (what :func:`parse_mapping` returns): ``inputs``,
+        ``outputs``, ``tilt`` and ``preprocessing`` use the model's names, the file is read by
+        the log's. The conditions (file name, sidecar, ``conditions``) are kept.
+    preprocessing : Pipeline, optional
+        Applied last (:mod:`neckid.data.preprocess`); ``inputs``/``outputs`` name the channels
+        after it (with a :class:`~neckid.data.preprocess.Tilt` step, ``tilt_x``/``tilt_y`` are
+        read as inclination and orientation). A :class:`~neckid.data.preprocess.Restamp` step
+        decides what happens to repeated time stamps while the file is read.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "run.csv")
+    >>> _ = open(path, "w").write("time,pos,incl\n0,1.5,0\n0.02,2.5,0.1\n0.04,3.5,0.3\n")
+    >>> data = read_log(path, ["motor_position"], ["incl"], maps={"pos": "motor_position"},
+    ...                 preprocessing=Pipeline([Relative("motor_position")]))
+    >>> data.channel("motor_position")
+    array([0., 1., 2.])
     """
     from neckid.data.sidecar import apply_conditions
 
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
-    if tilt:
-        polar = [*dict.fromkeys(_POLAR.get(name, name) for name in outputs or ())]
-        missing = [name for name in ("inclination", "orientation") if name not in polar]
+    pipeline = preprocessing if preprocessing is not None else Pipeline()
+    if inputs is not None:
+        inputs = pipeline.sources(inputs)
+    if outputs is not None:
+        outputs = pipeline.sources(outputs)
+    step = pipeline.find(Tilt)
+    tilt = tilt and step is None  # a Tilt step does it once, after the renaming
+    if tilt or step is not None:
+        if tilt:
+            outputs = [*dict.fromkeys(_POLAR.get(name, name) for name in outputs or ())]
+        polar = (step.inclination, step.orientation) if step else ("inclination", "orientation")
+        missing = [name for name in polar if name not in (outputs or ())]
         if missing:
             raise ValueError(
                 f"--tilt needs the outputs inclination and orientation; --outputs lacks {missing}"
             )
-        outputs = polar
-    data = _read_channels(path, inputs, outputs, time, ts, layout, sep, channels)
+    mapping = dict(maps or {})
+    to_log = {model: log for log, model in mapping.items()}
+    if inputs is not None:
+        inputs = [to_log.get(n, n) for n in inputs]
+    if outputs is not None:
+        outputs = [to_log.get(n, n) for n in outputs]
+    restamp = pipeline.find(Restamp)
+    data = _read_channels(path, inputs, outputs, time, ts, layout, sep, channels, restamp)
+    if mapping:
+        data = map_channels(data, mapping)
     if tilt:
         data = data.with_tilt()
-    return apply_conditions(data, path, conditions)
+    return pipeline.apply(apply_conditions(data, path, conditions))
 
 
 #: With ``tilt=True``, the tilt-vector channel a model names and the log channel it comes from.
@@ -139,6 +190,7 @@ def _read_channels(
     layout: str,
     sep: str,
     channels: Sequence[str],
+    restamp: Restamp | None = None,
 ) -> IOData:
     if layout == "rosbag":
         data = IOData.from_rosbag(path, parse_channels(channels), ts=ts)
@@ -148,7 +200,8 @@ def _read_channels(
     if layout == "softneck":
         from neckid.datasets import load_softneck_log
 
-        data = load_softneck_log(path)
+        keep_all = restamp is None or restamp.keep == "all"
+        data = load_softneck_log(path, repeated_stamps="restamp" if keep_all else "drop")
         if not inputs or not outputs:
             raise ValueError(
                 f"--inputs and --outputs are required with --layout softneck: {path.name} has"
@@ -166,6 +219,8 @@ def _read_channels(
     suffix = path.suffix.lower()
     if ts is not None:
         time = None
+    if restamp is not None and time is not None and suffix != ".mat":
+        return _read_restamped(path, inputs, outputs or (), time, sep, restamp)
     if suffix == ".parquet":
         return IOData.from_parquet(path, list(inputs), list(outputs or ()), time=time, ts=ts)
     if suffix == ".mat":
@@ -173,6 +228,38 @@ def _read_channels(
     if not sep:
         raise ValueError("--sep must be one character or more; got an empty separator")
     return IOData.from_csv(path, list(inputs), list(outputs or ()), time=time, ts=ts, sep=sep)
+
+
+def _read_restamped(
+    path: Path,
+    inputs: Sequence[str],
+    outputs: Sequence[str],
+    time: str,
+    sep: str,
+    restamp: Restamp,
+) -> IOData:
+    """A CSV or Parquet log whose repeated time stamps are dealt with by ``restamp`` first."""
+    import pandas as pd
+
+    if path.suffix.lower() == ".parquet":
+        frame = pd.read_parquet(path)
+    else:
+        if not sep:
+            raise ValueError("--sep must be one character or more; got an empty separator")
+        frame = pd.read_csv(path, sep=sep)
+    if time not in frame.columns:
+        raise KeyError(
+            f"{path.name} has no time column {time!r}; it has {list(map(str, frame.columns))}"
+            " (give --time NAME)"
+        )
+    try:
+        fields = IOData.from_frame(
+            restamp.frame(frame, time), list(inputs), list(outputs), time=time, name=path.name
+        )
+    except (KeyError, ValueError) as exc:
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else str(exc)
+        raise type(exc)(f"{path.name}: {message}") from None
+    return fields
 
 
 def _refuse_headerless(path: Path, sep: str) -> None:
@@ -205,6 +292,8 @@ def _refuse_headerless(path: Path, sep: str) -> None:
 def map_channels(data: IOData, mapping: Mapping[str, str]) -> IOData:
     """Rename channels of ``data``: ``mapping`` goes from the log's name to the model's.
 
+    Everything else is kept: units, the start time, the name and the conditions.
+
     Examples
     --------
     >>> log = IOData([1.0, 2.0], [0.0, 1.0], ts=0.1, output_names=["inclination_filtered"])
@@ -217,17 +306,182 @@ def map_channels(data: IOData, mapping: Mapping[str, str]) -> IOData:
             f"--map names {unknown}, which the log does not have; it has"
             f" {[*data.input_names, *data.output_names]}"
         )
-    return IOData(
-        data.u,
-        data.y,
-        ts=data.ts,
+    return data.replace(
         input_names=[mapping.get(n, n) for n in data.input_names],
         output_names=[mapping.get(n, n) for n in data.output_names],
-        input_units=data.input_units,
-        output_units=data.output_units,
-        t0=data.t0,
-        name=data.name,
     )
+
+
+def _split_option(text: str, option: str, fields: int, example: str) -> list[str]:
+    parts = [p.strip() for p in text.rsplit(":", fields - 1)]
+    if len(parts) != fields or not all(parts):
+        raise ValueError(f"{option} must look like {example}; got {text!r}")
+    return parts
+
+
+def _option_number(text: str, option: str, whole: str) -> float:
+    """``text`` as a number; the caller names the option."""
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number") from None
+
+
+def pipeline_from_options(
+    *,
+    relative: Sequence[str] = (),
+    offsets: Sequence[str] = (),
+    lowpass: Sequence[str] = (),
+    resample: float | None = None,
+    restamp: bool = False,
+    tilt: bool = False,
+) -> Pipeline:
+    """The preprocessing the command line's options ask for, in a fixed order.
+
+    The order is: restamp, tilt, relative, offset, low-pass, resample (each option in the order
+    given). Channel names are the model's (after ``--map``).
+
+    Parameters
+    ----------
+    relative : sequence of str
+        ``--relative CHANNEL``: :class:`~neckid.data.preprocess.Relative`.
+    offsets : sequence of str
+        ``--offset CHANNEL:START:STOP`` [s from the first sample]:
+        :class:`~neckid.data.preprocess.RemoveOffset`.
+    lowpass : sequence of str
+        ``--lowpass CHANNEL:CUTOFF`` [rad/s]: :class:`~neckid.data.preprocess.LowPass`.
+    resample : float, optional
+        ``--resample TS`` [s]: :class:`~neckid.data.preprocess.Resample`.
+    restamp, tilt : bool
+        ``--restamp`` (keep the first row of a repeated stamp) and ``--tilt``.
+
+    Examples
+    --------
+    >>> pipeline_from_options(relative=["motor_position"], lowpass=["inclination:1"]).describe()
+    'relative motor_position; low-pass inclination at 1 rad/s'
+    """
+    steps: list[Any] = [Restamp()] if restamp else []
+    if tilt:
+        steps.append(Tilt())
+
+    def build(option: str, text: str, make: Any) -> None:
+        try:
+            steps.append(make())
+        except ValueError as exc:
+            reason = str(exc).split(": ", 1)[-1] if str(exc).startswith("preprocessing") else exc
+            raise ValueError(f"{option} {text!r}: {reason}") from None
+
+    for text in relative:
+        build("--relative", text, lambda text=text: Relative(text.strip()))
+    for text in offsets:
+        channel, start, stop = _split_option(
+            text, "--offset", 3, "CHANNEL:START:STOP in seconds, e.g. inclination:0:2"
+        )
+        build(
+            "--offset",
+            text,
+            lambda c=channel, a=start, b=stop, t=text: RemoveOffset(
+                c, _option_number(a, "--offset", t), _option_number(b, "--offset", t)
+            ),
+        )
+    for text in lowpass:
+        channel, cutoff = _split_option(
+            text, "--lowpass", 2, "CHANNEL:CUTOFF in rad/s, e.g. inclination:1"
+        )
+        build(
+            "--lowpass",
+            text,
+            lambda c=channel, w=cutoff, t=text: LowPass(c, _option_number(w, "--lowpass", t)),
+        )
+    if resample is not None:
+        build("--resample", str(resample), lambda: Resample(resample))
+    return Pipeline(steps)
+
+
+def fit_model(
+    estimator: Any, data: IOData | Sequence[IOData], preprocessing: Pipeline | None = None
+) -> Any:
+    """Fit ``estimator`` on ``data`` through ``preprocessing`` and record it with the model.
+
+    The pipeline is applied to ``data`` (which is not changed), the estimator fitted, and the
+    pipeline kept as ``estimator.preprocessing_``: ``save`` writes it into the model file,
+    :func:`~neckid.models.io.load_model` restores it and :func:`prepare_log` applies it again.
+
+    Returns
+    -------
+    estimator
+        Fitted.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> log = IOData(np.sin(np.arange(50.0)) + 3, np.cos(np.arange(50.0)), ts=0.02)
+    >>> model = fit_model(LinearARX(Lags.arx(1, 1)), log, Pipeline([Relative("u")]))
+    >>> model.preprocessing_.describe()
+    'relative u'
+    """
+    pipeline = preprocessing if preprocessing is not None else Pipeline()
+    estimator.fit(pipeline.apply(data))
+    estimator.preprocessing_ = pipeline
+    return estimator
+
+
+def prepare_log(model: Any, data: IOData) -> IOData:
+    """``data`` through the preprocessing the model was identified with (none: ``data`` itself).
+
+    Give it the raw log: a step such as a low-pass filter applied twice is not the same.
+    """
+    pipeline = getattr(model, "preprocessing_", None)
+    return pipeline.apply(data) if pipeline is not None else data
+
+
+def read_log_for_model(
+    model: Any,
+    path: str | Path,
+    *,
+    time: str | None = "time",
+    ts: float | None = None,
+    layout: Literal["csv", "softneck", "rosbag"] = "csv",
+    sep: str = ",",
+    channels: Sequence[str] = (),
+    maps: Mapping[str, str] | None = None,
+    conditions: Sequence[str] = (),
+    tilt: bool = False,
+) -> tuple[IOData, Pipeline | None]:
+    """Read a log with the channels a fitted model needs, through the model's preprocessing.
+
+    The model's inputs (but the conditions it takes, which come from the file name, a sidecar
+    or ``conditions``) and outputs are read, renamed by ``maps`` (log name -> model name),
+    and passed through ``model.preprocessing_`` when it has one (:func:`read_log`).
+
+    Returns
+    -------
+    data : IOData
+        Ready for ``model.simulate``.
+    preprocessing : Pipeline or None
+        The model's steps that were applied (None for a model without any).
+    """
+    pipeline = getattr(model, "preprocessing_", None)
+    if pipeline is not None and not len(pipeline):
+        pipeline = None
+    used = set(model._condition_names())
+    inputs = [n for n in model.input_names_ if n not in used]
+    data = read_log(
+        path,
+        inputs,
+        list(model.output_names_),
+        time=time,
+        ts=ts,
+        layout=layout,
+        sep=sep,
+        channels=channels,
+        conditions=conditions,
+        tilt=tilt,
+        maps=maps,
+        preprocessing=pipeline,
+    )
+    return data, pipeline
 
 
 def parse_channels(texts: Sequence[str]) -> dict[str, tuple[str, ...]]:
@@ -295,6 +549,8 @@ def describe_log(
     layout: Literal["csv", "softneck"] = "csv",
     time: str = "time",
     sep: str = ",",
+    maps: Mapping[str, str] | None = None,
+    conditions: Sequence[str] = (),
 ) -> dict[str, Any]:
     """What a log holds, before any identification: channels, units, duration, sampling, gaps.
 
@@ -305,13 +561,19 @@ def describe_log(
     layout, sep : as in :func:`read_log`.
     time : str, default "time"
         The time column of a CSV log [s].
+    maps : mapping of str to str, optional
+        Log channel name -> model channel name: channels are listed by the model's name (with
+        ``"column"``, the log's).
+    conditions : sequence of str
+        ``name=value`` conditions, over the sidecar's, over those of a soft-neck file name.
 
     Returns
     -------
     dict
-        ``{"file", "samples", "duration_s", "ts_s", "max_step_s", "gaps", "channels"}``;
-        ``channels`` maps each column to ``{"kind", "unit", "min", "max", "mean"}``. A gap is a
-        time step more than 1.5 times the median one.
+        ``{"file", "samples", "duration_s", "ts_s", "max_step_s", "gaps", "repeated_stamps",
+        "channels", "conditions", "condition_units"}``; ``channels`` maps each column to
+        ``{"kind", "unit", "min", "max", "mean"}``. A gap is a time step more than 1.5 times
+        the median one; a repeated stamp, a step of zero.
     """
     import numpy as np
     import pandas as pd
@@ -320,10 +582,12 @@ def describe_log(
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
     channels: dict[str, dict[str, Any]] = {}
+    found: tuple[Mapping[str, Any], Mapping[str, str]] = ({}, {})
     if layout == "softneck":
         from neckid.datasets import load_softneck_log
 
         data = load_softneck_log(path)
+        found = (data.conditions, data.condition_units)
         t = data.time
         for kind, names, units, values in (
             ("input", data.input_names, data.input_units, data.u),
@@ -360,6 +624,16 @@ def describe_log(
             "mean": float(finite.mean()) if finite.size else float("nan"),
             "non_numeric": int(values.size - finite.size),
         }
+    mapping = dict(maps or {})
+    unknown = [k for k in mapping if k not in summary]
+    if unknown:
+        raise KeyError(
+            f"--map names {unknown}, which the log does not have; it has {list(summary)}"
+        )
+    summary = {
+        mapping.get(k, k): {**v, "column": k} if k in mapping else v for k, v in summary.items()
+    }
+    found_values, found_units = _log_conditions(path, found, conditions)
     return {
         "file": path.name,
         "samples": int(t.size),
@@ -367,12 +641,38 @@ def describe_log(
         "ts_s": median,
         "max_step_s": float(steps.max()) if steps.size else float("nan"),
         "gaps": int(np.sum(steps > 1.5 * median)) if steps.size else 0,
+        "repeated_stamps": int(np.sum(steps == 0)) if steps.size else 0,
         "channels": summary,
+        "conditions": found_values,
+        "condition_units": found_units,
     }
+
+
+def _log_conditions(
+    path: Path, found: tuple[Mapping[str, Any], Mapping[str, str]], given: Sequence[str]
+) -> tuple[dict[str, Any], dict[str, str]]:
+    """A log's conditions: the loader's, then its sidecar's, then the given ones (last wins)."""
+    from neckid.data.conditions import parse_condition
+    from neckid.data.sidecar import read_sidecar
+
+    values, units = dict(found[0]), dict(found[1])
+    sidecar_values, sidecar_units = read_sidecar(path)
+    values.update(sidecar_values)
+    units.update(sidecar_units)
+    for text in given:
+        name, value, unit = parse_condition(text)
+        values[name] = value
+        if unit or name not in units:
+            units[name] = unit
+    return values, {k: v for k, v in units.items() if k in values and v}
 
 
 def describe_model(model: Any) -> dict[str, Any]:
     """What a fitted model is: method, class, regressor, channels, sampling, training ranges, prior.
+
+    ``conditions`` lists the experimental conditions the model takes as inputs (their training
+    ranges are among ``training_ranges``); ``preprocessing``, when the model has steps, lists
+    them as JSON (:meth:`neckid.data.preprocess.Pipeline.to_list`).
 
     Examples
     --------
@@ -398,7 +698,11 @@ def describe_model(model: Any) -> dict[str, Any]:
         "initial_samples": int(model.max_lag_),
         "training_samples": int(getattr(model, "n_samples_", 0)),
         "training_ranges": {k: list(v) for k, v in getattr(model, "training_ranges_", {}).items()},
+        "conditions": list(model._condition_names()),
     }
+    pipeline = getattr(model, "preprocessing_", None)
+    if pipeline is not None and len(pipeline):
+        info["preprocessing"] = pipeline.to_list()
     sm = getattr(model, "sm_", model)
     if hasattr(sm, "gamma_"):
         horizons = getattr(model, "horizons_", None)

@@ -1,12 +1,13 @@
-"""The ``neckid`` command line: demo, identify, validate, simulate, bandwidth, benchmark, info.
+"""The ``neckid`` command line: demo, identify, validate, simulate, compare, bandwidth, benchmark, info.
 
 ``app`` is the Typer application (the ``neckid`` script). The commands live in modules by what
-they work on (:mod:`neckid.cli.models`, :mod:`neckid.cli.runs`, :mod:`neckid.cli.logs`); importing
+they work on (:mod:`neckid.cli.models`, :mod:`neckid.cli.compare`, :mod:`neckid.cli.runs`,
+:mod:`neckid.cli.logs`); importing
 them registers them on ``app``. Every command runs under one error policy
 (:func:`neckid.cli._app.handled`).
 """
 
-from neckid.cli import logs, models, runs
+from neckid.cli import compare, logs, models, runs
 from neckid.cli._app import app
 
-__all__ = ["app", "logs", "models", "runs"]
+__all__ = ["app", "compare", "logs", "models", "runs"]

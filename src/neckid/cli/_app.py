@@ -37,7 +37,8 @@ class _Stdout:
     """The current ``sys.stdout``, whose reader going away (``neckid ... | head -1``) ends the
     output but not the command: what is left to print is dropped, files are still written and
     the exit status is that of the command (a ``BrokenPipeError`` would have made a saved model
-    look like a failure)."""
+    look like a failure).
+    """
 
     closed = False
 
@@ -302,7 +303,8 @@ CHANNEL_HELP = (
 )
 MAP_HELP = (
     "MODEL_CHANNEL=LOG_CHANNEL: read a model channel from a log column of another name, e.g."
-    " inclination=inclination_filtered (repeat the option for several)."
+    " inclination=inclination_filtered (repeat the option for several). The log's conditions"
+    " (file name, sidecar, --condition) are kept."
 )
 
 
@@ -331,7 +333,45 @@ TILT_OPTION = typer.Option(
     False,
     "--tilt",
     help="3-D neck: read the inclination and orientation outputs [deg] and use the wrap-free"
-    " tilt vector tilt_x, tilt_y [deg] in their place.",
+    " tilt vector tilt_x, tilt_y [deg] in their place (with --map, the model's names: e.g."
+    " --map inclination=inclination_sensor).",
+)
+
+# Preprocessing steps of identify: stored in the model, applied again to every new log by
+# validate, simulate and info --model (neckid.data.preprocess; channel names after --map).
+RELATIVE_OPTION = typer.Option(
+    None,
+    "--relative",
+    metavar="CHANNEL",
+    help="Use the channel minus its value at the log's first sample, e.g. --relative"
+    " motor_position (the motor displacement); repeat for several. Stored in the model.",
+)
+OFFSET_OPTION = typer.Option(
+    None,
+    "--offset",
+    metavar="CHANNEL:START:STOP",
+    help="Subtract the channel's mean over a rest window [s from the first sample], e.g."
+    " inclination:0:2 (repeat the option). Stored in the model.",
+)
+LOWPASS_OPTION = typer.Option(
+    None,
+    "--lowpass",
+    metavar="CHANNEL:CUTOFF",
+    help="First-order low-pass (Tustin) of the channel at CUTOFF rad/s, started at rest, e.g."
+    " inclination:1 (the bench's filtered inclination); repeat the option. Stored in the model.",
+)
+RESAMPLE_OPTION = typer.Option(
+    None,
+    "--resample",
+    metavar="TS",
+    help="Resample every channel to TS seconds (linear interpolation), after the other steps."
+    " Stored in the model.",
+)
+RESTAMP_OPTION = typer.Option(
+    False,
+    "--restamp",
+    help="Repeated time stamps: keep the first row of each instead of refusing the log."
+    " Stored in the model.",
 )
 
 

@@ -10,8 +10,10 @@ import typer
 from rich.table import Table
 
 from neckid.cli._app import (
+    CONDITION_OPTION,
     FORCE_OPTION,
     LAYOUT_OPTION,
+    MAP_OPTION,
     SEP_OPTION,
     TIME_OPTION,
     TS_OPTION,
@@ -133,13 +135,22 @@ def info(
     time: str = TIME_OPTION,
     sep: str = SEP_OPTION,
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
+    maps: list[str] = MAP_OPTION,
+    conditions: list[str] = CONDITION_OPTION,
+    model_path: Path = typer.Option(
+        None,
+        "--model",
+        help="A model file: also describe the log as that model reads it (its channels, renamed"
+        " by --map, through the model's preprocessing).",
+    ),
 ) -> None:
     """Describe a log or a model file; without a path, print the versions of the libraries.
 
-    A log: channels, units, duration, sampling period, gaps. A model file: method, regressor,
-    channels, sampling period, the Set Membership prior, the training range of each channel.
+    A log: channels, units, duration, sampling period, gaps, conditions (file name, sidecar,
+    --condition). A model file: method, regressor, channels, sampling period, the conditions it
+    takes, its preprocessing, the Set Membership prior, the training range of each channel.
     """
-    from neckid.workflow import describe_log, describe_model
+    from neckid.workflow import describe_log, describe_model, parse_mapping
 
     if path is None:
         from neckid.report.html import library_versions
@@ -151,7 +162,8 @@ def info(
     if path.suffix == ".npz":
         from neckid.models.io import load_model
 
-        described = describe_model(load_model(path))
+        model = load_model(path)
+        described = describe_model(model)
         if as_json:
             console.print_json(json.dumps(described))
             return
@@ -178,9 +190,24 @@ def info(
                 )
         for name, (low, high) in described["training_ranges"].items():
             table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
+        table.add_row("conditions (inputs)", ", ".join(described["conditions"]) or "none")
+        if "preprocessing" in described:
+            table.add_row("preprocessing", model.preprocessing_.describe())
         console.print(table)
         return
-    described = describe_log(path, layout=layout, time=time, sep=_sep(sep))  # type: ignore[arg-type]
+    mapping = parse_mapping(maps or [])
+    described = describe_log(
+        path,
+        layout=layout,  # type: ignore[arg-type]
+        time=time,
+        sep=_sep(sep),
+        maps=mapping,
+        conditions=conditions or (),
+    )
+    if model_path is not None:
+        described["as_model_reads_it"] = _as_model_reads_it(
+            model_path, path, layout, time, sep, mapping, conditions or []
+        )
     if as_json:
         console.print_json(json.dumps(described))
         return
@@ -196,12 +223,94 @@ def info(
         )
     for name, channel in described["channels"].items():
         table.add_row(
-            name,
+            f"{name} (column {channel['column']})" if "column" in channel else name,
             channel["kind"],
             channel["unit"] or "-",
             f"{channel['min']:.4g}",
             f"{channel['max']:.4g}",
             f"{channel['mean']:.4g}",
             str(channel["non_numeric"]),
+        )
+    console.print(table)
+    console.print(f"conditions: {_conditions_text(described)}", markup=False)
+    if model_path is not None:
+        _print_as_model_reads_it(described["as_model_reads_it"])
+
+
+def _conditions_text(described: dict[str, Any]) -> str:
+    """``payload = 0.4 kg, controller = ada`` (or ``none``)."""
+    units = described.get("condition_units", {})
+    return (
+        ", ".join(
+            f"{name} = {value}" + (f" {units[name]}" if units.get(name) else "")
+            for name, value in described["conditions"].items()
+        )
+        or "none"
+    )
+
+
+def _as_model_reads_it(
+    model_path: Path,
+    path: Path,
+    layout: str,
+    time: str,
+    sep: str,
+    mapping: dict[str, str],
+    conditions: list[str],
+) -> dict[str, Any]:
+    """The log as a model reads it: its channels (through --map and the model's preprocessing)."""
+    from neckid.models.io import load_model
+    from neckid.workflow import read_log_for_model
+
+    model = load_model(model_path)
+    data, pipeline = read_log_for_model(
+        model,
+        path,
+        time=time,
+        layout=layout,  # type: ignore[arg-type]
+        sep=_sep(sep),
+        maps=mapping,
+        conditions=conditions,
+    )
+    channels = {}
+    for kind, names, units, values in (
+        ("input", data.input_names, data.input_units, data.u),
+        ("output", data.output_names, data.output_units, data.y),
+    ):
+        for j, name in enumerate(names):
+            column = values[:, j]
+            channels[name] = {
+                "kind": kind,
+                "unit": units[j],
+                "min": float(column.min()),
+                "max": float(column.max()),
+                "mean": float(column.mean()),
+            }
+    return {
+        "model": model_path.name,
+        "preprocessing": pipeline.to_list() if pipeline is not None else [],
+        "preprocessing_text": pipeline.describe() if pipeline is not None else "none",
+        "samples": data.n_samples,
+        "ts_s": data.ts,
+        "channels": channels,
+        "conditions": dict(data.conditions),
+    }
+
+
+def _print_as_model_reads_it(read: dict[str, Any]) -> None:
+    console.print(f"preprocessing from the model: {read['preprocessing_text']}", markup=False)
+    table = Table(
+        title=f"as {read['model']} reads it: {read['samples']} samples, ts {read['ts_s']:.6g} s"
+    )
+    for column in ("channel", "kind", "unit", "min", "max", "mean"):
+        table.add_column(
+            column, justify="left" if column in ("channel", "kind", "unit") else "right"
+        )
+    for name, channel in read["channels"].items():
+        table.add_row(
+            name,
+            channel["kind"],
+            channel["unit"] or "-",
+            *(f"{channel[k]:.4g}" for k in ("min", "max", "mean")),
         )
     console.print(table)

@@ -16,15 +16,19 @@ from neckid.cli._app import (
     INPUTS_HELP,
     LAYOUT_OPTION,
     LOG_HELP,
+    LOWPASS_OPTION,
     MAP_OPTION,
+    OFFSET_OPTION,
     OUTPUTS_HELP,
+    RELATIVE_OPTION,
+    RESAMPLE_OPTION,
+    RESTAMP_OPTION,
     SEP_OPTION,
     TILT_OPTION,
     TIME_OPTION,
     TS_OPTION,
     _method_name,
     _metrics_table,
-    _model_channels,
     _sep,
     _split,
     app,
@@ -75,6 +79,12 @@ def identify(
         " each log must have them (file name, sidecar or --condition).",
     ),
     tilt: bool = TILT_OPTION,
+    maps: list[str] = MAP_OPTION,
+    relative: list[str] = RELATIVE_OPTION,
+    offsets: list[str] = OFFSET_OPTION,
+    lowpass: list[str] = LOWPASS_OPTION,
+    resample: float = RESAMPLE_OPTION,
+    restamp: bool = RESTAMP_OPTION,
     settings: list[str] = typer.Option(
         None,
         "--set",
@@ -88,13 +98,30 @@ def identify(
     """Identify a model from one log or several (one experiment each) and save it.
 
     Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --lags 1-3/8-10
+
+    Preprocessing (--restamp, --tilt, --relative, --offset, --lowpass, --resample, in that order)
+    is stored in the model and applied again by validate, simulate and info --model.
     """
     from neckid.outputs import check_output_file
     from neckid.regressors import Lags
-    from neckid.workflow import make_estimator, parse_lags, read_log
+    from neckid.workflow import (
+        make_estimator,
+        parse_lags,
+        parse_mapping,
+        pipeline_from_options,
+        read_log,
+    )
 
     save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
     check_output_file(save, force=force, inputs=list(logs), option="--save")
+    pipeline = pipeline_from_options(
+        relative=relative or (),
+        offsets=offsets or (),
+        lowpass=lowpass or (),
+        resample=resample,
+        restamp=restamp,
+        tilt=tilt,
+    )
     experiments = [
         read_log(
             log,
@@ -106,7 +133,8 @@ def identify(
             sep=_sep(sep),
             channels=channels or (),
             conditions=conditions or (),
-            tilt=tilt,
+            maps=parse_mapping(maps or []),
+            preprocessing=pipeline,
         )
         for log in logs
     ]
@@ -126,7 +154,10 @@ def identify(
                 data.output_names, data.output_units, fits, rmses, strict=True
             )
         )
+    estimator.preprocessing_ = pipeline
     path = estimator.save(save)
+    if pipeline:
+        console.print(f"preprocessing stored in the model: {pipeline.describe()}", markup=False)
     if len(logs) == 1:
         rows = [{k: v for k, v in row.items() if k != "log"} for row in rows]
     where = logs[0].name if len(logs) == 1 else f"{len(logs)} logs"
@@ -177,25 +208,25 @@ def _load_for_model(
     tilt: bool = False,
 ) -> tuple[Any, Any]:
     from neckid.models.io import load_model
-    from neckid.workflow import map_channels, parse_mapping, read_log
+    from neckid.workflow import parse_mapping, read_log_for_model
 
     model = load_model(model_path)
-    mapping = parse_mapping(maps or [])  # log name -> model name
-    to_log = {v: k for k, v in mapping.items()}
-    ins, outs = ([to_log.get(n, n) for n in names] for names in _model_channels(model))
-    data = read_log(
+    # The model's channels, renamed by --map (conditions kept), through its preprocessing.
+    data, pipeline = read_log_for_model(
+        model,
         log,
-        ins,
-        outs,
         time=time,
         ts=ts,
         layout=layout,  # type: ignore[arg-type]
         sep=_sep(sep),
         channels=channels or (),
+        maps=parse_mapping(maps or []),
         conditions=conditions or (),
         tilt=tilt,
     )
-    return model, map_channels(data, mapping) if mapping else data
+    if pipeline is not None:
+        console.print(f"preprocessing from the model: {pipeline.describe()}", markup=False)
+    return model, data
 
 
 def _describe_model(model: Any) -> str:

@@ -97,7 +97,7 @@ def _choice(kind: str, key: str, value: object, choices: Sequence[str]) -> str:
     return str(value)
 
 
-def _replace_channel(data: IOData, name: str, values: FloatArray, step: Step) -> IOData:
+def _replace_channel(data: IOData, name: str, values: FloatArray) -> IOData:
     """``data`` with channel ``name`` (an input or an output) holding ``values``."""
     if name in data.input_names:
         u = np.array(data.u, dtype=np.float64)
@@ -221,7 +221,7 @@ class Relative(Step):
     def apply(self, data: IOData) -> IOData:
         """The log with the channel minus its value at the first sample."""
         x = _column(data, self.channel, self)
-        return _replace_channel(data, self.channel, x - x[0], self)
+        return _replace_channel(data, self.channel, x - x[0])
 
     def describe(self) -> str:
         """``relative CHANNEL``."""
@@ -283,7 +283,7 @@ class RemoveOffset(Step):
                 f"preprocessing step {self.describe()}: the window holds no sample of"
                 f" {data.name or 'the log'}, which lasts {data.duration:g} s"
             )
-        return _replace_channel(data, self.channel, x - float(np.mean(x[inside])), self)
+        return _replace_channel(data, self.channel, x - float(np.mean(x[inside])))
 
     def describe(self) -> str:
         """``offset CHANNEL over START..STOP s``."""
@@ -341,10 +341,9 @@ class LowPass(Step):
         a, b = wt / (2.0 + wt), (2.0 - wt) / (2.0 + wt)
         if self.initial == "rest":
             y = lfilter([a, a], [1.0, -b], x)
-        else:  # y(0) = x(0): the state of a filter at rest on x(0)
-            y = lfilter([a, a], [1.0, -b], x, zi=[(a + b * 1.0) * x[0] - a * x[0] + a * x[0]])[0]
-            y = np.asarray(y)
-        return _replace_channel(data, self.channel, np.asarray(y, dtype=np.float64), self)
+        else:  # y(0) = x(0): the state of the filter in steady state on x(0)
+            y = lfilter([a, a], [1.0, -b], x, zi=[(1.0 - a) * x[0]])[0]
+        return _replace_channel(data, self.channel, np.asarray(y, dtype=np.float64))
 
     def describe(self) -> str:
         """``low-pass CHANNEL at CUTOFF rad/s``."""
@@ -383,7 +382,7 @@ class Resample(Step):
         if math.isclose(data.ts, self.ts, rel_tol=1e-9):
             return data
         span = (data.n_samples - 1) * data.ts
-        n_new = int(math.floor(span / self.ts + 1e-9)) + 1
+        n_new = math.floor(span / self.ts + 1e-9) + 1
         old = data.ts * np.arange(data.n_samples)
         new = self.ts * np.arange(n_new)
 

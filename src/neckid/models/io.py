@@ -9,6 +9,11 @@ An uncompressed or compressed ``.npz`` (a zip of ``.npy`` files) holding
   "meta": {...}}``; ``meta`` holds hyper-parameters and scalar results;
 - one numeric array per learned array (names chosen by the model class).
 
+``meta`` may hold ``"preprocessing"``: the steps the model's logs went through
+(:class:`neckid.data.preprocess.Pipeline`, :meth:`~neckid.data.preprocess.Pipeline.to_list`),
+written from the model's ``preprocessing_`` and restored into it by :func:`load_model`; files
+without the key load as they always did.
+
 It is read with ``numpy.load(path, allow_pickle=False)``, so opening a file from someone else cannot
 run code. Any tool that reads ``.npz`` and JSON (NumPy, MATLAB via a zip reader, Julia's NPZ) can
 read it.
@@ -216,6 +221,7 @@ def load_model(path: str | Path) -> Any:
             model = cls._from_state(arrays, meta)
             model._check_state()
             _check_runs(model)
+            _restore_preprocessing(model, meta)
     except KeyError as exc:
         raise ValueError(
             f"{path}: this {class_name} file has no {exc.args[0]!r} entry; it is damaged or was"
@@ -236,6 +242,19 @@ def load_model(path: str | Path) -> Any:
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise ValueError(f"{path}: invalid {class_name} file: {reason}") from exc
     return model
+
+
+def _restore_preprocessing(model: Any, meta: Mapping[str, Any]) -> None:
+    """Set ``model.preprocessing_`` from the optional ``"preprocessing"`` key of the metadata.
+
+    Files written before preprocessing was recorded have no such key: their models load as they
+    were, without the attribute.
+    """
+    if "preprocessing" not in meta:
+        return
+    from neckid.data.preprocess import Pipeline
+
+    model.preprocessing_ = Pipeline.from_list(meta["preprocessing"])
 
 
 #: Longest regressor memory (samples) a loaded model may claim; more is a damaged file.
@@ -339,6 +358,9 @@ class ModelFile:
         Returns the path written (``.npz`` is appended when missing).
         """
         arrays, meta = self._get_state()
+        pipeline = getattr(self, "preprocessing_", None)
+        if pipeline is not None and len(pipeline):
+            meta = {**meta, "preprocessing": pipeline.to_list()}
         return write_model_file(path, type(self).__name__, arrays, meta)
 
     @classmethod

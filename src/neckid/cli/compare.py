@@ -1,0 +1,240 @@
+"""``neckid compare``: which model for this neck, chosen on the training logs, run on the test logs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.markup import escape
+
+from neckid.cli._app import (
+    CHANNEL_OPTION,
+    CONDITION_OPTION,
+    FORCE_OPTION,
+    INPUTS_HELP,
+    LAYOUT_OPTION,
+    LOG_HELP,
+    OUTPUTS_HELP,
+    SEP_OPTION,
+    TILT_OPTION,
+    TIME_OPTION,
+    TS_OPTION,
+    _method_name,
+    _metrics_table,
+    _sep,
+    _split,
+    app,
+    console,
+    error_console,
+    handled,
+)
+
+
+def _read_all(paths: list[Path], options: dict[str, Any]) -> list[Any]:
+    from neckid.workflow import read_log
+
+    return [read_log(path, **options).renamed(path.name) for path in paths]
+
+
+def _number(value: float) -> float | str:
+    """A value for the table: '–' where there is none (no band, a diverged run)."""
+    return value if value == value and abs(value) != float("inf") else "–"
+
+
+def _result_rows(comparison: Any) -> list[dict[str, Any]]:
+    rows: list[dict[str, Any]] = []
+    for row in comparison.results.to_dict("records"):
+        unit = row["unit"] or "-"
+        rows.append(
+            {
+                "method": row["method"],
+                "log": row["log"],
+                "output": row["output"],
+                "fit % (free run)": _number(float(row["fit_percent"])),
+                f"RMSE [{unit}]": _number(float(row["rmse"])),
+                "outside training range [%]": float(100 * row["outside_domain"]),
+                f"band width [{unit}]": _number(float(row["band_width"])),
+                "band holds [%]": _number(float(100 * row["band_coverage"])),
+            }
+        )
+    for row in comparison.summary().to_dict("records"):
+        rows.append(
+            {
+                "method": row["method"],
+                "log": "mean",
+                "output": "all",
+                "fit % (free run)": _number(float(row["fit_percent"])),
+                "RMSE [-]": _number(float(row["rmse"])),
+                "outside training range [%]": float(100 * row["outside_domain"]),
+            }
+        )
+    return rows
+
+
+def _write_plot(comparison: Any, tests: list[Any], path: Path) -> None:
+    """Measured output of each test log against every method's free run, one panel per log."""
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    from neckid.models.base import DivergenceError
+    from neckid.outputs import atomic_path
+    from neckid.report.plots import plot_simulation
+
+    fig, axes = plt.subplots(
+        len(tests), 1, figsize=(9.0, 3.4 * len(tests)), layout="constrained", squeeze=False
+    )
+    for ax, record in zip(axes[:, 0], tests, strict=True):
+        runs = {}
+        for method, model in comparison.models.items():
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    runs[method] = model.simulate(record)
+            except DivergenceError:
+                continue  # said in the table; a runaway would hide the others
+        plot_simulation(record, runs, ax=ax, title=f"{record.name}: free runs")
+    with atomic_path(path) as temporary:
+        fig.savefig(temporary, dpi=110, format="png")
+    plt.close(fig)
+
+
+def _write_report(comparison: Any, tests: list[Any], folder: Path, force: bool) -> None:
+    import pandas as pd
+
+    from neckid.outputs import output_folder
+    from neckid.report.html import Figure, Report
+
+    with output_folder(folder, force=force) as staged:
+        report = Report("neckid compare")
+        report.add_text("Recommended", f"{comparison.recommended}. " + " ".join(comparison.reasons))
+        selection = comparison.selection.table.drop(columns=["fold_fits"]).rename(
+            columns={
+                "fit_mean": "mean fold fit [%]",
+                "fit_se": "standard error [points]",
+                "fit_worst": "worst fold fit [%]",
+            }
+        )
+        report.add_table(
+            f"Selection on the training logs ({comparison.selection.scheme})",
+            selection,
+            note="Free-run NRMSE fit per held-out fold; a candidate that fails or runs away in"
+            " any fold is rejected; the simplest within one standard error of the best is"
+            " chosen.",
+        )
+        report.add_table(
+            "Test logs (free run)",
+            pd.DataFrame(_result_rows(comparison)),
+            note="Fit: 100 (1 − ||y − ŷ|| / ||y − mean(y)||), free run from the log's inputs.",
+        )
+        _write_plot(comparison, tests, staged.path("compare.png"))
+        report.add_figures("Free runs", [Figure(staged.path("compare.png"), "every method")])
+        report.write(staged.path("report.html"))
+    console.print(f"report written to {folder / 'report.html'}")
+
+
+@app.command()
+@handled
+def compare(
+    train: list[Path] = typer.Argument(
+        ...,
+        metavar="TRAIN...",
+        help=LOG_HELP + " The training logs (one experiment each).",
+        exists=True,
+    ),
+    test: list[Path] = typer.Option(
+        ...,
+        "--test",
+        help="A test log (repeat the option); touched once, after every choice.",
+        exists=True,
+    ),
+    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
+    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
+    methods: str = typer.Option(
+        "arx,sm,sm-parallel",
+        "--methods",
+        help="Comma-separated registry names; arx is always added (the reference).",
+    ),
+    lags: list[str] = typer.Option(
+        None,
+        "--lags",
+        help="OUTPUT_LAGS/INPUT_LAGS, e.g. 1-2/1-2 (repeat to try several; default 1-2/1-2).",
+    ),
+    stress: float = typer.Option(
+        0.1,
+        "--stress",
+        min=0.0,
+        help="Reject a candidate that runs away when the training inputs reach this fraction"
+        " beyond their range (0 turns the check off).",
+    ),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the methods that draw numbers."),
+    json_out: Path = typer.Option(None, "--json", help="Write the comparison as JSON."),
+    plot: Path = typer.Option(None, "--plot", help="Write a PNG of every method on each test log."),
+    report: Path = typer.Option(None, "--report", help="Write an HTML report into this folder."),
+    time: str = TIME_OPTION,
+    ts: float = TS_OPTION,
+    layout: str = LAYOUT_OPTION,
+    sep: str = SEP_OPTION,
+    channels: list[str] = CHANNEL_OPTION,
+    conditions: list[str] = CONDITION_OPTION,
+    tilt: bool = TILT_OPTION,
+    force: bool = FORCE_OPTION,
+) -> None:
+    """Choose a model on the training logs, then free-run every method on the test logs.
+
+    Selection uses the training logs only: folds over runs (leave one out; one log is cut into 3
+    time blocks), a candidate that fails or runs away in any fold is rejected with its reason,
+    and the simplest candidate within one standard error of the best mean fold fit is
+    recommended. Example: neckid compare run1.csv run2.csv --test run3.csv --inputs
+    motor_position --outputs inclination --methods arx,sm,sm-parallel --json compare.json
+    """
+    from neckid.comparison import compare as run_compare
+    from neckid.outputs import atomic_path, check_output_file
+    from neckid.regressors import Lags
+    from neckid.workflow import parse_lags
+
+    given = [*train, *test]
+    for path, option in ((json_out, "--json"), (plot, "--plot")):
+        if path is not None:
+            check_output_file(path, force=force, inputs=given, option=option)
+    names = [_method_name(m) for m in _split(methods) or ["arx"]]
+    regressors = []
+    for text in lags or ["1-2/1-2"]:
+        parsed = parse_lags(text)
+        regressors.append(Lags(parsed.outputs, parsed.inputs))
+    options = {
+        "inputs": _split(inputs),
+        "outputs": _split(outputs),
+        "time": time,
+        "ts": ts,
+        "layout": layout,
+        "sep": _sep(sep),
+        "channels": channels or (),
+        "conditions": conditions or (),
+        "tilt": tilt,
+    }
+    training, tests = _read_all(train, options), _read_all(test, options)
+    result = run_compare(
+        training, tests, names, regressors, stress=stress, seed=seed, progress=True
+    )
+    console.print(_metrics_table("every method on the test logs", _result_rows(result)))
+    for name, reason in result.selection.rejected.items():
+        error_console.print(
+            f"[yellow]rejected on the training logs:[/yellow] {escape(name)}: {escape(reason)}",
+            highlight=False,
+            soft_wrap=True,
+        )
+    console.print(f"recommended: {result.recommended}", markup=False)
+    for reason in result.reasons[:1]:
+        console.print(f"  {reason}", markup=False)
+    if json_out is not None:
+        with atomic_path(json_out) as temporary:
+            temporary.write_text(json.dumps(result.to_json(), indent=2), encoding="utf-8")
+        console.print(f"comparison written to {json_out}")
+    if plot is not None:
+        _write_plot(result, tests, plot)
+        console.print(f"figure written to {plot}")
+    if report is not None:
+        _write_report(result, tests, report, force)
