@@ -49,6 +49,7 @@ WRITTEN_AS: dict[str, tuple[str, ...]] = {
     "--plot": (".png",),
     "--save": (".npz",),
     "--out": (".csv",),
+    "--json": (".json",),
 }
 
 #: The suffix of the atomic writer's temporary files (``.NAME.<random>.part`` beside NAME).

@@ -272,14 +272,38 @@ def check_number(
     return int(number) if integer else float(number)
 
 
+#: The longest sampling period accepted, in seconds (11.6 days): a larger ts is a unit mistake
+#: (nanoseconds or a time stamp taken for seconds), not a log.
+LARGEST_TS = 1e6
+
+
 def check_ts(ts: Any) -> float:
-    """Return the sampling period as a float, refusing what is not a positive finite number."""
-    try:
-        value = float(ts)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"ts must be a number of seconds; got {ts!r}") from exc
+    """Return the sampling period as a float, refusing what is not a positive finite number.
+
+    A real number (NumPy's too, or a 0-d array of one) in ``(0, 1e6]`` seconds; booleans, text
+    and complex numbers are refused.
+
+    Examples
+    --------
+    >>> check_ts(0.02)
+    0.02
+    >>> check_ts(True)
+    Traceback (most recent call last):
+    ...
+    TypeError: ts must be a number of seconds; got True
+    """
+    if isinstance(ts, np.ndarray) and ts.ndim == 0:
+        ts = ts[()]
+    if isinstance(ts, bool | np.bool_) or not isinstance(ts, numbers.Real):
+        raise TypeError(f"ts must be a number of seconds; got {ts!r}")
+    value = float(ts)
     if not math.isfinite(value) or value <= 0:
         raise ValueError(f"ts must be a positive number of seconds; got {value!r}")
+    if value > LARGEST_TS:
+        raise ValueError(
+            f"ts must be a positive number of seconds at most {LARGEST_TS:g} (11.6 days); got"
+            f" {value!r}: is it in another unit (ns, ms) or a time stamp?"
+        )
     return value
 
 

@@ -34,10 +34,11 @@ app = typer.Typer(
 
 
 class _Stdout:
-    """The current ``sys.stdout``, whose reader going away (``neckid ... | head -1``) ends the
-    output but not the command: what is left to print is dropped, files are still written and
-    the exit status is that of the command (a ``BrokenPipeError`` would have made a saved model
-    look like a failure).
+    """The current ``sys.stdout``; its reader going away ends the output, not the command.
+
+    After ``neckid ... | head -1`` closes the pipe, what is left to print is dropped, files are
+    still written and the exit status is that of the command (a ``BrokenPipeError`` would have
+    made a saved model look like a failure).
     """
 
     closed = False
@@ -322,7 +323,21 @@ def _sep(text: str) -> str:
 
 # Options shared by the commands that read a log (one definition, reused as defaults).
 TIME_OPTION = typer.Option("time", "--time", help=TIME_HELP)
-TS_OPTION = typer.Option(None, "--ts", help=TS_HELP)
+
+
+def _check_ts_option(value: float | None) -> float | None:
+    """``--ts``: a positive finite number of seconds, at most 1e6 (refused by the option)."""
+    if value is None:
+        return None
+    from neckid.validation import check_ts
+
+    try:
+        return check_ts(value)
+    except (TypeError, ValueError) as exc:
+        raise typer.BadParameter(str(exc)) from None
+
+
+TS_OPTION = typer.Option(None, "--ts", help=TS_HELP, callback=_check_ts_option)
 LAYOUT_OPTION = typer.Option("csv", "--layout", help=LAYOUT_HELP)
 SEP_OPTION = typer.Option(",", "--sep", help=SEP_HELP)
 CHANNEL_OPTION = typer.Option(None, "--channel", help=CHANNEL_HELP)

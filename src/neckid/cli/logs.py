@@ -150,7 +150,7 @@ def info(
     --condition). A model file: method, regressor, channels, sampling period, the conditions it
     takes, its preprocessing, the Set Membership prior, the training range of each channel.
     """
-    from neckid.workflow import describe_log, describe_model, parse_mapping
+    from neckid.workflow import describe_log, parse_mapping
 
     if path is None:
         from neckid.report.html import library_versions
@@ -160,40 +160,7 @@ def info(
     if not path.exists():
         raise FileNotFoundError(f"{str(path)!r} does not exist")
     if path.suffix == ".npz":
-        from neckid.models.io import load_model
-
-        model = load_model(path)
-        described = describe_model(model)
-        if as_json:
-            console.print_json(json.dumps(described))
-            return
-        table = Table(title=f"{path.name}: {described['method']}", show_header=False)
-        for key in (
-            "class",
-            "lags",
-            "inputs",
-            "outputs",
-            "output_units",
-            "ts_s",
-            "initial_samples",
-            "training_samples",
-            "horizons",
-            "epsilon",
-            "gamma",
-            "lipschitz",
-            "distance",
-            "estimate",
-        ):
-            if key in described:
-                table.add_row(
-                    key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
-                )
-        for name, (low, high) in described["training_ranges"].items():
-            table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
-        table.add_row("conditions (inputs)", ", ".join(described["conditions"]) or "none")
-        if "preprocessing" in described:
-            table.add_row("preprocessing", model.preprocessing_.describe())
-        console.print(table)
+        _info_model(path, as_json)
         return
     mapping = parse_mapping(maps or [])
     described = describe_log(
@@ -214,7 +181,8 @@ def info(
     console.print(
         f"{described['file']}: {described['samples']} samples over {described['duration_s']:.4g} s,"
         f" ts = {described['ts_s']:.6g} s (largest step {described['max_step_s']:.6g} s,"
-        f" {described['gaps']} gap(s) over 1.5 ts)"
+        f" {described['gaps']} gap(s) over 1.5 ts, {described['repeated_stamps']} repeated"
+        " time stamp(s))"
     )
     table = Table(title="channels")
     for column in ("channel", "kind", "unit", "min", "max", "mean", "non-numeric"):
@@ -235,6 +203,45 @@ def info(
     console.print(f"conditions: {_conditions_text(described)}", markup=False)
     if model_path is not None:
         _print_as_model_reads_it(described["as_model_reads_it"])
+
+
+def _info_model(path: Path, as_json: bool) -> None:
+    """``neckid info MODEL``: what the model is, its conditions and its preprocessing."""
+    from neckid.models.io import load_model
+    from neckid.workflow import describe_model
+
+    model = load_model(path)
+    described = describe_model(model)
+    if as_json:
+        console.print_json(json.dumps(described))
+        return
+    table = Table(title=f"{path.name}: {described['method']}", show_header=False)
+    for key in (
+        "class",
+        "lags",
+        "inputs",
+        "outputs",
+        "output_units",
+        "ts_s",
+        "initial_samples",
+        "training_samples",
+        "horizons",
+        "epsilon",
+        "gamma",
+        "lipschitz",
+        "distance",
+        "estimate",
+    ):
+        if key in described:
+            table.add_row(
+                key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
+            )
+    for name, (low, high) in described["training_ranges"].items():
+        table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
+    table.add_row("conditions (inputs)", ", ".join(described["conditions"]) or "none")
+    if "preprocessing" in described:
+        table.add_row("preprocessing", model.preprocessing_.describe())
+    console.print(table)
 
 
 def _conditions_text(described: dict[str, Any]) -> str:

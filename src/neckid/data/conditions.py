@@ -31,7 +31,11 @@ __all__ = ["ConditionValue", "check_conditions", "parse_condition"]
 ConditionValue = float | str
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
-_NUMBER_UNIT = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*$")
+_NUMBER_UNIT = re.compile(r"^([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)(\s*)(.*)$")
+#: What starts a number: a value starting so must be a number with an optional unit.
+_NUMBER_START = re.compile(r"^[-+]?\.?\d")
+#: A unit: starts with a letter (or %, °, µ), then letters, digits and ^ / * · . _ -.
+_UNIT = re.compile(r"^[A-Za-z%°µμΩ][\w%°µμΩ^/*·.\-]*$")
 
 
 def _check_name(name: object, argument: str) -> str:
@@ -129,10 +133,24 @@ def parse_condition(text: str) -> tuple[str, ConditionValue, str]:
     if not sep or not name or not raw.strip():
         raise ValueError(f"--condition takes name=value (e.g. payload=0.4kg); got {text!r}")
     _check_name(name, "--condition")
-    match = _NUMBER_UNIT.match(raw)
-    if match:
-        number = float(match.group(1))
-        if not math.isfinite(number):
-            raise ValueError(f"--condition {name} must be finite; got {raw.strip()!r}")
-        return name, number, match.group(2)
-    return name, raw.strip(), ""
+    value = raw.strip()
+    match = _NUMBER_UNIT.match(value)
+    if match is None or not _NUMBER_START.match(value):
+        return name, value, ""  # a label: it does not start with a number
+    number_text, space, unit = match.groups()
+    if re.match(r"^[,']\d", unit) or (space and re.match(r"^\d", unit)):
+        raise ValueError(
+            f"--condition {name}={value!r}: the number holds a decimal comma or a thousands"
+            " separator; write it with a decimal point and no separators (e.g."
+            f" {name}=0.4kg, {name}=1200g)"
+        )
+    if unit and not _UNIT.match(unit):
+        raise ValueError(
+            f"--condition {name}={value!r}: {unit!r} after the number {number_text} is not a"
+            " unit; a unit starts with a letter, e.g. kg, g, deg, %, m/s2 (a label must not"
+            " start with a digit)"
+        )
+    number = float(number_text)
+    if not math.isfinite(number):
+        raise ValueError(f"--condition {name} must be finite; got {value!r}")
+    return name, number, unit

@@ -89,7 +89,7 @@ def frame_fields(
         raise ValueError("give exactly one of time= (a time column) and ts= (the sampling period)")
     t0 = 0.0
     if time is not None:
-        times = pd.to_numeric(frame[time], errors="coerce")
+        times = _time_seconds(frame[time], time)
         bad = np.flatnonzero(times.isna().to_numpy())
         if bad.size:
             row = int(bad[0])
@@ -107,6 +107,7 @@ def frame_fields(
             return np.zeros((len(frame), 0))
         out = np.empty((len(frame), len(names)))
         for j, c in enumerate(names):
+            _check_values(frame[c], c)
             try:
                 out[:, j] = pd.to_numeric(frame[c], errors="raise").to_numpy(dtype=np.float64)
             except (TypeError, ValueError):
@@ -127,6 +128,87 @@ def frame_fields(
         "input_units": [units.get(c, "") for c in inputs],
         "output_units": [units.get(c, "") for c in outputs],
     }
+
+
+#: The largest integer a float64 holds exactly: larger integers in a log would be rounded.
+LARGEST_EXACT_INTEGER = 2**53
+
+
+def _time_kind(column: pd.Series) -> str | None:
+    """``"datetime"`` or ``"timedelta"`` for a column of dates or durations, else None."""
+    if isinstance(column, pd.DataFrame):
+        return None
+    if pd.api.types.is_datetime64_any_dtype(column.dtype):
+        return "datetime"
+    if pd.api.types.is_timedelta64_dtype(column.dtype):
+        return "timedelta"
+    if column.dtype == object:
+        inferred = pd.api.types.infer_dtype(column, skipna=True)
+        if inferred in ("datetime", "datetime64", "date"):
+            return "datetime"
+        if inferred in ("timedelta", "timedelta64"):
+            return "timedelta"
+    return None
+
+
+def _time_seconds(column: pd.Series, name: str) -> pd.Series:
+    """Time stamps in seconds: numbers as they are, dates and durations since the first sample.
+
+    Dates and durations are a Parquet or pandas ``datetime64`` / ``timedelta64`` column (or
+    Python ``datetime`` / ``timedelta`` objects).
+    """
+    kind = _time_kind(column)
+    if kind is None:
+        return pd.to_numeric(column, errors="coerce")
+    try:
+        stamps: Any = pd.to_datetime(column) if kind == "datetime" else pd.to_timedelta(column)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(
+            f"time column {name!r} holds {kind}s that cannot be read ({exc}); store seconds"
+        ) from None
+    missing = np.flatnonzero(stamps.isna().to_numpy())
+    if missing.size:
+        raise ValueError(
+            f"time column {name!r} has no time stamp at row {int(missing[0])} (NaT); fill or"
+            " drop those rows first"
+        )
+    since: Any = stamps - stamps.iloc[0]  # a Series of timedeltas
+    return pd.Series(since.dt.total_seconds().to_numpy(), index=column.index)
+
+
+def _check_values(column: pd.Series, name: str) -> None:
+    """Refuse dates as channel values, and whole numbers that a float cannot hold exactly."""
+    if isinstance(column, pd.DataFrame):
+        return  # a repeated name: refused elsewhere
+    kind = _time_kind(column)
+    if kind is not None:
+        raise ValueError(
+            f"column {name!r} holds {kind}s (row 0 holds {column.iloc[0]!r}), not numbers; a"
+            " channel must be numeric: convert it to seconds or a number first, or name it as"
+            " the time column"
+        )
+    if column.dtype == object:
+        numbers = [
+            (row, value)
+            for row, value in enumerate(column.to_numpy())
+            if isinstance(value, int | np.integer) and not isinstance(value, bool)
+        ]
+    elif pd.api.types.is_integer_dtype(column.dtype):
+        values = column.to_numpy()
+        big = np.flatnonzero(
+            (values > LARGEST_EXACT_INTEGER)
+            | ((values < -LARGEST_EXACT_INTEGER) if values.dtype.kind == "i" else False)
+        )
+        numbers = [(int(big[0]), values[big[0]])] if big.size else []
+    else:
+        return
+    for row, value in numbers:
+        if abs(int(value)) > LARGEST_EXACT_INTEGER:
+            raise ValueError(
+                f"column {name!r} holds the whole number {int(value)} at row {row}, beyond 2**53"
+                f" ({LARGEST_EXACT_INTEGER}): a float cannot hold it exactly; store it in a"
+                " coarser unit or as a float"
+            )
 
 
 def file_fields(
@@ -210,6 +292,7 @@ def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
     try:
         frame = pd.read_csv(path, **read_csv)
         _check_header(path, frame, read_csv)
+        _check_last_line(path, frame, read_csv)
     except UnicodeDecodeError as exc:
         encoding = str(read_csv.get("encoding") or "utf-8")
         message = not_text_message(path, path.read_bytes(), encoding, exc)
@@ -222,6 +305,48 @@ def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
         reason = " ".join(str(exc).replace("Error tokenizing data. C error: ", "").split())
         raise ValueError(f"{path.name}: cannot parse as CSV: {reason}") from None
     return frame
+
+
+#: read_csv options under which the last line's fields are counted (others change what a line is).
+_PLAIN_CSV_OPTIONS = frozenset({"sep", "delimiter", "encoding", "header", "names", "dtype"})
+
+
+def _check_last_line(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> None:
+    """Refuse a CSV whose last line has fewer fields than the header: a line cut short.
+
+    A writer still writing leaves such a line; pandas would fill the missing cells with NaN.
+    """
+    import csv
+    import io
+
+    separator = read_csv.get("sep", read_csv.get("delimiter", ","))
+    if set(read_csv) - _PLAIN_CSV_OPTIONS or not isinstance(separator, str) or len(separator) != 1:
+        return
+    if not len(frame) or not len(frame.columns):
+        return
+    with path.open("rb") as handle:
+        size = handle.seek(0, io.SEEK_END)
+        handle.seek(max(0, size - 65536))
+        tail = handle.read()
+    lines = [line for line in tail.splitlines() if line.strip()]
+    if not lines:
+        return
+    encoding = str(read_csv.get("encoding") or "utf-8")
+    try:
+        last = lines[-1].decode(encoding)
+    except (UnicodeDecodeError, LookupError):
+        return  # the reader reports the encoding
+    if last.count('"') % 2:
+        return  # a quoted field over several lines: pandas parsed it
+    fields = next(csv.reader([last], delimiter=separator), [])
+    if 0 < len(fields) < len(frame.columns):
+        row = len(frame) - 1
+        ends = "" if tail.endswith((b"\n", b"\r")) else " and no line break"
+        raise ValueError(
+            f"{path.name}: the last line (row {row}, {last[:60]!r}) has {len(fields)} field(s)"
+            f" where the header has {len(frame.columns)}{ends}: the file seems cut short (a"
+            " writer still writing?); wait until it is complete, or drop that line"
+        )
 
 
 def not_text_message(path: Path, data: bytes, encoding: str, error: UnicodeDecodeError) -> str:
@@ -300,22 +425,165 @@ def _check_header(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> 
         )
 
 
+#: The first bytes of an HDF5 file (MATLAB v7.3 writes them after a 512-byte text header).
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _is_hdf5(path: Path) -> bool:
+    with path.open("rb") as handle:
+        head = handle.read(520)
+    return head[:8] == _HDF5_SIGNATURE or head[512:520] == _HDF5_SIGNATURE
+
+
+def _mat_variables(path: Path, names: Sequence[str]) -> dict[str, Any]:
+    """The variables ``names`` of a ``.mat`` file (v4 to v7.3) that it holds, as arrays."""
+    if path.stat().st_size == 0:
+        raise ValueError(f"{path.name}: the MATLAB file is empty")
+    if _is_hdf5(path):
+        return _mat73_variables(path, names)
+    from scipy.io import loadmat
+
+    try:
+        content = loadmat(path, squeeze_me=True)
+    except NotImplementedError:  # scipy says so for v7.3 files it did not recognise above
+        return _mat73_variables(path, names)
+    except MemoryError:
+        raise ValueError(
+            f"{path.name} is not a readable MATLAB file: it declares more data than fits in memory"
+        ) from None
+    except Exception as exc:  # scipy raises many types on a damaged file; the reason is kept
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise ValueError(
+            f"{path.name} is not a readable MATLAB .mat file ({type(exc).__name__}: {reason[:200]})"
+        ) from None
+    return {k: v for k, v in content.items() if not k.startswith("__")}
+
+
+def _mat73_variables(path: Path, names: Sequence[str]) -> dict[str, Any]:
+    """Variables of a MATLAB v7.3 file (HDF5), read with h5py.
+
+    Numeric ones are arrays; the others a description of what they are (refused by
+    :func:`_mat_vector`).
+    """
+    try:
+        import h5py
+    except ImportError:
+        raise ValueError(
+            f"{path.name} is a MATLAB v7.3 file (HDF5), which needs h5py: pip install h5py (or"
+            " neckid[data]), or save it in MATLAB with save(..., '-v7')"
+        ) from None
+    variables: dict[str, Any] = {}
+    try:
+        with h5py.File(path, "r") as handle:
+            for key in handle:
+                if key.startswith("#"):
+                    continue  # MATLAB's hidden #refs# group
+                item = handle[key]
+                if not isinstance(item, h5py.Dataset):
+                    variables[key] = _Unreadable("a struct, not a numeric vector")
+                    continue
+                matlab_class = item.attrs.get("MATLAB_class", b"")
+                if isinstance(matlab_class, bytes):
+                    matlab_class = matlab_class.decode("ascii", "replace")
+                if key not in names:
+                    variables[key] = _Unreadable("not read")
+                elif matlab_class == "char":
+                    variables[key] = _Unreadable("text, not numbers")
+                elif matlab_class == "cell" or item.dtype.kind == "O":
+                    variables[key] = _Unreadable("a cell array, not a numeric vector")
+                elif item.dtype.names is not None:
+                    variables[key] = (
+                        _Unreadable("complex numbers")
+                        if set(item.dtype.names) == {"real", "imag"}
+                        else _Unreadable("a record, not a numeric vector")
+                    )
+                elif item.attrs.get("MATLAB_empty", 0):
+                    variables[key] = np.zeros(0)
+                elif item.size > 10**9:
+                    variables[key] = _Unreadable(f"{item.size} values, more than fit in memory")
+                else:
+                    variables[key] = np.squeeze(item[()])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ValueError(
+            f"{path.name} is not a readable MATLAB v7.3 file ({type(exc).__name__}:"
+            f" {' '.join(str(exc).split())[:200]})"
+        ) from None
+    return variables
+
+
+class _Unreadable:
+    """A variable of a ``.mat`` file that is not numbers: what it is, for the message."""
+
+    def __init__(self, what: str) -> None:
+        self.what = what
+
+
+def _mat_vector(path: Path, name: str, value: Any) -> np.ndarray:
+    """A variable as a 1-D real array; text, complex, cells, structs and matrices refused."""
+    if isinstance(value, _Unreadable):
+        raise ValueError(f"{path.name}: variable {name!r} holds {value.what}; a channel must be a"
+                         " real numeric vector")  # fmt: skip
+    array = np.asarray(value)
+    kind = array.dtype.kind
+    if kind in "USa" or (kind == "O" and any(isinstance(v, str) for v in array.ravel()[:1])):
+        what = "text"
+    elif kind == "c":
+        what = "complex numbers"
+    elif kind in "OV":
+        what = "a cell array or a struct"
+    elif kind in "biuf":
+        what = ""
+    else:
+        what = f"values of type {array.dtype}"
+    if what:
+        raise ValueError(
+            f"{path.name}: variable {name!r} holds {what}; a channel must be a real numeric vector"
+        )
+    if array.ndim > 1:
+        shape = "x".join(str(n) for n in array.shape)
+        raise ValueError(
+            f"{path.name}: variable {name!r} is a {shape} matrix; a channel must be a vector (one"
+            " value per sample): save each column as its own variable"
+        )
+    if array.size == 0:
+        raise ValueError(f"{path.name}: variable {name!r} is empty")
+    if array.ndim == 0:
+        raise ValueError(
+            f"{path.name}: variable {name!r} is a single number, not a vector of samples"
+        )
+    return array.astype(np.float64) if kind == "b" else array
+
+
 def _mat_frame(
     path: Path, names: Sequence[str], ts: float | str | None
 ) -> tuple[pd.DataFrame, float | None]:
-    """The named variables of a ``.mat`` file as columns, and ``ts`` read from it if named."""
-    from scipy.io import loadmat
+    """The named variables of a ``.mat`` file as columns, and ``ts`` read from it if named.
 
-    content = loadmat(path, squeeze_me=True)
-    variables = {k: v for k, v in content.items() if not k.startswith("__")}
+    Every variable read must be a real numeric vector (a row or column matrix counts), all of
+    one length; MATLAB v7.3 files (HDF5) are read with h5py when it is installed.
+    """
+    variables = _mat_variables(path, [*names, *([ts] if isinstance(ts, str) else [])])
+    listed = sorted(k for k in variables)
     if isinstance(ts, str):
         if ts not in variables:
-            raise KeyError(
-                f"variable {ts!r} (ts) is not in {path.name}; it has {sorted(variables)}"
+            raise KeyError(f"variable {ts!r} (ts) is not in {path.name}; it has {listed}")
+        value = variables[ts]
+        array = None if isinstance(value, _Unreadable) else np.asarray(value)
+        if array is None or array.size != 1 or array.dtype.kind not in "iuf":
+            raise ValueError(
+                f"{path.name}: variable {ts!r} (ts) must hold one real number of seconds; got"
+                f" {value.what if isinstance(value, _Unreadable) else f'shape {array.shape}, dtype {array.dtype}'}"  # type: ignore[union-attr]
             )
-        ts = float(np.asarray(variables[ts]).ravel()[0])
+        ts = float(array.ravel()[0])
     missing = [n for n in names if n not in variables]
     if missing:
-        raise KeyError(f"variables {missing} are not in {path.name}; it has {sorted(variables)}")
-    frame = pd.DataFrame({n: np.asarray(variables[n], dtype=np.float64).ravel() for n in names})
-    return frame, ts
+        raise KeyError(f"variables {missing} are not in {path.name}; it has {listed}")
+    columns = {n: _mat_vector(path, n, variables[n]) for n in dict.fromkeys(names)}
+    lengths = {n: int(v.shape[0]) for n, v in columns.items()}
+    if len(set(lengths.values())) > 1:
+        described = ", ".join(f"{n!r} has {k}" for n, k in lengths.items())
+        raise ValueError(
+            f"{path.name}: the variables read have unequal lengths ({described} samples); every"
+            " channel needs one value per sample"
+        )
+    return pd.DataFrame(columns), ts

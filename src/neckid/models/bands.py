@@ -14,6 +14,7 @@ sm-free-run   SM free run: bounds f at the *simulated* regressor; not a bound on
 guaranteed    SM k steps ahead: bounds y(t+k) under the prior of horizon k (ε_k, γ_k)
 chained       SM k-step blocks re-anchored on the model's own outputs: guaranteed in the first block
 calibrated    conformal: covers the measurement with the nominal probability, marginally over samples
+adaptive      adaptive conformal: the running share inside tends to the nominal level, shift or not
 ============  =====================================================================================
 
 References
@@ -51,6 +52,11 @@ BAND_KINDS: Mapping[str, str] = {
         "conformal band: covers the measurement with its nominal probability, marginally over"
         " samples, if the new data are exchangeable with the calibration data"
     ),
+    "adaptive": (
+        "adaptive conformal band: its level is steered by its own misses as the log is read, so"
+        " the running share of samples inside tends to the nominal coverage even when the run"
+        " changes (no per-sample probability)"
+    ),
 }
 
 #: Short legend labels of each kind (plots).
@@ -60,6 +66,7 @@ BAND_LABELS: Mapping[str, str] = {
     "guaranteed": "SM k-step band (guaranteed under its prior)",
     "chained": "SM chained k-step band",
     "calibrated": "conformal band",
+    "adaptive": "adaptive conformal band",
 }
 
 #: The kinds that bound something for sure while their prior holds.
@@ -82,11 +89,9 @@ def band_meaning(extras: Mapping[str, Any]) -> str:
     if kind not in BAND_KINDS:
         return "band of an unknown kind (no claim on what it bounds)"
     text = BAND_KINDS[kind]
-    if kind == "calibrated" and "coverage" in extras:
-        text = text.replace(
-            "conformal band:", f"conformal band ({float(extras['coverage']):.0%} nominal):"
-        )
-        text = text.replace("%", " %", 1)
+    if kind in ("calibrated", "adaptive") and "coverage" in extras:
+        percent = round(100 * float(extras["coverage"]))
+        text = text.replace("conformal band:", f"conformal band ({percent} % nominal):", 1)
     return text
 
 
@@ -100,6 +105,6 @@ def band_label(extras: Mapping[str, Any]) -> str:
     """
     kind = str(extras.get("band", ""))
     label = BAND_LABELS.get(kind, "band")
-    if kind == "calibrated" and "coverage" in extras:
+    if kind in ("calibrated", "adaptive") and "coverage" in extras:
         label += f", {round(100 * float(extras['coverage']))} % nominal"
     return label

@@ -17,9 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
-import numpy as np
-
 from neckid.data.iodata import IOData
+from neckid.data.preprocess import Relative
 from neckid.datasets.benchmarks import (
     BenchmarkData,
     load_bouc_wen,
@@ -75,7 +74,7 @@ def softneck_protocol(log: IOData) -> IOData:
     -------
     IOData
         Inputs ``motor_displacement`` [rad] (the motor position minus its value at the first
-        sample: the encoder zero and the tendon slack differ between runs, while every log starts
+        sample, :class:`~neckid.data.preprocess.Relative`: the encoder zero and the tendon slack differ between runs, while every log starts
         with the neck at rest near 0 deg) and ``motor_velocity`` [rad/s] (measured); output
         ``inclination`` [deg] (raw).
 
@@ -95,10 +94,9 @@ def softneck_protocol(log: IOData) -> IOData:
     array([0., 1., 2., 3.])
     """
     data = log.select(inputs=["motor_position", "motor_velocity"], outputs=["inclination"])
-    u = np.array(data.u)
-    u[:, 0] -= u[0, 0]
+    data = Relative("motor_position").apply(data)  # the displacement that travels with models
     return IOData(
-        u,
+        data.u,
         data.y,
         ts=data.ts,
         input_names=["motor_displacement", "motor_velocity"],

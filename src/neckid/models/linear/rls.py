@@ -345,13 +345,16 @@ class RecursiveARX(NarxModel):
         Raises
         ------
         ValueError
-            If a hyper-parameter is out of range, the data hold no output, or an experiment is
-            shorter than ``max_lag + 1`` samples.
+            If a hyper-parameter is out of range, the data hold no output, an experiment is
+            shorter than ``max_lag + 1`` samples, or the logs give fewer equations (regressor
+            rows) than the regressor has unknowns: the estimate would stay near its start,
+            with a perfect training fit that means nothing.
         """
         self._validate_params()
         experiments = as_experiments(self._with_conditions(data, fitting=True))
         resolved = self._lags().resolve(experiments)
         self._check_training(experiments)
+        _check_equations(resolved, experiments)
         self._start(resolved, experiments[0])
         for experiment in experiments:
             self._run_batch(experiment)
@@ -713,3 +716,17 @@ class RecursiveARX(NarxModel):
         model._history = ParameterHistory(p, q, history.reshape(n, p, q), errors.reshape(n, q))
         model.n_covariance_resets_ = int(meta["n_covariance_resets"])
         return model
+
+
+def _check_equations(lags: ResolvedLags, experiments: Sequence[IOData]) -> None:
+    """Refuse a regressor with more unknowns than the training logs give equations."""
+    rows = sum(max(0, d.n_samples - lags.max_lag) for d in experiments)
+    unknowns = int(lags.n_terms)
+    if rows < unknowns:
+        samples = sum(d.n_samples for d in experiments)
+        raise ValueError(
+            f"the regressor has {unknowns} unknowns per output but the training logs give only"
+            f" {rows} equations ({samples} samples less the largest lag {lags.max_lag} per log):"
+            " RLS cannot identify them (its training fit would mean nothing); use fewer or"
+            " shorter lags, or a longer record"
+        )
