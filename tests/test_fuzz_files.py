@@ -1,4 +1,4 @@
-"""Fuzzing what users feed the tool: CSV logs and model files. No traceback, no silent success.
+"""Fuzzing what users feed the tool: CSV and MATLAB logs, model files. No traceback, no silent success.
 
 Every call on a damaged, truncated or hand-edited file either returns a valid result (an IOData
 whose values are finite and whose lengths agree; a model that runs on its training data) or raises
@@ -11,6 +11,10 @@ with a one-line message that names the file. Found by these tests and fixed in t
   ``EmptyDataError``; a folder raised ``IsADirectoryError``; a headerless file was reported as a
   repeated column name ``'0.0'``; messages did not name the file; an empty cell was reported as
   the value ``nan``.
+- ``IOData.from_mat``: a damaged file raised scipy's own errors (``MatReadError``, ``OSError``,
+  ``TypeError`` without the file's name); a matrix was flattened into one long channel, complex
+  values lost their imaginary part, variables of unequal lengths raised pandas' error, a v7.3
+  (HDF5) file raised ``NotImplementedError``.
 - ``load_softneck_log``: a byte-order mark made the first time stamp "not a number".
 - ``load_model``: a damaged deflate stream raised ``zlib.error``, an unsupported zip feature
   ``NotImplementedError``, an "encrypted" member ``RuntimeError``; a header without ``"class"``
@@ -197,6 +201,98 @@ def test_any_softneck_log_gives_a_log_or_a_clear_error(folder: Path, content: by
         event("read")
         assert_valid_log(data)
         assert data.n_outputs >= 1 and data.n_inputs >= 1
+
+
+# ================================================================================ MATLAB files
+MAT_VALUES = [
+    np.arange(20.0),
+    np.arange(20.0)[:, None],  # a one-column matrix: a vector
+    np.arange(20.0)[None, :],  # a one-row matrix: a vector
+    np.ones((20, 3)),
+    np.ones((2, 10, 2)),
+    np.arange(19.0),
+    np.array([], dtype=float),
+    np.array(3.5),
+    np.arange(20.0) + 1j,
+    "text",
+    np.array(["a", "b"]),
+    np.arange(20, dtype=np.int64) * 2**60,
+    np.arange(20, dtype=np.int8),
+    np.arange(20) % 2 == 0,
+    np.array([{"a": 1.0}], dtype=object),
+    np.full(20, np.nan),
+    np.r_[np.arange(19.0), np.inf],
+    np.arange(20.0) * 0.1,  # a time vector
+    np.arange(20.0)[::-1] * 0.1,  # time going back
+]
+
+
+@st.composite
+def mat_files(draw: st.DrawFn) -> tuple[bytes | None, dict[str, Any]]:
+    """(raw bytes or None, variables): a damaged file, or variables to save with savemat."""
+    kind = draw(st.sampled_from(["variables", "variables", "random", "truncate", "flip"]))
+    if kind == "random":
+        return draw(st.binary(max_size=600)), {}
+    variables = {
+        name: draw(st.sampled_from(MAT_VALUES))
+        for name in ("cmd", "incl", "time", "ts")
+        if draw(st.booleans()) or name in ("cmd", "incl")
+    }
+    if kind == "variables":
+        return None, variables
+    import io
+
+    from scipy.io import savemat
+
+    buffer = io.BytesIO()
+    savemat(buffer, {"cmd": np.arange(20.0), "incl": np.arange(20.0) ** 2, "time": np.arange(20.0)})
+    raw = bytearray(buffer.getvalue())
+    if kind == "truncate":
+        return bytes(raw[: draw(st.integers(0, len(raw) - 1))]), {}
+    for _ in range(draw(st.integers(1, 6))):
+        raw[draw(st.integers(0, len(raw) - 1))] = draw(st.integers(0, 255))
+    return bytes(raw), {}
+
+
+@FUZZ
+@given(content=mat_files(), by=st.sampled_from(["time", "ts", "number"]))
+def test_any_mat_file_gives_a_log_or_a_clear_error(
+    folder: Path, content: tuple[bytes | None, dict[str, Any]], by: str
+) -> None:
+    from scipy.io import savemat
+
+    raw, variables = content
+    path = folder / "log.mat"
+    if raw is None:
+        savemat(path, variables)
+    else:
+        path.write_bytes(raw)
+    options: dict[str, Any] = (
+        {"time": "time"} if by == "time" else {"ts": "ts" if by == "ts" else 0.1}
+    )
+    try:
+        data = neckid.IOData.from_mat(path, ["cmd"], ["incl"], **options)
+    except Exception as error:  # the test: nothing else escapes
+        assert_clear_refusal(error, path)
+    else:
+        event("read")
+        assert_valid_log(data)
+        assert data.u.shape == data.y.shape == (data.n_samples, 1)
+
+
+def test_mat_matrix_complex_text_and_lengths_are_refused_by_name(folder: Path) -> None:
+    from scipy.io import savemat
+
+    path = folder / "named.mat"
+    for value, match in (
+        (np.ones((20, 3)), r"named\.mat: variable 'incl' is a 20x3 matrix"),
+        (np.arange(20.0) + 1j, r"named\.mat: variable 'incl' holds complex numbers"),
+        ("text", r"named\.mat: variable 'incl' holds text"),
+        (np.arange(19.0), r"named\.mat: the variables read have unequal lengths"),
+    ):
+        savemat(path, {"cmd": np.arange(20.0), "incl": value})
+        with pytest.raises(ValueError, match=match):
+            neckid.IOData.from_mat(path, ["cmd"], ["incl"], ts=0.1)
 
 
 # =================================================================================== model files

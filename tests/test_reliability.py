@@ -439,6 +439,327 @@ def _output_written_whole(tmp: Path) -> None:
     assert [p.name for p in tmp.iterdir()] == ["model.npz"]
 
 
+# ---------------------------------------------------------------------------- round two (issue 32)
+def _identify_args(log: Path, save: Path, *extra: object) -> list[str]:
+    return ["identify", str(log), "--inputs", "command", "--outputs", "inclination", "--method",
+            "arx", "--lags", "1/1", "--save", str(save), *map(str, extra)]  # fmt: skip
+
+
+def _special_files_refused(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    pipe = tmp / "pipe.csv"
+    os.mkfifo(pipe)
+    link = tmp / "link.csv"
+    link.symlink_to(pipe)
+    folder = tmp / "folder.csv"
+    folder.mkdir()
+    for target, kind in ((pipe, "a named pipe"), (link, "a named pipe"), (folder, "a folder")):
+        refused(tmp, "simulate", model, log, "--out", target, "--force", match=f"is {kind}")
+    assert pipe.is_fifo() and link.is_symlink() and folder.is_dir()
+    os.mkfifo(tmp / "fifo.npz")
+    refused(tmp, *_identify_args(log, tmp / "fifo.npz"), "--force", match="is a named pipe")
+    assert (tmp / "fifo.npz").is_fifo()
+
+
+def _concurrent_saves(tmp: Path) -> None:
+    import subprocess
+    import textwrap
+
+    log = _log(tmp, n=4000)
+    save = tmp / "same.npz"
+    script = textwrap.dedent(
+        """
+        import sys, time
+        import neckid
+        fit = neckid.SetMembership.fit
+        def slow(self, data):  # a fit long enough for the two runs to overlap
+            time.sleep(1.0)
+            return fit(self, data)
+        neckid.SetMembership.fit = slow
+        from neckid.cli import app
+        app(sys.argv[1:], prog_name="neckid")
+        """
+    )
+    args = [sys.executable, "-c", script, *_identify_args(log, save)]
+    args[args.index("arx")] = "sm"
+    runs = [subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                             cwd=tmp) for _ in range(2)]  # fmt: skip
+    outputs = [(run.wait(timeout=300), run.stdout.read()) for run in runs if run.stdout]
+    saved = [out for code, out in outputs if code == 0]
+    refusals = [out for code, out in outputs if code == 2]
+    assert len(saved) == 1 and "model saved" in saved[0], outputs
+    assert len(refusals) == 1, outputs
+    assert re.search(r"another neckid run is writing --save|exists already", refusals[0]), outputs
+    assert "model saved" not in refusals[0]
+    assert neckid.load_model(save) is not None
+    assert [p.name for p in tmp.iterdir() if p.name.startswith(".")] == []
+
+
+def _locked_output(tmp: Path) -> None:
+    from filelock import FileLock
+
+    from neckid.outputs import lock_path
+
+    log = _log(tmp)
+    save = tmp / "m.npz"
+    with FileLock(lock_path(save)):  # another run holds the output
+        refused(tmp, *_identify_args(log, save), match="another neckid run is writing --save")
+    assert not save.exists()
+    code, output = cli(*_identify_args(log, save))
+    assert code == 0 and "model saved" in output
+
+
+def _umask_kept(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    previous = os.umask(0o022)
+    try:
+        out = tmp / "sim.csv"
+        assert cli("simulate", model, log, "--out", out)[0] == 0
+        assert out.stat().st_mode & 0o777 == 0o644
+        out.chmod(0o640)
+        assert cli("simulate", model, log, "--out", out, "--force")[0] == 0
+        assert out.stat().st_mode & 0o777 == 0o640
+        fresh = tmp / "fresh.npz"
+        assert cli(*_identify_args(log, fresh))[0] == 0
+        assert fresh.stat().st_mode & 0o777 == 0o644
+    finally:
+        os.umask(previous)
+
+
+def _terminated(tmp: Path) -> None:
+    import signal
+    import time
+
+    log = _log(tmp)
+    model = _model(tmp, log)
+    out = tmp / "sim.csv"
+    for signum, code in ((signal.SIGTERM, 143), (signal.SIGHUP, 129)):
+
+        def stopped(*_args: object, signum: int = signum, **_kwargs: object) -> None:
+            os.kill(os.getpid(), signum)
+            time.sleep(5)
+
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(neckid.LinearARX, "simulate", stopped)
+            refused(tmp, "simulate", model, log, "--out", out, match="interrupted", code=code)
+        assert not out.exists()
+        assert sorted(p.name for p in tmp.iterdir() if p.name.startswith(".")) == []
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def _stale_temporaries(tmp: Path) -> None:
+    from neckid.outputs import output_folder
+
+    log = _log(tmp)
+    model = _model(tmp, log)
+    (tmp / ".sim.csv.1a2b3c4d.part").write_text("half of a killed run")
+    (tmp / ".other.csv.1a2b3c4d.part").write_text("not ours")
+    assert cli("simulate", model, log, "--out", tmp / "sim.csv")[0] == 0
+    hidden = sorted(p.name for p in tmp.iterdir() if p.name.startswith("."))
+    assert hidden == [".other.csv.1a2b3c4d.part"]
+    folder = tmp / "report"
+    (folder / ".staging-killed").mkdir(parents=True)
+    (folder / ".staging-killed" / "half.html").write_text("half")
+    with output_folder(folder) as staged:
+        staged.path("a.txt").write_text("done")
+    assert sorted(p.name for p in folder.iterdir()) == ["a.txt"]
+
+
+def _degenerate_names(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    for name in ("", ".", ".."):
+        refused(tmp, "simulate", model, log, "--out", name, "--force", match="names no file")
+        refused(tmp, "validate", model, log, "--plot", name, "--force", match="names no file")
+    from neckid.outputs import output_name
+
+    with pytest.raises(FileExistsError, match=r"--save '\.\.' names no file"):
+        output_name("..", ".npz")
+
+
+def _wrong_extension(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    refused(tmp, "validate", model, log, "--plot", tmp / "fit.pdf", match="written as PNG.*\\.png")
+    refused(tmp, "simulate", model, log, "--out", tmp / "s.parquet", match="written as CSV.*\\.csv")
+    assert sorted(p.name for p in tmp.iterdir()) == ["model.npz", "run.csv"]
+    assert cli("validate", model, log, "--plot", tmp / "fit.PNG")[0] == 0
+
+
+def _closed_stdout(tmp: Path) -> None:
+    import subprocess
+
+    log = _log(tmp)
+    save = tmp / "m.npz"
+    run = subprocess.Popen([sys.executable, "-c", "from neckid.cli import app; app()",
+                            *_identify_args(log, save)], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE)  # fmt: skip
+    assert run.stdout is not None and run.stderr is not None
+    run.stdout.close()  # `| head -0`: the reader is gone before the first line
+    error = run.stderr.read().decode()
+    assert run.wait(timeout=300) == 0, error
+    assert "Error" not in error and "Traceback" not in error, error
+    assert neckid.load_model(save).n_inputs_ == 1
+
+
+def _condition_numbers(tmp: Path) -> None:
+    log = _log(tmp)
+    save = tmp / "m.npz"
+    for value in ("0,4kg", "1,000kg", "1 000g", "1'000g"):
+        refused(tmp, *_identify_args(log, save), "--condition", f"payload={value}",
+                match="decimal comma or a thousands separator.*decimal point")  # fmt: skip
+    for value, unit in (("0.4kg!", "kg!"), ("0.4.5kg", ".5kg"), ("2 kg m", "kg m")):
+        refused(tmp, *_identify_args(log, save), "--condition", f"payload={value}",
+                match=f"'{re.escape(unit)}' after the number .* is not a unit")  # fmt: skip
+    assert not save.exists()
+
+
+def _bad_ts_option(tmp: Path) -> None:
+    log = _log(tmp)
+    save = tmp / "m.npz"
+    for value, reason in (("0", "positive"), ("-0.1", "positive"), ("nan", "positive"),
+                          ("inf", "positive"), ("1e307", "1e\\+06"),
+                          ("0,01", "valid number")):  # fmt: skip
+        refused(tmp, *_identify_args(log, save), "--ts", value, match=f"--ts.*{reason}")
+    assert not save.exists()
+
+
+def _ts_not_a_number(tmp: Path) -> None:
+    u, y = np.arange(5.0), np.arange(5.0) ** 2
+    for ts, error, match in (
+        (True, TypeError, "ts must be a number of seconds; got True"),
+        ("0.1", TypeError, "ts must be a number of seconds; got '0.1'"),
+        (0.1 + 0j, TypeError, "ts must be a number of seconds; got"),
+        (1e307, ValueError, "at most 1e\\+06"),
+        (np.float64("nan"), ValueError, "positive number of seconds; got nan"),
+    ):
+        with pytest.raises(error, match=match):
+            IOData(u, y, ts=ts)
+    assert IOData(u, y, ts=np.array(0.5)).ts == 0.5
+
+
+def _values_beyond_floats(tmp: Path) -> None:
+    import pandas as pd
+
+    path = tmp / "big.csv"
+    path.write_text("time,command,inclination\n0,1,2\n0.1,9007199254740993,3\n0.2,1,4\n")
+    refused(tmp, *_identify_args(path, tmp / "m.npz"),
+            match="column 'command' holds the whole number 9007199254740993 at row 1, beyond 2\\*\\*53")  # fmt: skip
+    frame = pd.DataFrame({"time": np.arange(50) * 0.1, "inclination": np.sin(np.arange(50.0)),
+                          "command": pd.date_range("2024-01-01", periods=50, freq="s")})  # fmt: skip
+    frame.to_parquet(tmp / "dates.parquet")
+    refused(tmp, *_identify_args(tmp / "dates.parquet", tmp / "m.npz"),
+            match="column 'command' holds datetimes .*not numbers")  # fmt: skip
+    assert not (tmp / "m.npz").exists()
+
+
+def _datetime_time_column(tmp: Path) -> None:
+    import pandas as pd
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=200)
+    y = np.convolve(u, [0.0, 0.5, 0.3])[:200]
+    for name, stamps in (
+        ("datetime", pd.date_range("2024-05-01 12:00", periods=200, freq="20ms")),
+        ("aware", pd.date_range("2024-05-01 12:00", periods=200, freq="20ms", tz="Europe/Madrid")),
+        ("timedelta", pd.to_timedelta(np.arange(200) * 20 + 3000, unit="ms")),
+    ):
+        frame = pd.DataFrame({"time": stamps, "command": u, "inclination": y})
+        path = tmp / f"{name}.parquet"
+        frame.to_parquet(path)
+        data = IOData.from_parquet(path, ["command"], ["inclination"])
+        assert data.ts == pytest.approx(0.02) and data.t0 == 0.0, name
+        assert IOData.from_frame(frame, ["command"], ["inclination"], time="time").ts == (
+            pytest.approx(0.02)
+        )
+        code, output = cli(*_identify_args(path, tmp / f"{name}.npz"))
+        assert code == 0, output
+        assert neckid.load_model(tmp / f"{name}.npz").ts_ == pytest.approx(0.02)
+
+
+def _mat_variables(tmp: Path) -> None:
+    from scipy.io import savemat
+
+    n = 50
+    good = {"command": np.arange(n, dtype=float), "inclination": np.sin(np.arange(n) / 5)}
+    for edit, match in (
+        ({"command": np.ones((n, 3))}, "variable 'command' is a 50x3 matrix"),
+        ({"command": np.ones(n) + 1j}, "variable 'command' holds complex numbers"),
+        ({"command": "fifty"}, "variable 'command' holds text"),
+        (
+            {"command": np.ones(n - 1)},
+            "the variables read have unequal lengths \\('command' has 49, 'inclination' has 50",
+        ),
+        ({"command": np.array([], dtype=float)}, "variable 'command' is empty"),
+        ({"command": np.array([{"a": 1}], dtype=object)}, "variable 'command' holds"),
+    ):
+        path = tmp / "bad.mat"
+        savemat(path, {**good, **edit})
+        with pytest.raises(ValueError, match=f"^bad.mat: {match}"):
+            IOData.from_mat(path, ["command"], ["inclination"], ts=0.1)
+    savemat(tmp / "matrix.mat", {**good, "command": np.ones((n, 3))})
+    refused(tmp, *_identify_args(tmp / "matrix.mat", tmp / "m.npz"), "--ts", "0.1",
+            match="matrix.mat: variable 'command' is a 50x3 matrix")  # fmt: skip
+    savemat(tmp / "one_column.mat", {**good, "command": good["command"][:, None]})
+    assert (
+        IOData.from_mat(tmp / "one_column.mat", ["command"], ["inclination"], ts=0.1).n_samples == n
+    )
+
+
+def write_mat73(path: Path, variables: dict[str, np.ndarray], classes: dict[str, str]) -> None:
+    """A MATLAB v7.3 file as MATLAB writes one: HDF5 after a 512-byte text header."""
+    import h5py
+
+    with h5py.File(path, "w", userblock_size=512) as handle:
+        for name, value in variables.items():
+            dataset = handle.create_dataset(name, data=np.atleast_2d(value))
+            dataset.attrs["MATLAB_class"] = np.bytes_(classes.get(name, "double"))
+    with path.open("r+b") as handle:
+        handle.write(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 2024 HDF5")
+
+
+def _mat_v73(tmp: Path) -> None:
+    pytest.importorskip("h5py")
+    n = 60
+    path = tmp / "v73.mat"
+    command = np.arange(n, dtype=float)
+    write_mat73(
+        path, {"command": command, "inclination": 0.5 * command, "time": 0.05 * command}, {}
+    )
+    data = IOData.from_mat(path, ["command"], ["inclination"], time="time")
+    assert data.ts == pytest.approx(0.05) and np.allclose(data.y[:, 0], 0.5 * command)
+    write_mat73(path, {"command": np.frombuffer(b"ab" * n, dtype=np.uint16),
+                       "inclination": command}, {"command": "char"})  # fmt: skip
+    with pytest.raises(ValueError, match=r"v73\.mat: variable 'command' holds text"):
+        IOData.from_mat(path, ["command"], ["inclination"], ts=0.1)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setitem(sys.modules, "h5py", None)  # not installed
+        refused(tmp, *_identify_args(path, tmp / "m.npz"), "--ts", "0.1",
+                match="v73.mat is a MATLAB v7.3 file \\(HDF5\\), which needs h5py: pip install h5py")  # fmt: skip
+
+
+def _cut_last_line(tmp: Path) -> None:
+    log = _log(tmp)
+    text = log.read_text()
+    cut = tmp / "cut.csv"
+    cut.write_text(text[: text.rstrip("\n").rfind(",")])  # the last line loses its last field
+    refused(tmp, *_identify_args(cut, tmp / "m.npz"),
+            match="cut.csv: the last line \\(row 399, .*\\) has 2 field\\(s\\) where the header has 3.*cut short")  # fmt: skip
+    assert not (tmp / "m.npz").exists()
+
+
+def _rls_more_unknowns(tmp: Path) -> None:
+    log = _log(tmp, n=2000)
+    args = _identify_args(log, tmp / "m.npz")
+    args[args.index("arx")], args[args.index("1/1")] = "rls", "1-1500/1"
+    refused(
+        tmp, *args, match="1501 unknowns per output but the training logs give only 500 equations"
+    )
+    assert not (tmp / "m.npz").exists()
+
+
 CASES = [
     Case("C1", "CLI", "`simulate --out` names the measured log", "refused: is an input of this command (even with --force); the log is unchanged", "clear", _simulate_onto_the_log),
     Case("C2", "CLI", "`simulate --out` names the model file", "refused: is an input; the model is unchanged", "clear", _simulate_onto_the_model),
@@ -472,12 +793,30 @@ CASES = [
     Case("C27", "CLI", "Ctrl-C during a command", "interrupted (exit 130); no file half written", "clear", _interrupted),
     Case("C28", "CLI", "an unexpected internal error", "one line with its type and 'rerun with --debug' (exit 1)", "clear", _unexpected),
     Case("C29", "CLI", "`benchmark` where some rows failed", "exit 1: N row(s) failed (method on benchmark)", "clear", _benchmark_failures),
+    Case("C33", "CLI", "`--out` / `--save` a named pipe, a symlink to one, or a folder, with `--force`", "refused: is a named pipe, not a regular file; neckid replaces only regular files (even with --force); the pipe is unchanged", "clear", _special_files_refused),
+    Case("C34", "CLI", "two `identify --save same.npz` at once", "one saves; the other is refused: another neckid run is writing --save ... (or: exists already); never two 'model saved'", "clear", _concurrent_saves),
+    Case("C35", "CLI", "`--save` a file another run holds", "refused before the fit: another neckid run is writing --save ... (it holds the lock ...)", "clear", _locked_output),
+    Case("C36", "CLI", "outputs under umask 022; `--force` over a 0640 file", "written 0644 (the umask's mode); a replaced file keeps its mode", "correct", _umask_kept),
+    Case("C37", "CLI", "SIGTERM or SIGHUP during a command", "interrupted (exit 143 / 129); no file half written, no temporary left", "clear", _terminated),
+    Case("C38", "CLI", "temporary files of a killed run beside the output; a killed run's staging folder", "removed by the next run into the same place; other files kept", "correct", _stale_temporaries),
+    Case("C39", "CLI", "`--out` / `--plot` named '', '.' or '..'", "refused: names no file; give a file name", "clear", _degenerate_names),
+    Case("C40", "CLI", "`--plot fit.pdf`, `simulate --out sim.parquet`", "refused: the file is written as PNG / CSV, so its name must end in .png / .csv", "clear", _wrong_extension),
+    Case("C41", "CLI", "`identify ... \\| head -0` (standard output closed)", "the model is saved, exit 0, no error", "correct", _closed_stdout),
+    Case("C42", "CLI", "`--condition payload=0,4kg`, `1,000kg`, `1 000g`; `0.4kg!`, `2 kg m`", "refused: the number holds a decimal comma or a thousands separator; write it with a decimal point / '...' after the number is not a unit", "clear", _condition_numbers),
+    Case("C43", "CLI", "`--ts` 0, -0.1, nan, inf, 1e307 or 0,01", "refused by the option: ts must be a positive number of seconds (at most 1e+06)", "clear", _bad_ts_option),
+    Case("C44", "CLI", "an integer beyond 2**53 in a column; dates as a channel's values", "refused: column 'command' holds the whole number ... beyond 2**53 / holds datetimes, not numbers", "clear", _values_beyond_floats),
+    Case("C45", "CLI", "a Parquet or pandas time column of datetimes (naive or with a zone) or timedeltas", "read as seconds since the first sample: ts = 0.02 s, not 2e7", "correct", _datetime_time_column),
+    Case("C46", "CLI", "`.mat` variables that are matrices, complex, text, cells, empty or of unequal lengths", "refused: FILE: variable 'command' is a 50x3 matrix / holds complex numbers / holds text / unequal lengths (...)", "clear", _mat_variables),
+    Case("C47", "CLI", "a MATLAB v7.3 (HDF5) file", "read with h5py; without h5py refused: is a MATLAB v7.3 file (HDF5), which needs h5py: pip install h5py", "correct", _mat_v73),
+    Case("C48", "CLI", "a CSV whose last line is cut short (fewer fields than the header)", "refused: the last line (row N, ...) has 2 field(s) where the header has 3: the file seems cut short", "clear", _cut_last_line),
+    Case("C49", "CLI", "`--method rls --lags 1-1500/1` on 2,000 rows", "refused: 1501 unknowns per output but the training logs give only 500 equations", "clear", _rls_more_unknowns),
     Case("A1", "API", "a complex array given to IOData", "TypeError: u holds complex numbers", "clear", _complex_array),
     Case("A2", "API", "a free run that diverges", "DivergenceError naming sample and time; the run in .result", "clear", _diverging_api),
     Case("A3", "API", "an SM model file with gamma < 0", "ValueError on load: gamma must be > 0", "clear", _sm_negative_gamma),
     Case("A4", "API", "`simulator().reset(y0=...)` of the wrong shape", "ValueError: y0 must have shape (1,) or (1, 1); got (3, 2)", "clear", _reset_shape),
     Case("A5", "API", "a hyper-parameter out of range", "ValueError at fit naming it, its rule and value", "clear", _bad_hyper_parameter),
     Case("A6", "API", "a write interrupted half way", "the old file stays, no temporary left", "correct", _output_written_whole),
+    Case("A7", "API", "`ts` True, '0.1', complex, 1e307 or NaN", "TypeError: ts must be a number of seconds; got True / ValueError: ... at most 1e+06", "clear", _ts_not_a_number),
 ]  # fmt: skip
 
 
@@ -497,7 +836,8 @@ def render() -> str:
         "the test suite checks that it is up to date). Every row is a test: *clear* means refused",
         "with one line naming what is wrong and no traceback; *correct* means accepted and right.",
         "The command line exits with status 2 for bad input, 3 for a diverging free run, 130",
-        "after Ctrl-C and 1 for an unexpected error (its traceback with `neckid --debug`).",
+        "after Ctrl-C, 143 after SIGTERM, 129 after SIGHUP and 1 for an unexpected error (its",
+        "traceback with `neckid --debug`).",
         "",
         f"Cases: {len(CASES)}; clear {counts['clear']}, correct {counts['correct']}, vague 0,"
         " traceback 0, silent 0.",

@@ -305,8 +305,8 @@ class Comparison:
         Per method, the chosen candidate's name and lags.
     results : pandas.DataFrame
         One row per method and test log: ``method``, ``log``, ``output``, ``fit_percent`` (free
-        run, %), ``rmse`` and ``unit``, ``outside_domain`` (share of samples with a channel
-        outside its training range), ``band`` (what it bounds, or empty), ``band_width``
+        run, %), ``rmse`` and ``unit``, ``outside_domain`` (share of samples outside the model's
+        domain: :meth:`~neckid.models.base.Estimator.domain`), ``band`` (what it bounds, or empty), ``band_width``
         (mean, output units), ``band_coverage`` (share of measured samples inside), ``error``.
     recommended : str
         The method of the chosen candidate.
@@ -368,7 +368,12 @@ def _plain(value: Any) -> Any:
 
 
 def _outside_domain(model: Any, data: IOData) -> float:
-    """Share of the samples at which some channel lies outside its training range."""
+    """Share of the samples outside the model's domain: its regressors' training box and, for SM
+    models, farther than the radius from every training regressor (``Estimator.domain``); the
+    channels' training ranges for a model without regressor ranges.
+    """
+    if getattr(model, "regressor_ranges_", None) and hasattr(model, "lags_"):
+        return model.domain(data).share
     ranges: dict[str, tuple[float, float]] = getattr(model, "training_ranges_", {})
     outside = np.zeros(data.n_samples, dtype=bool)
     for name in (*data.input_names, *data.output_names):

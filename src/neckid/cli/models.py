@@ -6,6 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import typer
 from rich.markup import escape
 
@@ -347,6 +348,28 @@ def _print_prior_check(model: Any, data: Any) -> None:
         )
 
 
+def _print_domain(model: Any, data: Any) -> Any:
+    """The share of the log outside the model's domain (regressor box, SM nearest regressor)."""
+    if not getattr(model, "regressor_ranges_", None) or data.n_samples <= model.max_lag_:
+        return None
+    domain = model.domain(data)
+    worst = sorted(domain.by_term.items(), key=lambda kv: -kv[1])[:3]
+    terms = ", ".join(f"{k} {v:.0%}" for k, v in worst if v > 0) or "none"
+    text = (
+        f"domain: {domain.share:.1%} of the samples lie outside the regressors the model was"
+        f" identified on (terms outside their training range: {terms}"
+    )
+    if domain.radius is not None and domain.distance is not None:
+        far = float(np.nanmean(domain.distance[domain.n_initial :] > domain.radius))
+        text += (
+            f"; {far:.1%} farther from every training regressor than"
+            f" {domain.radius:.3g} (the 99th percentile of the training regressors' own"
+            " nearest-neighbour distances, scaled space)"
+        )
+    console.print(text + ")", markup=False)
+    return domain
+
+
 def _report_extrapolation(result: Any) -> None:
     from neckid.models.base import EXTRAPOLATION_WARNING
 
@@ -418,6 +441,7 @@ def validate(
     _print_prior_check(model, data)
     _print_horizons(model, data)
     _report_extrapolation(result)
+    domain = _print_domain(model, data)
     if plot is not None:
         from neckid.report.plots import plot_simulation
 
@@ -427,6 +451,7 @@ def validate(
             {label: result},
             title=f"{label} on {log.name}: free run, fit {float(fits[0]):.1f} %",
             residuals=True,
+            outside=None if domain is None else domain.outside,
         )
         with atomic_path(plot) as temporary:
             fig.savefig(temporary, dpi=120, format="png")

@@ -26,19 +26,25 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator
-from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
 
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
-from neckid.metrics import fit_percent, mae, rmse
+from neckid.models.domain import Domain, regressor_box, regressor_domain
 from neckid.models.io import ModelFile
+from neckid.models.results import (
+    DIVERGENCE_SPANS,
+    EXTRAPOLATION_WARNING,
+    DivergenceError,
+    ExtrapolationWarning,
+    ModelResult,
+    NotFittedError,
+    check_is_fitted,
+)
 from neckid.regressors import Lags, ResolvedLags
 from neckid.systems import HistoryMap, StateMap, history_rows
 from neckid.validation import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
@@ -60,166 +66,6 @@ __all__ = [
 
 #: Largest magnitude a training value may have: its square times a record length stays finite.
 LARGEST_VALUE = 1e150
-
-
-class NotFittedError(_SklearnNotFittedError):
-    """Raised when a model is used before ``fit``.
-
-    A subclass of scikit-learn's ``NotFittedError`` (itself a ``ValueError`` and an
-    ``AttributeError``), so scikit-learn's tools recognise it.
-    """
-
-
-def check_is_fitted(model: Any) -> None:
-    """Raise :class:`NotFittedError` unless ``model`` is fitted (its ``__sklearn_is_fitted__``)."""
-    fitted = getattr(model, "__sklearn_is_fitted__", None)
-    if fitted is None or not fitted():
-        raise NotFittedError(
-            f"this {type(model).__name__} is not fitted yet; call fit(data) before using it"
-        )
-
-
-class ExtrapolationWarning(UserWarning):
-    """A log leaves the range of values the model was identified on (see ``Estimator.extrapolation``)."""
-
-
-#: Share of samples outside the training range above which a simulation warns.
-EXTRAPOLATION_WARNING = 0.05
-
-#: A free run whose output leaves its training range widened by this many times the range's
-#: width on each side has run away: it raises :class:`DivergenceError` as a non-finite run does
-#: (:meth:`Estimator.divergence_envelope`).
-DIVERGENCE_SPANS = 10.0
-
-
-class DivergenceError(ValueError, ArithmeticError):
-    """A free run left the finite numbers (an unstable model, or a log far outside the data).
-
-    The message names the first non-finite sample and its time; :attr:`result` holds the whole
-    run, for a user who wants to look at it anyway.
-    """
-
-    def __init__(self, message: str, result: ModelResult) -> None:
-        super().__init__(message)
-        self.result = result
-
-
-@dataclass(frozen=True)
-class ModelResult:
-    """The output of ``predict`` or ``simulate``.
-
-    Attributes
-    ----------
-    kind : {"prediction", "simulation"}
-        One-step-ahead prediction (measured past outputs) or free-run simulation (own outputs).
-    time : ndarray, shape (n_samples,)
-        Seconds.
-    y : ndarray, shape (n_samples, n_outputs)
-        The model's output (the central estimate for Set Membership).
-    output_names : tuple of str
-        Names of the output channels.
-    n_initial : int
-        The first ``n_initial`` samples are the measured outputs (initial conditions), not model
-        output; figures of merit skip them.
-    lower, upper : ndarray, shape (n_samples, n_outputs), optional
-        Guaranteed bounds beside the central estimate (Set Membership), ``None`` otherwise.
-    extras : dict
-        Model-specific series (the scheduled model's rate, gain and pole).
-    output_units : tuple of str
-        Unit of each output (``""`` when unknown).
-    u : ndarray, shape (n_samples, n_inputs), optional
-        The inputs the result was computed from.
-    input_names, input_units : tuple of str
-        Names and units of those inputs.
-    """
-
-    kind: Literal["prediction", "simulation"]
-    time: FloatArray
-    y: FloatArray
-    output_names: tuple[str, ...]
-    n_initial: int
-    lower: FloatArray | None = None
-    upper: FloatArray | None = None
-    extras: dict[str, Any] = field(default_factory=dict)
-    output_units: tuple[str, ...] = ()
-    u: FloatArray | None = None
-    input_names: tuple[str, ...] = ()
-    input_units: tuple[str, ...] = ()
-
-    @classmethod
-    def from_data(
-        cls,
-        kind: Literal["prediction", "simulation"],
-        data: IOData,
-        y: FloatArray,
-        n_initial: int,
-        output_names: Sequence[str],
-        output_units: Sequence[str] | None = None,
-        lower: FloatArray | None = None,
-        upper: FloatArray | None = None,
-        extras: dict[str, Any] | None = None,
-    ) -> ModelResult:
-        """A result on the time base and inputs of ``data`` (outputs named by the model)."""
-        units = tuple(output_units) if output_units is not None else ("",) * len(output_names)
-        return cls(
-            kind,
-            data.time,
-            y,
-            tuple(output_names),
-            int(n_initial),
-            lower,
-            upper,
-            extras or {},
-            units,
-            data.u,
-            tuple(data.input_names),
-            tuple(data.input_units),
-        )
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples."""
-        return int(self.y.shape[0])
-
-    def fit_percent(self, data: IOData | ArrayLike) -> FloatArray:
-        """MATLAB ``compare`` fit per output against the measured outputs, skipping ``n_initial``."""
-        y_true = data.y if isinstance(data, IOData) else np.asarray(data, dtype=np.float64)
-        return fit_percent(y_true, self.y, skip=self.n_initial)
-
-    def rmse(self, data: IOData | ArrayLike) -> FloatArray:
-        """Root-mean-square error per output, skipping ``n_initial``."""
-        y_true = data.y if isinstance(data, IOData) else np.asarray(data, dtype=np.float64)
-        return rmse(y_true, self.y, skip=self.n_initial)
-
-    def mae(self, data: IOData | ArrayLike) -> FloatArray:
-        """Mean absolute error per output, skipping ``n_initial``."""
-        y_true = data.y if isinstance(data, IOData) else np.asarray(data, dtype=np.float64)
-        return mae(y_true, self.y, skip=self.n_initial)
-
-    def to_frame(self) -> pd.DataFrame:
-        """A DataFrame: time, the inputs, each output, and ``<name>_lower`` / ``<name>_upper``.
-
-        ``frame.attrs`` keeps ``kind``, ``n_initial`` and ``units`` (channel -> unit, time in s).
-        """
-        columns: dict[str, FloatArray] = {"time": self.time}
-        units = {"time": "s"}
-        if self.u is not None:
-            for j, n in enumerate(self.input_names):
-                columns[n] = self.u[:, j]
-                units[n] = self.input_units[j] if j < len(self.input_units) else ""
-        for j, n in enumerate(self.output_names):
-            unit = self.output_units[j] if j < len(self.output_units) else ""
-            units[n] = unit
-            columns[n] = self.y[:, j]
-            if self.lower is not None and self.upper is not None:
-                columns[f"{n}_lower"] = self.lower[:, j]
-                columns[f"{n}_upper"] = self.upper[:, j]
-                units[f"{n}_lower"] = units[f"{n}_upper"] = unit
-        frame = pd.DataFrame(columns)
-        frame.attrs["units"] = units
-        frame.attrs["kind"] = self.kind
-        frame.attrs["n_initial"] = self.n_initial
-        return frame
 
 
 class Estimator(BaseEstimator, ModelFile):
@@ -326,6 +172,29 @@ class Estimator(BaseEstimator, ModelFile):
                 envelope[name] = (low - spans * width, high + spans * width)
         return envelope
 
+    def _warn_extrapolation(self, data: IOData, result: ModelResult) -> None:
+        """Record and warn about a log outside the channels' and regressors' training ranges."""
+        outside = self.extrapolation(data)
+        result.extras["extrapolation"] = outside
+        far = {k: v for k, v in outside.items() if v > EXTRAPOLATION_WARNING}
+        terms: dict[str, float] = {}
+        box = getattr(self, "regressor_ranges_", None)
+        if box and data.n_outputs == self.n_outputs_ and data.n_samples > self.max_lag_:
+            found = regressor_domain(self, data, nearest=False)
+            result.extras["outside_domain"] = found.share
+            terms = {k: v for k, v in found.by_term.items() if v > EXTRAPOLATION_WARNING}
+        if far or terms:
+            shares = ", ".join(f"{k} {v:.0%}" for k, v in far.items()) or "no channel"
+            detail = ", ".join(f"{k} {v:.0%}" for k, v in terms.items())
+            warnings.warn(
+                f"{data.name or 'the log'} leaves the range the {type(self).__name__} was"
+                f" identified on ({shares} of the samples outside it"
+                + (f"; regressor terms outside their training range: {detail}" if detail else "")
+                + "): expect a poor fit there",
+                ExtrapolationWarning,
+                stacklevel=4,
+            )
+
     def _check_envelope(self, data: IOData, y: FloatArray, result: ModelResult) -> None:
         """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope."""
         envelope = self.divergence_envelope()
@@ -352,6 +221,15 @@ class Estimator(BaseEstimator, ModelFile):
             " it was identified on (the whole run is in the exception's .result)",
             result,
         )
+
+    def domain(self, data: IOData, *, nearest: bool = True) -> Domain:
+        """Which samples of ``data`` lie outside the regressors this model was identified on.
+
+        See :func:`neckid.models.domain.regressor_domain` (the training box of every regressor
+        term and, for Set Membership models, the distance to the nearest training regressor).
+        """
+        check_is_fitted(self)
+        return regressor_domain(self, data, nearest=nearest)
 
     def extrapolation(self, data: IOData) -> dict[str, float]:
         """Share of the samples of each channel of ``data`` outside the range seen in training.
@@ -412,6 +290,9 @@ class Estimator(BaseEstimator, ModelFile):
             "training_ranges": {
                 k: list(v) for k, v in getattr(self, "training_ranges_", {}).items()
             },
+            "regressor_ranges": {
+                k: list(v) for k, v in getattr(self, "regressor_ranges_", {}).items()
+            },
         }
 
     def _restore_channels(self, meta: Any, lags: ResolvedLags | None = None) -> None:
@@ -425,6 +306,9 @@ class Estimator(BaseEstimator, ModelFile):
         self.n_outputs_ = len(self.output_names_)
         ranges = meta.get("training_ranges") or {}
         self.training_ranges_ = {str(k): (float(v[0]), float(v[1])) for k, v in ranges.items()}
+        # Model files written before the regressor ranges were recorded have none.
+        terms = meta.get("regressor_ranges") or {}
+        self.regressor_ranges_ = {str(k): (float(v[0]), float(v[1])) for k, v in terms.items()}
 
     def _check_inputs(self, data: IOData) -> None:
         ts = self.ts_
@@ -496,17 +380,7 @@ class Estimator(BaseEstimator, ModelFile):
             extras,
         )
         if kind == "simulation":
-            outside = self.extrapolation(data)
-            result.extras["extrapolation"] = outside
-            far = {k: v for k, v in outside.items() if v > EXTRAPOLATION_WARNING}
-            if far:
-                shares = ", ".join(f"{k} {v:.0%}" for k, v in far.items())
-                warnings.warn(
-                    f"{data.name or 'the log'} leaves the range the {type(self).__name__} was"
-                    f" identified on ({shares} of the samples outside it): expect a poor fit there",
-                    ExtrapolationWarning,
-                    stacklevel=3,
-                )
+            self._warn_extrapolation(data, result)
         bad = np.flatnonzero(~np.isfinite(y[self.max_lag_ :]).all(axis=1))
         if bad.size:
             row = int(bad[0]) + self.max_lag_
@@ -647,6 +521,7 @@ class NarxModel(Estimator):
         self.lags_ = resolved
         self._set_channels(experiments[0])
         self.n_samples_ = int(x.shape[0])
+        self.regressor_ranges_ = regressor_box(x, resolved.names)
         return x, y
 
     def _mark_fitted(self) -> None:

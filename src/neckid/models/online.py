@@ -76,7 +76,7 @@ def update_rows(model: Any, experiments: Sequence[IOData]) -> tuple[FloatArray, 
 
 
 def extend_training_ranges(model: Any, experiments: Sequence[IOData]) -> None:
-    """Widen ``training_ranges_`` (see ``Estimator.extrapolation``) to the new data."""
+    """Widen ``training_ranges_`` and ``regressor_ranges_`` (``Estimator.domain``) to the new data."""
     ranges: dict[str, tuple[float, float]] = dict(getattr(model, "training_ranges_", {}))
     for d in experiments:
         for names, values in ((d.input_names, d.u), (d.output_names, d.y)):
@@ -85,6 +85,17 @@ def extend_training_ranges(model: Any, experiments: Sequence[IOData]) -> None:
                 old = ranges.get(name, (low, high))
                 ranges[name] = (min(old[0], low), max(old[1], high))
     model.training_ranges_ = ranges
+    terms: dict[str, tuple[float, float]] = dict(getattr(model, "regressor_ranges_", {}) or {})
+    lags = getattr(model, "lags_", None)
+    if terms and lags is not None:
+        for d in experiments:
+            x, _ = lags.build_one(model._with_conditions(d))
+            if x.shape[0] == 0:
+                continue
+            for j, name in enumerate(lags.names):
+                old = terms.get(name, (float(x[:, j].min()), float(x[:, j].max())))
+                terms[name] = (min(old[0], float(x[:, j].min())), max(old[1], float(x[:, j].max())))
+        model.regressor_ranges_ = terms
 
 
 def estimate_offset(model: Any, data: IOData, initial: ArrayLike | None = None) -> FloatArray:

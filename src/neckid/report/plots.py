@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from neckid.data.iodata import IOData
 from neckid.models.bands import band_label
@@ -22,6 +23,7 @@ def plot_simulation(
     title: str | None = None,
     bounds: bool = True,
     residuals: bool = False,
+    outside: ArrayLike | None = None,
 ) -> Any:
     """Measured output against each model's output, with bands, initial samples and residuals.
 
@@ -37,6 +39,9 @@ def plot_simulation(
         Where to draw; a new figure is made when ``None`` (then with ``residuals``, a second
         panel below shows ``y − ŷ``).
     title : str, optional
+    outside : array_like of bool, shape (n_samples,), optional
+        Samples outside the model's domain (``Estimator.domain(data).outside``), marked by a
+        red tick under the curves.
     bounds : bool, default True
         Shade ``[lower, upper]`` for results that carry bounds; the band is in the legend, and
         the vertical axis follows the outputs, not the band (a band wider than the plot is cut
@@ -113,6 +118,12 @@ def plot_simulation(
             )
             if wider:
                 labels[labels.index(band)] = f"{band} (cut at the plot edges)"
+    if outside is not None and np.any(outside):
+        mask = np.asarray(outside, dtype=bool)
+        floor = low - 0.5 * margin
+        ax.plot(t[mask], np.full(int(mask.sum()), floor), "|", color="tab:red", ms=6)
+        handles.append(plt.Line2D([], [], marker="|", ls="", color="tab:red"))
+        labels.append(f"outside the model's domain ({mask.mean():.0%} of the samples)")
     if n_initial:
         ax.axvspan(t[0], t[min(n_initial, t.size - 1)], color="0.85", lw=0, zorder=0)
         handles.append(plt.Rectangle((0, 0), 1, 1, color="0.85"))

@@ -1,0 +1,160 @@
+"""Where a model was identified: is each regressor of a new log inside what training saw.
+
+A model identified on one payload, range or controller says little about regressors far from
+its training regressors. Two measures, per sample of a new log (its one-step regressors, built
+from the *measured* outputs):
+
+- **the training box**: every regressor term (``inclination(t-1)``, ``motor_position(t-2)``,
+  ...) within the range it took in training (``regressor_ranges_``, recorded by every NARX
+  model at ``fit`` and saved in its file). Reported by term and by channel;
+- **the nearest training regressor** (Set Membership models): the distance, in the model's own
+  scaled regressor space (its ``weights_``), to the closest training regressor, against a
+  radius: the 99th percentile of the training regressors' own nearest-neighbour distances. A
+  regressor inside the box can still be far from every training regressor (a combination the
+  experiment never produced); the SM bounds widen there, the other models just extrapolate.
+
+:func:`regressor_domain` computes both; ``Estimator.domain(data)`` is the method form, and a
+free run's :class:`~neckid.models.base.ExtrapolationWarning` counts the box.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from neckid._typing import BoolArray, FloatArray
+from neckid.data.iodata import IOData
+
+__all__ = ["NEAREST_QUANTILE", "Domain", "regressor_box", "regressor_domain"]
+
+#: The radius of the nearest-regressor domain: this quantile of the training regressors'
+#: distances to their own nearest neighbour.
+NEAREST_QUANTILE = 0.99
+#: Training regressors the radius is estimated on (a seeded subsample beyond that).
+RADIUS_SAMPLE = 20_000
+
+
+@dataclass(frozen=True)
+class Domain:
+    """Which samples of a log lie outside a model's domain, and why.
+
+    Attributes
+    ----------
+    outside : ndarray of bool, shape (n_samples,)
+        Per sample: a regressor term outside its training range, or (SM) farther than
+        ``radius`` from every training regressor. False for the initial samples.
+    by_term : dict of str to float
+        Regressor term -> share of the samples (after the initial ones) where it is outside its
+        training range.
+    by_channel : dict of str to float
+        Channel -> share of the samples where one of its terms is outside.
+    distance : ndarray, shape (n_samples,), or None
+        SM models: the distance to the nearest training regressor (scaled space; NaN for the
+        initial samples).
+    radius : float or None
+        SM models: the radius the distance is compared with.
+    n_initial : int
+        The initial samples (no regressor).
+    """
+
+    outside: BoolArray
+    by_term: dict[str, float]
+    by_channel: dict[str, float]
+    distance: FloatArray | None
+    radius: float | None
+    n_initial: int
+
+    @property
+    def share(self) -> float:
+        """Share of the samples (after the initial ones) outside the domain."""
+        rows = self.outside[self.n_initial :]
+        return float(rows.mean()) if rows.size else 0.0
+
+
+def regressor_box(x: FloatArray, names: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    """Each regressor term's training range: name -> (lowest, highest)."""
+    low, high = x.min(axis=0), x.max(axis=0)
+    return {name: (float(low[j]), float(high[j])) for j, name in enumerate(names)}
+
+
+def _nearest(model: Any, x: FloatArray) -> tuple[FloatArray, float] | None:
+    """Distances of ``x`` to the nearest training regressor of an SM model, and the radius."""
+    from scipy.spatial import cKDTree
+
+    core = getattr(model, "core_", None)
+    if core is None:
+        return None
+    points = core.tree.points
+    tree = cKDTree(points)
+    sample = points
+    if points.shape[0] > RADIUS_SAMPLE:
+        rows = np.random.default_rng(0).choice(points.shape[0], RADIUS_SAMPLE, replace=False)
+        sample = points[rows]
+    if points.shape[0] < 2:
+        return None
+    own, _ = tree.query(sample, k=2)
+    radius = float(np.quantile(own[:, 1], NEAREST_QUANTILE))
+    distance, _ = tree.query(x * core.weights, k=1)
+    return np.asarray(distance, dtype=np.float64), radius
+
+
+def regressor_domain(model: Any, data: IOData, *, nearest: bool = True) -> Domain:
+    """Which samples of ``data`` are outside the domain of a fitted NARX model (see the module).
+
+    Parameters
+    ----------
+    model : fitted NARX model
+        With ``lags_`` and ``regressor_ranges_`` (models fitted or saved before the ranges were
+        recorded have none: then only the nearest-regressor measure, for SM models).
+    data : IOData
+        A log with the model's channels and its measured outputs.
+    nearest : bool, default True
+        Also the nearest-training-regressor distance (SM models; builds a kd-tree).
+
+    Returns
+    -------
+    Domain
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> u = np.sin(np.arange(300) / 10.0)
+    >>> y = np.convolve(u, [0.0, 0.5])[:300]
+    >>> model = LinearARX(Lags.arx(1, 1)).fit(IOData(u, y, ts=0.1))
+    >>> wider = IOData(2 * u, 2 * y, ts=0.1)
+    >>> found = regressor_domain(model, wider)
+    >>> round(found.share, 2), sorted(found.by_channel)
+    (0.7, ['u', 'y'])
+    """
+    lags = model.lags_
+    data = model._with_conditions(data)
+    x, _ = lags.build_one(data)
+    m = lags.max_lag
+    outside = np.zeros(data.n_samples, dtype=bool)
+    box: dict[str, tuple[float, float]] = getattr(model, "regressor_ranges_", {})
+    by_term: dict[str, float] = {}
+    by_channel: dict[str, float] = {}
+    channel_of = [
+        (lags.output_names if source == 0 else lags.input_names)[channel]
+        for source, channel in zip(lags.source, lags.channel, strict=True)
+    ]
+    per_channel: dict[str, BoolArray] = {}
+    for j, name in enumerate(lags.names):
+        if name not in box:
+            continue
+        low, high = box[name]
+        out = (x[:, j] < low) | (x[:, j] > high)
+        by_term[name] = float(out.mean()) if out.size else 0.0
+        outside[m:] |= out
+        per_channel[channel_of[j]] = per_channel.get(channel_of[j], np.zeros_like(out)) | out
+    by_channel = {k: float(v.mean()) if v.size else 0.0 for k, v in per_channel.items()}
+    distance, radius = None, None
+    found = _nearest(model, x) if nearest else None
+    if found is not None:
+        distance = np.full(data.n_samples, np.nan)
+        distance[m:], radius = found
+        outside[m:] |= found[0] > found[1]
+    return Domain(outside, by_term, by_channel, distance, radius, m)
