@@ -69,6 +69,7 @@ def test_the_registry_lists_every_method() -> None:
         "sm-multistep",
         "sm-parallel",
         "sm-parallel-poly",
+        "ss",
     ]
     for name, method in neckid.methods().items():
         assert method.name == name

@@ -239,9 +239,7 @@ def test_failed_reads_are_found_in_the_shared_logs() -> None:
 def test_every_fixed_controller_reproduces_every_logged_command() -> None:
     checks = check_shared_logs(SHARED_DATA)
     assert set(checks) == set(CLOSED_LOOP_LOGS)
-    worst = {
-        k: c.max_difference for k, c in checks.items() if not Path(k).name.startswith("ada")
-    }
+    worst = {k: c.max_difference for k, c in checks.items() if not Path(k).name.startswith("ada")}
     assert max(worst.values()) <= FLOOR, worst
 
 

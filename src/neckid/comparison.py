@@ -201,7 +201,9 @@ def select_safely(
     n_blocks: int = MIN_BLOCKS,
     stress: float = 0.0,
     complexity: Mapping[str, int] | None = None,
+    n_initial: int | None = None,
     n_jobs: int | None = None,
+    backend: str | None = None,
     progress: bool = False,
 ) -> SafeSelection:
     """Choose among candidate estimators on the training logs only (see the module's rule).
@@ -220,8 +222,13 @@ def select_safely(
     complexity : mapping of str to int, optional
         Each candidate's simplicity rank by name (smaller is simpler); default 0 for all (then
         fewer regressor terms decide).
+    n_initial : int, optional
+        Initial samples of each held-out record (default each candidate's ``max_lag_``).
     n_jobs : int, optional
         Parallel workers over candidates and folds (joblib).
+    backend : str, optional
+        The joblib backend (``"dask"`` for a cluster), as in
+        :func:`~neckid.selection.score_candidates`.
     progress : bool, default False
         Show a progress bar.
 
@@ -260,7 +267,13 @@ def select_safely(
     experiments = as_experiments(train, "train")
     records, scheme = _folds_of(experiments, n_blocks)
     scored = score_candidates(
-        options, records, criteria=["simulation"], n_jobs=n_jobs, progress=progress
+        options,
+        records,
+        criteria=["simulation"],
+        n_initial=n_initial,
+        n_jobs=n_jobs,
+        backend=backend,
+        progress=progress,
     )
     fold_fits = scored.attrs["fold_scores"]["fit_simulation"]
     ranks = [int((complexity or {}).get(name, 0)) for name in names]
@@ -368,9 +381,10 @@ def _plain(value: Any) -> Any:
 
 
 def _outside_domain(model: Any, data: IOData) -> float:
-    """Share of the samples outside the model's domain: its regressors' training box and, for SM
-    models, farther than the radius from every training regressor (``Estimator.domain``); the
-    channels' training ranges for a model without regressor ranges.
+    """Share of the samples outside the model's domain (``Estimator.domain``).
+
+    Its regressors' training box and, for SM models, farther than the radius from every training
+    regressor; the channels' training ranges for a model without regressor ranges.
     """
     if getattr(model, "regressor_ranges_", None) and hasattr(model, "lags_"):
         return model.domain(data).share

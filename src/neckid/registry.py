@@ -11,7 +11,7 @@ Examples
 >>> import neckid
 >>> sorted(neckid.methods())
 ['arx', 'nn', 'poly', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel',
- 'sm-parallel-poly']
+ 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -96,6 +96,14 @@ _METHODS: tuple[Method, ...] = (
         "CFF-RLS ARX",
         "neckid.models.linear.rls:RecursiveARX",
         "ARX by recursive least squares with a constant forgetting factor (0.98)",
+    ),
+    Method(
+        "ss",
+        "State space (subspace)",
+        "neckid.models.linear.subspace:SubspaceStateSpace",
+        "linear state-space model by subspace identification (PO-MOESP), order from the singular"
+        " values, refined on the free-run error, stable",
+        quick={"max_iter": 20},
     ),
     Method(
         "sm",

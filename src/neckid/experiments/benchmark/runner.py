@@ -4,9 +4,9 @@ For every data set found (:mod:`~neckid.experiments.benchmark.datasets`) and eve
 (:mod:`~neckid.experiments.benchmark.settings`), :func:`run_benchmark`
 
 1. lists the method's candidates on that data set;
-2. fits each on the first :data:`~neckid.experiments.benchmark.settings.SELECTION_FRACTION` of
-   the training record and ranks them by free-run RMSE on the rest
-   (:func:`neckid.selection.score_candidates`, the scorer :func:`~neckid.select_lags` uses);
+2. chooses one on the training data alone (:func:`neckid.select_safely`: folds over the training
+   experiments, or three time blocks of one record; runaways rejected with the reason; the
+   fewest regressor terms within one standard error of the best mean fold fit);
 3. refits the best one on the whole training record and simulates every test record once, in free
    run (:func:`neckid.selection.free_run`, with the protocol's initial samples).
 """
@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from sklearn.base import clone
 
 from neckid._parallel import check_backend
+from neckid.comparison import select_safely
 from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
@@ -37,8 +38,7 @@ from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
     DEFAULT_METHODS,
     PEER_METHODS,
-    SELECTION_FOLDS,
-    SELECTION_FRACTION,
+    SELECTION_BLOCKS,
     Candidate,
     candidates,
     runs_on,
@@ -46,7 +46,7 @@ from neckid.experiments.benchmark.settings import (
 from neckid.metrics import fit_percent, rmse
 from neckid.outputs import StagedFolder, output_folder
 from neckid.registry import DEPRECATED_NAMES, get_method
-from neckid.selection import free_run, score_candidates
+from neckid.selection import free_run
 
 __all__ = ["TABLE_COLUMNS", "BenchmarkReport", "run_benchmark"]
 
@@ -228,51 +228,48 @@ def _select(
     n_initial: int | None,
     sweep: _Sweep | None = None,
 ) -> tuple[Candidate, list[dict[str, Any]]]:
-    """The candidate with the smallest free-run RMSE on held-out training data.
+    """The candidate chosen on the training data alone by :func:`neckid.select_safely`.
 
-    One training record: fitted on its first :data:`SELECTION_FRACTION`, scored on the rest. A
-    list of two or more experiments: scored on held-out experiments (:data:`SELECTION_FOLDS`,
-    leave-one-experiment-out by default), by the mean RMSE over the folds; each score then also
-    says the scheme and the worst fold's RMSE. ``sweep`` says where the fits run.
+    Folds over the training experiments (leave-one-experiment-out), or over three contiguous
+    time blocks of a single training record; a candidate that fails or runs away in any fold
+    is out, with the reason kept; among the rest, the one with fewest regressor terms within one
+    standard error of the best mean fold fit (free run, NRMSE %). ``sweep`` says where the fits
+    run.
     """
     if not options:
         raise ValueError("the method has no candidate on this data set")
     if len(options) == 1:
         return options[0], []
-    experiments = as_experiments(train, "train")
-    if len(experiments) > 1:
-        table = score_candidates(
-            options,
-            experiments,
-            None,
-            criteria=("simulation",),
-            n_initial=n_initial,
-            folds=SELECTION_FOLDS,
-            **(sweep or _Sweep()).options(),
-        )
-    else:
-        fit_part, check_part = experiments[0].split(SELECTION_FRACTION)
-        table = score_candidates(
-            options,
-            fit_part,
-            check_part,
-            criteria=("simulation",),
+    names = [str(name) for name, _ in options]
+    if len(set(names)) != len(names):  # unique names for the selection table
+        options = [(f"{name} #{i}", est) for i, (name, est) in enumerate(options)]
+    try:
+        found = select_safely(
+            [(str(name), est) for name, est in options],
+            train,
+            n_blocks=SELECTION_BLOCKS,
             n_initial=n_initial,
             **(sweep or _Sweep()).options(),
         )
-    values = table["rmse_simulation"].to_numpy(dtype=np.float64)
-    worst = table["rmse_simulation_worst"].to_numpy(dtype=np.float64)
+    except ValueError as exc:
+        raise ValueError(
+            f"no candidate survives the selection on the training data: {exc}"
+        ) from None
     scores: list[dict[str, Any]] = []
-    for row, value, fold in zip(table.itertuples(index=False), values, worst, strict=True):
-        score: dict[str, Any] = {"settings": str(row.name), "holdout_rmse": float(value)}
-        if row.scheme != "validation":
-            score.update(scheme=str(row.scheme), worst_fold_rmse=float(fold))
-        if row.error:
-            score["error"] = str(row.error)
+    for row in found.table.to_dict("records"):
+        score: dict[str, Any] = {
+            "settings": str(row["name"]),
+            "mean_fold_fit_percent": float(row["fit_mean"]),
+            "fold_fit_se": float(row["fit_se"]),
+            "worst_fold_fit_percent": float(row["fit_worst"]),
+            "scheme": found.scheme,
+            "status": str(row["status"]),
+        }
+        if row["reason"]:
+            score["error"] = str(row["reason"])
         scores.append(score)
-    if np.isinf(values).all():
-        raise ValueError(f"every candidate failed or diverged on the held-out end: {scores}")
-    return options[int(np.argmin(values))], scores
+    chosen = [str(name) for name, _ in options].index(found.chosen)
+    return options[chosen], scores
 
 
 # ---------------------------------------------------------------------------- evaluation
@@ -280,6 +277,24 @@ def _first_non_finite(y: NDArray[np.float64], skip: int) -> int | None:
     """Index of the first non-finite simulated sample after ``skip``, or None."""
     bad = np.flatnonzero(~np.isfinite(y[skip:]).all(axis=1))
     return int(bad[0]) + skip if bad.size else None
+
+
+def _first_runaway(model: Any, y: NDArray[np.float64], skip: int) -> int | None:
+    """The first sample after ``skip`` that is not finite or leaves the model's envelope."""
+    first = _first_non_finite(y, skip)
+    envelope = getattr(model, "divergence_envelope", None)
+    if envelope is None:
+        return first
+    bounds = envelope()
+    for j, name in enumerate(getattr(model, "output_names_", ())):
+        if name not in bounds:
+            continue
+        low, high = bounds[name]
+        with np.errstate(invalid="ignore"):
+            out = np.flatnonzero((y[skip:, j] < low) | (y[skip:, j] > high))
+        if out.size and (first is None or out[0] + skip < first):
+            first = int(out[0]) + skip
+    return first
 
 
 def _row(bench: BenchmarkData, test: str, method: str, **values: Any) -> dict[str, Any]:
@@ -317,14 +332,17 @@ def _run_method(
         t0 = time.perf_counter()
         y, skip = free_run(model, record, bench.n_initial, diverged="keep")
         sim_time = time.perf_counter() - t0
-        diverged = _first_non_finite(y, skip)
+        diverged = _first_runaway(model, y, skip)
         if diverged is None:
             error = float(rmse(record.y, y, skip=skip)[0]) * bench.rmse_scale
             fit = float(fit_percent(record.y, y, skip=skip)[0])
             note = ""
         else:
             error, fit = math.inf, -math.inf
-            note = f"free run diverged at sample {diverged}"
+            note = (
+                f"free run diverged at sample {diverged} (not finite, or beyond the training"
+                " outputs' divergence envelope)"
+            )
         rows.append(
             _row(
                 bench,
@@ -507,7 +525,7 @@ def _run(
             "methods": names,
             "quick": quick,
             "seed": seed,
-            "selection_fraction": SELECTION_FRACTION,
+            "selection": f"select_safely (time blocks: {SELECTION_BLOCKS})",
         },
         "missing": [],
         "benchmarks": {},

@@ -220,7 +220,7 @@ class AdaptiveFractionalReplay(LabController):
 
     def law(self, state: FloatArray, error: float) -> tuple[float, FloatArray]:
         """One period: ``(c_k, [row + 1, x_k, …])``; the integral restarts at the first stair row."""
-        row = int(round(state[0]))
+        row = round(float(state[0]))
         history = state[1:] if row != self.warmup_rows else np.zeros(state.shape[0] - 1)
         kp, kd, weights = self.gains(row)
         command, following = fractional_period(weights, history, error, self.ts, kp, kd)
@@ -228,7 +228,7 @@ class AdaptiveFractionalReplay(LabController):
 
     def hold(self, state: FloatArray) -> FloatArray:
         """A failed read: only the row counter advances (the stair controller still starts new)."""
-        if int(round(state[0])) == self.warmup_rows:
+        if round(float(state[0])) == self.warmup_rows:
             state[1:] = 0.0
         state[0] += 1.0
         return state

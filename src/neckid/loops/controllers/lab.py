@@ -290,9 +290,8 @@ class LabPI(LabController):
     [1.5, 2.5, 3.5]
     """
 
-    law_states = ["integral", "error[t-1]"]
-
     def __init__(self, kp: float = PI_GAINS[0], ki: float = PI_GAINS[1], ts: float = LAB_TS):
+        self.law_states = ["integral", "error[t-1]"]
         self.kp = check_number(kp, "kp")
         self.ki = check_number(ki, "ki")
         self.ts = check_ts(ts)

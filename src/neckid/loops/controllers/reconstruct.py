@@ -54,7 +54,11 @@ __all__ = [
 
 #: The closed-loop logs of the shared set (relative to ``softneck/``), in report order.
 CLOSED_LOOP_LOGS = tuple(
-    [f"stair/{c}{p}response.csv" for c in ("int", "fra", "ada") for p in ("000", "200", "400", "600")]
+    [
+        f"stair/{c}{p}response.csv"
+        for c in ("int", "fra", "ada")
+        for p in ("000", "200", "400", "600")
+    ]
     + [f"step/{c}{p}stepresponse.csv" for c in ("int", "fra") for p in ("000", "200", "400", "600")]
     + ["id/id000response.csv"]
 )

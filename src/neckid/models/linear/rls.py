@@ -720,7 +720,9 @@ class RecursiveARX(NarxModel):
 
 def _check_equations(lags: ResolvedLags, experiments: Sequence[IOData]) -> None:
     """Refuse a regressor with more unknowns than the training logs give equations."""
-    rows = sum(max(0, d.n_samples - lags.max_lag) for d in experiments)
+    if any(d.n_samples <= lags.max_lag for d in experiments):
+        return  # too short for one regressor row: refused with its own message when read
+    rows = sum(d.n_samples - lags.max_lag for d in experiments)
     unknowns = int(lags.n_terms)
     if rows < unknowns:
         samples = sum(d.n_samples for d in experiments)

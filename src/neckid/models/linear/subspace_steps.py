@@ -306,7 +306,8 @@ def _solve_scaled(x: FloatArray, y: FloatArray) -> FloatArray:
     norms = np.linalg.norm(x, axis=0)
     norms[norms == 0] = 1.0
     theta = np.linalg.lstsq(x / norms, y, rcond=None)[0]
-    return np.asarray(theta / norms, dtype=np.float64)
+    scale = norms if theta.ndim == 1 else norms[:, None]
+    return np.asarray(theta / scale, dtype=np.float64)
 
 
 def output_error_regression(
