@@ -269,3 +269,41 @@ def test_reconstruction_by_hand_matches_check_log() -> None:
         failed_reads(data),
     )
     np.testing.assert_array_equal(command, check_log(path).command)
+
+
+# ============================================================================ the tuner
+def test_iso_damping_tuning_of_the_initial_estimate_is_in_the_labs_range() -> None:
+    from neckid.loops.controllers.tuner import INITIAL_ESTIMATE, iso_damping_tuning
+
+    tuning = iso_damping_tuning(np.array(INITIAL_ESTIMATE))
+    assert tuning is not None
+    # CONTROLLERS.md: typical alpha -0.56 ... -0.60, kp 0.19 ... 0.43, kd 0.36 ... 1.22
+    assert -0.62 < tuning.alpha < -0.54
+    assert 0.19 <= tuning.kp <= 0.43 and 0.36 <= tuning.kd <= 1.22
+    # the controller adds the phase needed for 50 deg of margin at 3 rad/s
+    s = (3j) ** tuning.alpha
+    added = np.angle(1 + tuning.kd / tuning.kp * s)
+    assert np.degrees(added + tuning.phase) == pytest.approx(-130.0, abs=1e-6)
+    # no retuning with a positive phase (G = -1/z^2) or a magnitude below 0.1
+    assert iso_damping_tuning(np.array([0.0, 0.0, -1.0])) is None
+    assert iso_damping_tuning(np.array([0.0, 0.0, 0.01])) is None
+
+
+@needs_logs
+def test_the_re_implemented_tuner_comes_near_the_parameter_logs() -> None:
+    from neckid.datasets import load_softneck_log
+    from neckid.loops.controllers import load_adaptive_parameters
+    from neckid.loops.controllers.tuner import compare_with_parameter_log
+
+    for payload in ("000", "200", "400", "600"):
+        log = load_softneck_log(SHARED_DATA / "softneck" / "stair" / f"ada{payload}response.csv")
+        logged = load_adaptive_parameters(
+            SHARED_DATA / "softneck_adaptive" / f"adacon{payload}.csv"
+        )
+        cmp = compare_with_parameter_log(
+            log.channel("velocity_command"), log.channel("inclination"), logged, failed_reads(log)
+        )
+        # docs/controllers.md: kp within 10-14 % (median), kd 12-31 %, fex within 0.03
+        assert cmp.median_relative_error("kp") < 0.15, payload
+        assert cmp.median_relative_error("kd") < 0.35, payload
+        assert abs(np.median(cmp.fex[cmp.rows]) - logged.fex[801]) < 0.03, payload

@@ -52,6 +52,7 @@ from neckid._typing import FloatArray
 from neckid.models.base import Estimator, check_is_fitted
 from neckid.models.linear.arx import LinearARX
 from neckid.models.linear.rls import RecursiveARX
+from neckid.models.linear.subspace import SubspaceStateSpace
 from neckid.models.scheduled.model import GainScheduledModel
 from neckid.models.scheduled.state_map import command_channel, scheduled_state_names
 from neckid.systems import StateFunctions, history_names
@@ -267,6 +268,39 @@ def _scheduled_frozen(
     )
 
 
+def _subspace_system(
+    model: SubspaceStateSpace,
+    inclination: float | None,
+    form: str,
+    strict: bool,
+    name: str | None,
+) -> control.TransferFunction | control.StateSpace:
+    """A SubspaceStateSpace as it is: ``(A, B, C, D)`` on its own state, or its transfer matrix."""
+    if inclination is not None:
+        raise ValueError(
+            f"inclination applies to a GainScheduledModel only; got {inclination!r} for a"
+            " SubspaceStateSpace"
+        )
+    if strict and np.any(model.intercept_):
+        raise ValueError(
+            f"the SubspaceStateSpace has an output offset {model.intercept_.tolist()}, which a"
+            " linear system cannot hold; pass strict=False to leave it out, or fit with"
+            " fit_intercept=False"
+        )
+    labels = {
+        "inputs": list(model.input_names_),
+        "outputs": list(model.output_names_),
+        "name": name or type(model).__name__,
+    }
+    if form == "ss":
+        a, b, c, d, _ = model.matrices_
+        states = [f"x{k + 1}" for k in range(model.order_)]
+        return control.StateSpace(a, b, c, d, dt=model.ts_, states=states, **labels)
+    numerators, denominator = model.transfer_matrix()
+    denominators = [[denominator] * len(row) for row in numerators]
+    return control.TransferFunction(numerators, denominators, dt=model.ts_, **labels)
+
+
 def to_control(
     model: Any,
     *,
@@ -279,8 +313,11 @@ def to_control(
 
     Parameters
     ----------
-    model : LinearARX, RecursiveARX or GainScheduledModel
+    model : LinearARX, RecursiveARX, GainScheduledModel or SubspaceStateSpace
         Fitted. ARX models: from every input to every output (MIMO when there are several).
+        ``SubspaceStateSpace``: its ``(A_, B_, C_, D_)`` on its own state ``x1 … xn`` (``"ss"``,
+        started by ``X0 = model.initial_state(y[:m], u[:m])``), or its transfer matrix; the
+        offset ``intercept_`` is left out (added to the output) as an ARX intercept is.
         ``RecursiveARX``: its final estimate ``coef_``. ``GainScheduledModel``: frozen at
         ``inclination``, from the velocity command [rad/s] to the inclination [deg]
         (:meth:`~neckid.GainScheduledModel.transfer_function` with ``to="inclination"``).
@@ -348,6 +385,8 @@ def to_control(
                 " freeze N(i) / (z - P(i)) at, e.g. to_control(model, inclination=20.0)"
             )
         return _scheduled_frozen(model, float(inclination), form, name)
+    if isinstance(model, SubspaceStateSpace):
+        return _subspace_system(model, inclination, form, strict, name)
     if not isinstance(model, LINEAR_MODELS):
         raise TypeError(
             f"to_control needs a linear model (LinearARX, RecursiveARX, GainScheduledModel); a"

@@ -15,6 +15,21 @@ from neckid.models.base import ModelResult
 __all__ = ["plot_simulation"]
 
 
+def _mark_cut_bands(
+    results: Mapping[str, ModelResult], output: int, labels: list[str], low: float, high: float
+) -> None:
+    """Say in the legend which bands reach beyond the plotted range ``[low, high]``."""
+    for name, result in results.items():
+        band = f"{name}: {band_label(result.extras)}"
+        if result.lower is not None and result.upper is not None and band in labels:
+            wider = (
+                np.nanmin(result.lower[:, output]) < low
+                or np.nanmax(result.upper[:, output]) > high
+            )
+            if wider:
+                labels[labels.index(band)] = f"{band} (cut at the plot edges)"
+
+
 def plot_simulation(
     data: IOData,
     results: Mapping[str, ModelResult],
@@ -109,19 +124,10 @@ def plot_simulation(
     margin = 0.08 * (high - low or 1.0)
     ax.set_ylim(low - margin, high + margin)
     handles, labels = ax.get_legend_handles_labels()
-    for name, result in results.items():
-        band = f"{name}: {band_label(result.extras)}"
-        if result.lower is not None and result.upper is not None and band in labels:
-            wider = (
-                np.nanmin(result.lower[:, output]) < low - margin
-                or np.nanmax(result.upper[:, output]) > high + margin
-            )
-            if wider:
-                labels[labels.index(band)] = f"{band} (cut at the plot edges)"
+    _mark_cut_bands(results, output, labels, low - margin, high + margin)
     if outside is not None and np.any(outside):
         mask = np.asarray(outside, dtype=bool)
-        floor = low - 0.5 * margin
-        ax.plot(t[mask], np.full(int(mask.sum()), floor), "|", color="tab:red", ms=6)
+        ax.plot(t[mask], np.full(int(mask.sum()), low - 0.5 * margin), "|", color="tab:red", ms=6)
         handles.append(plt.Line2D([], [], marker="|", ls="", color="tab:red"))
         labels.append(f"outside the model's domain ({mask.mean():.0%} of the samples)")
     if n_initial:

@@ -5,7 +5,8 @@
 - :mod:`.adaptive`: the adaptive fractional controller replayed from its parameter log
   (:class:`AdaptiveFractionalReplay`, :func:`load_adaptive_parameters`);
 - :mod:`.tuner`: a re-implementation of the adaptive controller's online identifier and
-  iso-damping tuner (:class:`AdaptiveFractionalController`), approximate by nature;
+  iso-damping tuner (:func:`~.tuner.iso_damping_tuning`, :func:`~.tuner.retune_log`),
+  approximate by nature;
 - :mod:`.references`: the staircase, step, identification and adaptive references with their
   dither (:func:`reference_for_log`); :mod:`.glibc`: glibc's ``rand()`` that draws it;
 - :mod:`.drive`: the drive's smallest velocity (:func:`executed_velocity`);

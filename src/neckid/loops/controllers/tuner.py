@@ -2,7 +2,9 @@ r"""A re-implementation of the adaptive controller's online identifier and iso-d
 
 Approximate by nature: CONTROLLERS.md gives the structure, the initial estimates and the
 averaging, not the least-squares details (forgetting factor, initial covariance, the
-"random initialisation"), which are chosen here (:class:`OnlineIdentifier`'s defaults).
+"random initialisation"), which are chosen here (:class:`OnlineIdentifier`'s defaults: no
+forgetting and :math:`P_0 = I` came closest to the parameter logs among forgetting factors
+0.95 … 1 and :math:`P_0` of 0.01 … 100 times the identity).
 :func:`retune_log` runs both on a logged run (fed the logged command and raw inclination, as the
 bench's identifier was) and :func:`compare_with_parameter_log` says how close the gains come to
 the ``adacon*.csv`` parameter logs; docs/controllers.md reports it.
@@ -68,8 +70,8 @@ class OnlineIdentifier:
 
     Parameters
     ----------
-    forgetting : float, default 0.95
-        Forgetting factor :math:`\lambda` of the least squares.
+    forgetting : float, default 1.0
+        Forgetting factor :math:`\lambda` of the least squares (1: none).
     covariance : float, default 1.0
         Initial covariance :math:`P_0 = c I`.
     window : int, default 30
@@ -82,7 +84,7 @@ class OnlineIdentifier:
 
     def __init__(
         self,
-        forgetting: float = 0.95,
+        forgetting: float = 1.0,
         covariance: float = 1.0,
         window: int = 30,
         ts: float = LAB_TS,
@@ -122,7 +124,7 @@ class OnlineIdentifier:
 
 @dataclass(frozen=True)
 class IsoDampingTuning:
-    """One tuning: the gains and what they came from.
+    r"""One tuning: the gains and what they came from.
 
     Attributes
     ----------
@@ -131,9 +133,9 @@ class IsoDampingTuning:
     alpha : float
         The fractional order (the lab's ``fex``).
     phase : float
-        :math:`\\arg G(j\\omega_c)`, rad.
+        :math:`\arg G(j\omega_c)`, rad.
     magnitude : float
-        :math:`|G(j\\omega_c)|`.
+        :math:`|G(j\omega_c)|`.
     """
 
     kp: float
@@ -150,7 +152,7 @@ def _frequency_response(theta: FloatArray, w: float, ts: float) -> complex:
 
 
 def _phase_slope_of_controller(alpha: float, phase: float, w: float) -> float:
-    """d arg C / dω at ω for C = 1 + τ s^α (α < 0) whose phase at ω is −|phase|."""
+    """The slope d arg C / dω at ω for C = 1 + τ s^α (α < 0) whose phase at ω is −|phase|."""
     beta = abs(alpha) * math.pi / 2.0
     t = math.tan(abs(phase))
     denominator = math.sin(beta) - t * math.cos(beta)
@@ -181,7 +183,7 @@ def iso_damping_tuning(
     crossover: float = 3.0,
     ts: float = LAB_TS,
 ) -> IsoDampingTuning | None:
-    """The lab's iso-damping tuning of ``k (1 + τa s^α)`` for ``G(z) = b0/(z² + a1 z + a0)``.
+    r"""The lab's iso-damping tuning of ``k (1 + τa s^α)`` for ``G(z) = b0/(z² + a1 z + a0)``.
 
     Parameters
     ----------
@@ -197,7 +199,7 @@ def iso_damping_tuning(
     Returns
     -------
     IsoDampingTuning or None
-        None when the lab would not retune (:math:`\\arg G \\ge 0` or :math:`|G| \\le 0.1`) or
+        None when the lab would not retune (:math:`\arg G \ge 0` or :math:`|G| \le 0.1`) or
         no order gives the phase.
     """
     g = _frequency_response(theta, crossover, ts)

@@ -306,6 +306,34 @@ class SubspaceStateSpace(Estimator):
             y[m:] = state_space_run(*self.matrices_, np.ascontiguousarray(data.u[m:]), x)[0]
         return self._result("simulation", data, y)
 
+    def transfer_matrix(self) -> tuple[list[list[FloatArray]], FloatArray]:
+        r"""``G(z) = C (zI − A)^{-1} B + D`` as numerators over the common denominator ``det(zI − A)``.
+
+        Returns
+        -------
+        (numerators, denominator)
+            ``numerators[o][j]`` (from input ``j`` to output ``o``) and the denominator:
+            polynomial coefficients in ``z``, highest power first, ``order_ + 1`` of each. The
+            offset ``intercept_`` is not part of ``G``.
+
+        Notes
+        -----
+        For one input and one output, ``c (zI − A)^{-1} b = (det(zI − A + b c) − det(zI − A))
+        / det(zI − A)`` (the matrix determinant lemma), so each element is a difference of two
+        characteristic polynomials (``numpy.poly``), without any matrix inversion.
+        """
+        a, b, c, d, _ = self.matrices_
+        denominator = np.poly(a) if a.size else np.ones(1)
+        numerators = [
+            [
+                np.poly(a - b[:, j : j + 1] @ c[o : o + 1, :]) - denominator
+                + d[o, j] * denominator
+                for j in range(b.shape[1])
+            ]
+            for o in range(c.shape[0])
+        ]
+        return numerators, np.asarray(denominator, dtype=np.float64)
+
     def simulator(self) -> StateSpaceSimulator:
         """A stateful simulator: ``reset(y0, u0)`` then ``step(u) -> y`` (same values as simulate)."""
         check_is_fitted(self)

@@ -32,6 +32,7 @@ from neckid.models.set_membership._kernels import (
     learn_constants,
     local_bounds,
 )
+from neckid.models.set_membership import prior
 from neckid.models.set_membership.metric import learnt_weights
 from neckid.models.set_membership.prior import (
     GammaCurve,
@@ -294,8 +295,17 @@ def _choose_prior(
         logger.debug(
             "gamma*(eps) over %d pairs, %d eps values", n_rows * (n_rows - 1) // 2, grid.shape[0]
         )
-        values = _gamma_star(tree.points, tree.targets, grid, settings.progress, tree)
-        curve = GammaCurve(grid, values, tuple(names), n_rows)
+        if (
+            epsilon is None
+            and settings.epsilons is None
+            and prior.KNEE_METHOD == "search"
+            and n_rows >= prior.KNEE_SEARCH_MIN_ROWS
+        ):
+            # The default rule: the curve exact only as far as its knee needs (knee_search).
+            curve = prior.knee_search(tree, grid, settings.progress, output_names=tuple(names))
+        else:
+            values = _gamma_star(tree.points, tree.targets, grid, settings.progress, tree)
+            curve = GammaCurve(grid, values, tuple(names), n_rows)
     # The prior holds by construction when γ or ε is derived from the other; only a (ε, γ)
     # given together is checked (γ >= γ*(ε), by branch and bound from γ).
     valid = np.ones(len(names), dtype=bool)

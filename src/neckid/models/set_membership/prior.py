@@ -15,11 +15,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
+from neckid._typing import FloatArray, IntArray
 from neckid.models.cache import active_cache, array_digest
 from neckid.models.set_membership._kernels import SMTree, gamma_star
 
@@ -29,6 +30,7 @@ __all__ = [
     "GammaCurve",
     "choose_epsilon",
     "gamma_from_margin",
+    "knee_search",
 ]
 
 ProgressOption = bool | Callable[[int, int], None] | None
@@ -123,17 +125,26 @@ def choose_epsilon(epsilons: ArrayLike, gamma: ArrayLike) -> int:
     k = SLOPE_WINDOW
     if finite.size < 2 * k + 1:
         return int(finite[0])
-    x = eps[finite]
-    y = g[finite]
+    centre, ratio = _slope_ratios(eps[finite], g[finite])
+    if not np.any(ratio > 0):
+        return int(finite[0])
+    return int(finite[int(centre[int(np.argmax(ratio))])])
+
+
+def _slope_ratios(x: FloatArray, y: FloatArray) -> tuple[IntArray, FloatArray]:
+    """The ratios ``r_e`` of :func:`choose_epsilon` at the inner points of a finite curve.
+
+    Element by element, so the ratio at a point is the same float whatever the rest of the
+    curve: :func:`knee_search` relies on it to compare a partial curve with the whole one.
+    """
+    k = SLOPE_WINDOW
     centre = np.arange(k, x.size - k)
     with np.errstate(divide="ignore", invalid="ignore"):
         before = (y[centre - k] - y[centre]) / (x[centre] - x[centre - k])
         after = (y[centre] - y[centre + k]) / (x[centre + k] - x[centre])
         ratio = np.where(after > 0, before / np.where(after > 0, after, 1.0), np.inf)
     ratio = np.where(before > 0, ratio, 0.0)
-    if not np.any(ratio > 0):
-        return int(finite[0])
-    return int(finite[int(centre[int(np.argmax(ratio))])])
+    return centre, ratio
 
 
 def _default_epsilons(targets: FloatArray) -> FloatArray:
@@ -229,6 +240,138 @@ def _gamma_star(
     if cache is not None:
         cache.put(key, known)
     return out
+
+
+#: How the default rule (ε and γ not given, the default grid) finds the knee: ``"search"``
+#: (:func:`knee_search`: located on a subsample, then γ*(ε) exact on the grid's first values
+#: only) or ``"walk"`` (γ*(ε) exact on the whole grid over all pairs, the rule before issue 33).
+KNEE_METHOD: Literal["search", "walk"] = "search"
+#: Rows of the subsample on which :func:`knee_search` locates the knee (every k-th row in time).
+KNEE_SUBSAMPLE = 10_000
+#: Below this many training rows the default rule walks the whole curve (it takes < 1 s there).
+KNEE_SEARCH_MIN_ROWS = 20_000
+#: Exact inner points that :func:`knee_search` wants after the chosen knee before it stops.
+KNEE_MARGIN = 1
+#: Grid values added to the exact part of the curve per step of :func:`knee_search`.
+KNEE_STEP = 3
+#: An inner point beyond the exact part is ruled out when its ratio on the subsample's curve,
+#: times this, is below the knee's exact ratio (see :func:`knee_search`).
+KNEE_SAFETY = 4.0
+
+
+def _subsample_rows(tree: SMTree, size: int) -> IntArray:
+    """Tree positions of every ``ceil(N / size)``-th training row, in the order of time."""
+    n_rows = tree.points.shape[0]
+    stride = max(1, -(-n_rows // max(int(size), 1)))
+    positions = np.flatnonzero(tree.perm % stride == 0)
+    return positions[np.argsort(tree.perm[positions], kind="stable")]
+
+
+def knee_search(
+    tree: SMTree,
+    grid: FloatArray,
+    progress: ProgressOption = None,
+    *,
+    subsample: int = KNEE_SUBSAMPLE,
+    output_names: tuple[str, ...] = (),
+) -> GammaCurve:
+    r"""The γ*(ε) curve exact on the grid's first values, far enough to hold its knee.
+
+    The knee rule (:func:`choose_epsilon`) takes the inner point of largest slope ratio
+    ``r_e`` over the whole curve; γ*(ε) costs little at small ε (close pairs decide it, the
+    kd-tree prunes the rest) and much at large ε, where many distant pairs have nearly the
+    largest slope. This search:
+
+    1. computes the whole curve on a subsample (every k-th row in time, ``subsample`` rows; its
+       γ*(ε) is a lower bound of the full one, close to it where distant pairs decide) and takes
+       its knee ``k_s``;
+    2. computes γ*(ε) exactly, on all rows, at the grid's values ``0 .. b`` with
+       ``b = k_s + 2 + KNEE_MARGIN + 1`` (each value exact whatever else is in the grid), and the
+       ratios ``r_e`` at the inner points whose five values are all exact: the same floats as
+       over the whole curve;
+    3. stops when the largest of those, ``r*`` at ``e*``, has ``KNEE_MARGIN`` exact inner
+       points after it and every inner point beyond the exact part has a subsample ratio below
+       ``r* / KNEE_SAFETY``; otherwise adds ``KNEE_STEP`` grid values and goes back to 3. At
+       the end of the grid the curve is whole and the choice is that of the walk.
+
+    The inner points before ``e*`` are all exact, so ``e*`` is the walk's choice unless an
+    inner point beyond the exact part has a full-data ratio above ``r*`` though its subsample
+    ratio is below ``r* / KNEE_SAFETY``: a heuristic, checked against the walk on the soft-neck
+    and public data sets in ``tests/test_default_epsilon.py``.
+
+    Parameters
+    ----------
+    tree : SMTree
+        The training tree (scaled regressors and targets ỹ).
+    grid : ndarray, shape (n_eps, n_outputs)
+        Ascending grid of ε per output.
+    progress : bool, callable or None
+        As for :class:`~neckid.models.set_membership.SetMembership`: a bar over each exact pass.
+    subsample : int, default ``KNEE_SUBSAMPLE``
+        Rows of the subsample (all rows when the data have fewer than twice as many).
+    output_names : tuple of str
+
+    Returns
+    -------
+    GammaCurve
+        γ*(ε) exact at the grid's first ``b + 1`` values (``n_samples`` all rows); its
+        :meth:`GammaCurve.knee` is the chosen ε.
+    """
+    grid = np.ascontiguousarray(grid, dtype=np.float64)
+    n_eps, n_out = grid.shape
+    n_rows = tree.points.shape[0]
+    names = tuple(output_names) or tuple(f"y{c + 1}" for c in range(n_out))
+    k = SLOPE_WINDOW
+    rows = _subsample_rows(tree, subsample)
+    if rows.size < 2 * k + 1 or 2 * rows.size > n_rows:
+        values = _gamma_star(tree.points, tree.targets, grid, progress, tree)
+        return GammaCurve(grid, values, names, n_rows)
+    sub = _gamma_star(
+        np.ascontiguousarray(tree.points[rows]),
+        np.ascontiguousarray(tree.targets[rows]),
+        grid,
+        False,
+    )
+    sub_ratio = np.full((n_eps, n_out), np.nan)  # the subsample's r_e, by grid index
+    start = np.zeros(n_out, dtype=np.int64)
+    for c in range(n_out):
+        finite = np.flatnonzero(np.isfinite(sub[:, c]))
+        if finite.size >= 2 * k + 1:
+            centre, ratio = _slope_ratios(grid[finite, c], sub[finite, c])
+            sub_ratio[finite[centre], c] = ratio
+            start[c] = choose_epsilon(grid[:, c], sub[:, c])
+    last = min(n_eps - 1, int(start.max()) + k + KNEE_MARGIN + 1)
+    exact = _gamma_star(tree.points, tree.targets, grid[: last + 1], progress, tree)
+    while last < n_eps - 1 and not all(
+        _knee_settled(grid[: last + 1, c], exact[:, c], sub_ratio[:, c], n_eps)
+        for c in range(n_out)
+    ):
+        more = min(n_eps - 1, last + KNEE_STEP)
+        added = _gamma_star(tree.points, tree.targets, grid[last + 1 : more + 1], progress, tree)
+        exact = np.vstack([exact, added])
+        last = more
+    return GammaCurve(np.array(grid[: last + 1]), exact, names, n_rows)
+
+
+def _knee_settled(eps: FloatArray, exact: FloatArray, sub_ratio: FloatArray, n_eps: int) -> bool:
+    """Whether the knee of the exact first values of a curve is the knee of the whole curve.
+
+    See :func:`knee_search` (step 3). ``sub_ratio`` holds the subsample's ratios by grid index
+    (NaN where it has none); ``n_eps`` is the size of the whole grid.
+    """
+    k = SLOPE_WINDOW
+    last = eps.size - 1
+    finite = np.flatnonzero(np.isfinite(exact))
+    # γ*(ε) does not increase with ε: the infinite values come first, then the finite ones.
+    if finite.size < 2 * k + 1 or finite[-1] != last or finite.size != last - finite[0] + 1:
+        return False
+    centre, ratio = _slope_ratios(eps[finite], exact[finite])
+    best = int(np.argmax(ratio))
+    top = float(ratio[best])
+    if not top > 0 or finite[centre[best]] + k + KNEE_MARGIN > last:
+        return False
+    beyond = sub_ratio[last - k + 1 : n_eps - k]  # inner points with a value past the exact part
+    return bool(np.all(KNEE_SAFETY * beyond < top))
 
 
 def gamma_from_margin(gamma_star: ArrayLike, margin: float) -> FloatArray:
