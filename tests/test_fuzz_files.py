@@ -676,3 +676,20 @@ def test_an_extra_array_is_ignored(folder: Path, models: ModelFixture) -> None:
     loaded = neckid.load_model(path)
     original = neckid.load_model(models.paths["sm"])
     np.testing.assert_array_equal(loaded.simulate(models.data).y, original.simulate(models.data).y)
+
+
+def test_a_crash_of_the_compiled_mat_reader_is_one_clear_error(monkeypatch, tmp_path) -> None:
+    """SciPy's and HDF5's readers can crash on a damaged file; the child process takes it."""
+    import os
+    import signal
+
+    from neckid.data import readers
+
+    def crash(path, names):
+        os.kill(os.getpid(), signal.SIGSEGV)
+
+    monkeypatch.setattr(readers, "_mat_variables_here", crash)
+    path = tmp_path / "damaged.mat"
+    path.write_bytes(b"MATLAB 5.0 MAT-file" + bytes(200))
+    with pytest.raises(ValueError, match=r"damaged.mat .*the MATLAB reader crashed on it"):
+        readers._mat_variables(path, ["u"])

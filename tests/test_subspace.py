@@ -187,7 +187,7 @@ def test_save_load_round_trip(noisy_model, tmp_path) -> None:
 def test_a_loaded_unstable_model_is_refused(noisy_model, tmp_path) -> None:
     broken = SubspaceStateSpace._from_state(*noisy_model._get_state())
     broken.A_ = 1.5 * np.eye(4)
-    with pytest.raises(ValueError, match="invalid SubspaceStateSpace file.*not stable"):
+    with pytest.raises(ValueError, match=r"invalid SubspaceStateSpace file.*not stable"):
         neckid.load_model(broken.save(tmp_path / "broken"))
 
 

@@ -103,7 +103,7 @@ def identify(
     Preprocessing (--restamp, --tilt, --relative, --offset, --lowpass, --resample, in that order)
     is stored in the model and applied again by validate, simulate and info --model.
     """
-    from neckid.outputs import check_output_file
+    from neckid.outputs import check_output_file, output_name
     from neckid.regressors import Lags
     from neckid.workflow import (
         make_estimator,
@@ -113,7 +113,7 @@ def identify(
         read_log,
     )
 
-    save = save if save.suffix == ".npz" else save.with_name(save.name + ".npz")
+    save = output_name(save, ".npz", option="--save")
     check_output_file(save, force=force, inputs=list(logs), option="--save")
     pipeline = pipeline_from_options(
         relative=relative or (),

@@ -180,9 +180,9 @@ class Estimator(BaseEstimator, ModelFile):
         terms: dict[str, float] = {}
         box = getattr(self, "regressor_ranges_", None)
         if box and data.n_outputs == self.n_outputs_ and data.n_samples > self.max_lag_:
-            found = regressor_domain(self, data, nearest=False)
-            result.extras["outside_domain"] = found.share
-            terms = {k: v for k, v in found.by_term.items() if v > EXTRAPOLATION_WARNING}
+            share, by_term = self._domain_shares(data)
+            result.extras["outside_domain"] = share
+            terms = {k: v for k, v in by_term.items() if v > EXTRAPOLATION_WARNING}
         if far or terms:
             shares = ", ".join(f"{k} {v:.0%}" for k, v in far.items()) or "no channel"
             detail = ", ".join(f"{k} {v:.0%}" for k, v in terms.items())
@@ -194,6 +194,15 @@ class Estimator(BaseEstimator, ModelFile):
                 ExtrapolationWarning,
                 stacklevel=4,
             )
+
+    def _domain_shares(self, data: IOData) -> tuple[float, dict[str, float]]:
+        """Share of the samples outside the regressors' training box, in all and by term.
+
+        ``Domain.share`` and ``Domain.by_term`` of :func:`regressor_domain` (no nearest-regressor
+        measure); a model may compute the same numbers faster.
+        """
+        found = regressor_domain(self, data, nearest=False)
+        return found.share, found.by_term
 
     def _check_envelope(self, data: IOData, y: FloatArray, result: ModelResult) -> None:
         """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope."""

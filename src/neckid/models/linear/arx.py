@@ -1,8 +1,10 @@
 """LinearARX: the batch least-squares ARX baseline over any :class:`~neckid.Lags` regressor.
 
-Its free run (:func:`linear_free_run`) is a linear filter, not a per-sample Python loop: SciPy's
-``lfilter`` for one output, a small compiled loop (:func:`_linear_free_run_kernel`) when
-several outputs feed back into each other. The generic NARX loop (``neckid.models.base._free_run``) is
+Its free run (:func:`linear_free_run`) is a linear filter, not a per-sample Python loop: for one
+output the FIR part of each input by ``np.convolve`` (what SciPy's ``lfilter`` runs for an FIR)
+and the all-pole part by :func:`_all_pole_filter` (``lfilter``'s arithmetic, compiled, without its
+per-call checks), a small compiled loop (:func:`_linear_free_run_kernel`) when several outputs
+feed back into each other. The generic NARX loop (``neckid.models.base._free_run``) is
 the reference both are tested against.
 """
 
@@ -14,7 +16,6 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal
 
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
@@ -106,7 +107,8 @@ def linear_free_run(
 
     With one output the input part ``x(t) = c + Σ_l B_l u(t − l)`` does not feed back: it is a
     FIR filter per input, and ``y`` is the IIR filter ``1 / (1 − Σ_l a_l z^{-l})`` applied to
-    ``x``, both run by :func:`scipy.signal.lfilter` (direct form II transposed). The IIR filter
+    ``x``, both as :func:`scipy.signal.lfilter` runs them (the FIR by ``np.convolve``, the IIR in
+    direct form II transposed, here compiled: the same floats without its overhead). The IIR filter
     starts from the state that :func:`scipy.signal.lfiltic` builds from the last ``L`` initial
     outputs, so that its first output is ``x(m) + Σ_l a_l y(m − l)`` exactly as in the loop
     ([1]_, sections 6.5 and 6.6). With several outputs the ``A_l`` couple them and the whole
@@ -127,8 +129,16 @@ def linear_free_run(
     >>> linear_free_run(resolved, [[0.5], [1.0]], [0.1], data.u, [[2.0]] * 5).ravel()
     array([2.    , 2.1   , 2.15  , 2.175 , 2.1875])
     """
-    u_arr = np.asarray(u, dtype=np.float64)
     y = np.array(y_initial, dtype=np.float64, order="C", ndmin=2)
+    return _linear_free_run(resolved, coef, intercept, u, y)
+
+
+def _linear_free_run(
+    resolved: ResolvedLags, coef: ArrayLike, intercept: ArrayLike, u: ArrayLike, y: FloatArray
+) -> FloatArray:
+    """:func:`linear_free_run` in place on ``y`` (C-contiguous float64, ``(n_samples, n_outputs)``)."""
+    y = np.require(y, dtype=np.float64, requirements="C")
+    u_arr = np.asarray(u, dtype=np.float64)
     coef_arr = np.asarray(coef, dtype=np.float64).reshape(resolved.n_terms, -1)
     n, n_out = y.shape
     m = resolved.max_lag
@@ -157,7 +167,8 @@ def linear_free_run(
         terms = np.flatnonzero((resolved.source == 1) & (resolved.channel == channel))
         numerator = np.zeros(int(resolved.lag[terms].max()) + 1)
         np.add.at(numerator, resolved.lag[terms], coef_arr[terms, 0])
-        forcing += signal.lfilter(numerator, [1.0], u_arr[:, channel])[m:]
+        # what lfilter(numerator, [1.0], u) computes for an FIR filter, without its overhead
+        forcing += np.convolve(numerator, u_arr[:, channel])[m:n]
     if outputs.size == 0:
         y[m:, 0] = forcing
         return y
@@ -166,9 +177,75 @@ def linear_free_run(
     denominator[0] = 1.0
     np.subtract.at(denominator, resolved.lag[outputs], coef_arr[outputs, 0])
     past = y[m - order : m, 0][::-1]  # y(m − 1), y(m − 2), ..., y(m − order)
-    state = signal.lfiltic([1.0], denominator, past)
-    y[m:, 0] = signal.lfilter([1.0], denominator, forcing, zi=state)[0]
+    # signal.lfiltic([1.0], denominator, past), its arithmetic without its checks
+    state = np.zeros(order)
+    for k in range(order):
+        state[k] -= np.sum(denominator[k + 1 :] * past[: order - k], axis=0)
+    _all_pole_filter(denominator, forcing, state, y[m:, 0])
     return y
+
+
+@numba.njit(cache=True, nogil=True)
+def _all_pole_filter(
+    denominator: FloatArray, x: FloatArray, state: FloatArray, out: FloatArray
+) -> None:  # pragma: no cover - compiled; tested bit for bit against lfilter
+    """``out = lfilter([1.0], denominator, x, zi=state)[0]``, the same floats (``denominator[0] = 1``).
+
+    The direct form II transposed of SciPy's ``_linear_filter`` with the numerator ``[1, 0, ...]``
+    padded to the denominator's length, term by term in its order (the products with the
+    numerator's zeros included), without the checks and copies of the Python wrapper.
+    """
+    order = denominator.shape[0] - 1
+    z = state.copy()
+    for k in range(x.shape[0]):
+        xn = x[k]
+        yn = z[0] + 1.0 * xn
+        for i in range(order - 1):
+            z[i] = z[i + 1] + xn * 0.0 - yn * denominator[i + 1]
+        z[order - 1] = xn * 0.0 - yn * denominator[order]
+        out[k] = yn
+
+
+@numba.njit(cache=True, nogil=True)
+def _box_counts(
+    y: FloatArray,
+    u: FloatArray,
+    source: NDArray[np.int64],
+    channel: NDArray[np.int64],
+    lag: NDArray[np.int64],
+    low: FloatArray,
+    high: FloatArray,
+    start: int,
+) -> tuple[NDArray[np.int64], int]:  # pragma: no cover - compiled; tested against regressor_domain
+    """Rows ``t >= start`` whose regressor term ``j`` is outside ``[low_j, high_j]``, and any term.
+
+    Term ``j`` at row ``t`` is ``y`` (source 0) or ``u`` at ``[t − lag_j, channel_j]``, as
+    :meth:`~neckid.regressors.ResolvedLags.build_one` puts it in the regressor, without building
+    the regressor matrix.
+    """
+    n_rows = y.shape[0] - start
+    counts = np.zeros(lag.shape[0], np.int64)
+    for j in range(lag.shape[0]):
+        column = (y if source[j] == 0 else u)[start - lag[j] : y.shape[0] - lag[j], channel[j]]
+        lo, hi = low[j], high[j]
+        count = 0
+        for t in range(n_rows):
+            count += (column[t] < lo) | (column[t] > hi)
+        counts[j] = count
+    if np.count_nonzero(counts) < 2:  # no term outside, or one: no union to count
+        return counts, int(counts.sum())
+    rows = 0
+    for t in range(n_rows):
+        for j in range(lag.shape[0]):
+            v = (
+                y[start + t - lag[j], channel[j]]
+                if source[j] == 0
+                else u[t + start - lag[j], channel[j]]
+            )
+            if v < low[j] or v > high[j]:
+                rows += 1
+                break
+    return counts, rows
 
 
 @numba.njit(cache=True, nogil=True)
@@ -344,8 +421,30 @@ class LinearARX(NarxModel):
         data = self._with_conditions(data)
         y0 = self._initial_outputs(data, initial)
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            y = linear_free_run(self.lags_, self.coef_, self.intercept_, data.u, y0)
+            y = _linear_free_run(self.lags_, self.coef_, self.intercept_, data.u, y0)
         return self._result("simulation", data, y)
+
+    def _domain_shares(self, data: IOData) -> tuple[float, dict[str, float]]:
+        """:meth:`NarxModel._domain_shares` in one compiled pass, without the regressor matrix."""
+        lags = self.lags_
+        box: dict[str, tuple[float, float]] = getattr(self, "regressor_ranges_", {})
+        data = self._with_conditions(data)
+        lags.check_compatible(data)
+        terms = [j for j, name in enumerate(lags.names) if name in box]
+        bounds = np.array([box[lags.names[j]] for j in terms], dtype=np.float64).reshape(-1, 2)
+        counts, rows = _box_counts(
+            np.asarray(data.y, dtype=np.float64),
+            np.asarray(data.u, dtype=np.float64),
+            np.ascontiguousarray(lags.source[terms], dtype=np.int64),
+            np.ascontiguousarray(lags.channel[terms], dtype=np.int64),
+            np.ascontiguousarray(lags.lag[terms], dtype=np.int64),
+            np.ascontiguousarray(bounds[:, 0]),
+            np.ascontiguousarray(bounds[:, 1]),
+            lags.max_lag,
+        )
+        n_rows = data.n_samples - lags.max_lag
+        by_term = {lags.names[j]: int(c) / n_rows for j, c in zip(terms, counts, strict=True)}
+        return rows / n_rows, by_term
 
     def _check_state(self) -> None:
         super()._check_state()

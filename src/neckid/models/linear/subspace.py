@@ -326,8 +326,7 @@ class SubspaceStateSpace(Estimator):
         denominator = np.poly(a) if a.size else np.ones(1)
         numerators = [
             [
-                np.poly(a - b[:, j : j + 1] @ c[o : o + 1, :]) - denominator
-                + d[o, j] * denominator
+                np.poly(a - b[:, j : j + 1] @ c[o : o + 1, :]) - denominator + d[o, j] * denominator
                 for j in range(b.shape[1])
             ]
             for o in range(c.shape[0])
@@ -470,7 +469,9 @@ class StateSpaceSimulator:
         """Advance one sample with input ``u`` (``(n_inputs,)``); return ``y(t)`` (``(n_outputs,)``)."""
         row = np.asarray(u, dtype=np.float64).reshape(1, -1)
         if row.shape[1] != self.n_inputs:
-            raise ValueError(f"u must have {self.n_inputs} values (one per input); got {row.shape[1]}")
+            raise ValueError(
+                f"u must have {self.n_inputs} values (one per input); got {row.shape[1]}"
+            )
         check_finite(row, "u")
         y, self.x = state_space_run(*self._matrices, row, self.x)
         return np.asarray(y[0], dtype=np.float64)
@@ -495,7 +496,7 @@ class StateSpaceMap(StateMap):
 
     def _run(self, x: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
         row = np.ascontiguousarray(u, dtype=np.float64).reshape(1, -1)
-        return state_space_run(*self._matrices, row, np.ascontiguousarray(x))  # type: ignore[no-any-return]
+        return state_space_run(*self._matrices, row, np.ascontiguousarray(x))
 
     def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
         return np.asarray(self._run(x, u)[0][0], dtype=np.float64)

@@ -16,8 +16,9 @@ once :math:`A` and :math:`C` are known (Verhaegen & Verdult 2007, section 9.2.4)
    their LQ factorisation :math:`[U_f; U_p; Y_p; Y_f] = L Q^T`.
 2. :func:`observability_basis`: the SVD of the block :math:`L_{32}` of :math:`L` (future
    outputs against past data, with the future inputs projected out) whose column space is that
-   of the extended observability matrix :math:`\Gamma_i = [C; CA; …; CA^{i-1}]`; the
-   singular values choose the order (:func:`choose_order`).
+   of the extended observability matrix :math:`\Gamma_i = [C; CA; …; CA^{i-1}]`, weighted
+   as in CVA so that its singular values are canonical correlations; they choose the order
+   (:func:`choose_order`).
 3. :func:`shift_invariance`: :math:`C` is the first block row of :math:`\Gamma_i`, :math:`A`
    the least-squares solution of :math:`\underline{\Gamma}\,A = \overline{\Gamma}` (the
    matrix without its last, and without its first block row). An unstable estimate is
@@ -215,21 +216,32 @@ def past_future_factor(
 def observability_basis(
     factor: FloatArray, horizon: int, n_inputs: int, n_outputs: int
 ) -> tuple[FloatArray, FloatArray]:
-    """Left singular vectors and singular values of the PO-MOESP block ``L_32``.
+    """A basis of the extended observability matrix and the canonical correlations (CVA).
 
     ``L_32`` holds the future outputs against the past inputs and outputs, the future inputs
-    projected out; its column space is that of ``Γ_i`` (Verhaegen 1994, theorem 3).
+    projected out; its column space is that of ``Γ_i`` (Verhaegen 1994, theorem 3). Weighted on
+    the left by ``W = Σ^{-1/2}``, ``Σ = L_32 L_32ᵀ + L_33 L_33ᵀ`` the covariance of the future
+    outputs with the future inputs projected out, its singular values are the canonical
+    correlations between future outputs and past data (CVA, Larimore 1990; the weighting of Van
+    Overschee & De Moor 1996, theorem 13): each in [0, 1], 1 for a noise-free state
+    direction, near 0 for noise. ``Γ_i = Σ^{1/2} U_n S_n^{1/2}``.
 
     Returns
     -------
     (ndarray (i p, i p), ndarray (i p,))
-        ``U`` and the singular values, largest first.
+        ``Σ^{1/2} U`` (its first ``n`` columns times ``S_n^{1/2}`` are ``Γ_i``) and the
+        canonical correlations, largest first.
     """
     i, m, p = horizon, n_inputs, n_outputs
     future_in, past = i * m, i * (m + p)
     block = factor[future_in + past :, future_in : future_in + past]
-    left, values, _ = np.linalg.svd(block, full_matrices=False)
-    return left, values
+    rest = factor[future_in + past :, future_in + past :]
+    eigenvalues, vectors = np.linalg.eigh(block @ block.T + rest @ rest.T)
+    eigenvalues = np.maximum(eigenvalues, max(float(eigenvalues.max()), 1e-300) * 1e-12)
+    root = (vectors * np.sqrt(eigenvalues)) @ vectors.T
+    inverse_root = (vectors / np.sqrt(eigenvalues)) @ vectors.T
+    left, values, _ = np.linalg.svd(inverse_root @ block, full_matrices=False)
+    return root @ left, np.minimum(values, 1.0)
 
 
 def choose_order(values: FloatArray, largest: int) -> int:
@@ -259,11 +271,11 @@ def shift_invariance(
     p = n_outputs
     gamma = left[:, :order] * np.sqrt(values[:order])
     c = gamma[:p].copy()
-    a = np.linalg.lstsq(gamma[:-p], gamma[p:], rcond=None)[0]
+    a = np.asarray(np.linalg.lstsq(gamma[:-p], gamma[p:], rcond=None)[0], dtype=np.float64)
     if spectral_radius(a) < 1.0 - STABILITY_MARGIN:
         return a, c, False
     padded = np.vstack([gamma[p:], np.zeros((p, order))])
-    a = np.linalg.lstsq(gamma, padded, rcond=None)[0]
+    a = np.asarray(np.linalg.lstsq(gamma, padded, rcond=None)[0], dtype=np.float64)
     if spectral_radius(a) >= 1.0 - STABILITY_MARGIN:  # pragma: no cover - excluded by theory
         raise ValueError(
             "the subspace estimate of A is unstable and Maciejowski's stabilised estimate is too"
@@ -310,6 +322,47 @@ def _solve_scaled(x: FloatArray, y: FloatArray) -> FloatArray:
     return np.asarray(theta / scale, dtype=np.float64)
 
 
+def _columns(
+    a: FloatArray,
+    c: FloatArray,
+    experiments: Sequence[tuple[FloatArray, FloatArray]],
+    options: tuple[bool, bool],
+    states: Sequence[FloatArray] | None = None,
+) -> FloatArray:
+    """Derivatives of the free run over ``[A?, B, C?, D?, c?, x0 per experiment]``, stacked.
+
+    One row per sample and output (time first, as ``y.ravel()``), one column per parameter,
+    in the order of :func:`_unpack`. ``A`` and ``C`` are there when the state trajectories
+    ``states`` are given: ``∂y/∂A_jk`` is the response through state ``j`` to ``x_k(t)``,
+    ``∂y/∂C_ok = x_k(t)`` on output ``o``. The others do not depend on the parameters.
+    """
+    feedthrough, intercept = options
+    n, p = a.shape[0], c.shape[0]
+    m = experiments[0][0].shape[1]
+    sizes = [n * n if states else 0, n * m, p * n if states else 0]
+    sizes += [p * m if feedthrough else 0, p if intercept else 0]
+    n_shared = int(sum(sizes))
+    total = n_shared + n * len(experiments)
+    edges = np.concatenate([[0], np.cumsum(sizes)])
+    rows = []
+    for e, (u, _) in enumerate(experiments):
+        columns = np.zeros((u.shape[0], p, total))
+        if states:
+            columns[:, :, : edges[1]] = _responses(a, c, states[e]).reshape(-1, p, n * n)
+        columns[:, :, edges[1] : edges[2]] = _responses(a, c, u).reshape(-1, p, n * m)
+        for o in range(p):
+            if states:
+                columns[:, o, edges[2] + o * n : edges[2] + (o + 1) * n] = states[e]
+            if feedthrough:
+                columns[:, o, edges[3] + o * m : edges[3] + (o + 1) * m] = u
+        if intercept:
+            columns[:, :, edges[4] : edges[5]] = np.eye(p)
+        start = n_shared + n * e
+        columns[:, :, start : start + n] = _free_response(a, c, u.shape[0])
+        rows.append(columns.reshape(-1, total))
+    return np.vstack(rows)
+
+
 def output_error_regression(
     a: FloatArray,
     c: FloatArray,
@@ -332,30 +385,14 @@ def output_error_regression(
     """
     n, p = a.shape[0], c.shape[0]
     m = experiments[0][0].shape[1]
-    n_shared = n * m + (p * m if feedthrough else 0) + (p if intercept else 0)
-    n_unknowns = n_shared + n * len(experiments)
-    rows, targets = [], []
-    for e, (u, y) in enumerate(experiments):
-        columns = np.zeros((u.shape[0], p, n_unknowns))
-        columns[:, :, : n * m] = _responses(a, c, u).reshape(u.shape[0], p, n * m)
-        at = n * m
-        if feedthrough:
-            for o in range(p):
-                columns[:, o, at + o * m : at + (o + 1) * m] = u
-            at += p * m
-        if intercept:
-            columns[:, :, at : at + p] = np.eye(p)
-        start = n_shared + n * e
-        columns[:, :, start : start + n] = _free_response(a, c, u.shape[0])
-        rows.append(columns.reshape(-1, n_unknowns))
-        targets.append(y.reshape(-1))
-    theta = _solve_scaled(np.vstack(rows), np.concatenate(targets))
+    columns = _columns(a, c, experiments, (feedthrough, intercept))
+    theta = _solve_scaled(columns, np.concatenate([y.reshape(-1) for _, y in experiments]))
     b = theta[: n * m].reshape(n, m)
     at = n * m
     d = theta[at : at + p * m].reshape(p, m) if feedthrough else np.zeros((p, m))
     at += p * m if feedthrough else 0
     offset = theta[at : at + p] if intercept else np.zeros(p)
-    x0s = [theta[n_shared + n * e : n_shared + n * (e + 1)] for e in range(len(experiments))]
+    x0s = list(theta[-n * len(experiments) :].reshape(len(experiments), n))
     return b, d, np.asarray(offset, dtype=np.float64), x0s
 
 
@@ -462,8 +499,9 @@ def refine_free_run(
 ) -> tuple[tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray], list[FloatArray]]:
     """All matrices, the offset and the initial states refined on the free-run error.
 
-    ``scipy.optimize.least_squares`` (trust region, finite-difference Jacobian) over the full
-    parametrisation, from the subspace estimate. A step whose ``A`` is unstable gets a large
+    ``scipy.optimize.least_squares`` (Levenberg–Marquardt, exact Jacobian by the forward
+    sensitivities of :func:`_columns`) over the full parametrisation, from the subspace
+    estimate. A step whose ``A`` is unstable gets a large
     residual; the result is kept only if it is stable and lowers the sum of squares, otherwise
     the estimate comes back unchanged.
     """
@@ -489,8 +527,21 @@ def refine_free_run(
         error = np.concatenate(runs) - y_all
         return np.clip(np.nan_to_num(error, nan=penalty), -penalty, penalty)
 
+    def jacobian(theta: FloatArray) -> FloatArray:
+        a_, b_, c_, _, _, x0_ = _unpack(theta, shape, feedthrough, intercept)
+        eye, none = np.eye(n), np.zeros((n, m))
+        with np.errstate(all="ignore"):
+            states = [
+                state_space_run(a_, b_, eye, none, np.zeros(n), u, x)[0]
+                for (u, _), x in zip(experiments, x0_, strict=True)
+            ]
+            columns = _columns(a_, c_, experiments, (feedthrough, intercept), states)
+        return np.nan_to_num(columns, nan=0.0, posinf=penalty, neginf=-penalty)
+
     start = float(np.sum(residual(theta0) ** 2))
-    fitted = least_squares(residual, theta0, method="trf", x_scale="jac", max_nfev=max_iter)
+    fitted = least_squares(
+        residual, theta0, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_iter
+    )
     a1, b1, c1, d1, o1, x1 = _unpack(fitted.x, shape, feedthrough, intercept)
     if spectral_radius(a1) < 1.0 - STABILITY_MARGIN and 2.0 * fitted.cost < start:
         return (a1, b1, c1, d1, o1), x1
@@ -513,7 +564,8 @@ def estimate_state(
     n, m = a.shape[0], y_rows.shape[0]
     forced, x_forced = state_space_run(a, b, c, d, offset, u_rows, np.zeros(n))
     free = _free_response(a, c, m).reshape(-1, n)
-    x0 = np.linalg.lstsq(free, (y_rows - forced).reshape(-1), rcond=None)[0]
+    solution = np.linalg.lstsq(free, (y_rows - forced).reshape(-1), rcond=None)[0]
+    x0 = np.asarray(solution, dtype=np.float64)
     none = np.zeros((m, 0))
     p = c.shape[0]
     moved = state_space_run(a, np.zeros((n, 0)), c, np.zeros((p, 0)), np.zeros(p), none, x0)[1]

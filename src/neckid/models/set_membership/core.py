@@ -26,13 +26,13 @@ import numpy as np
 
 from neckid._typing import BoolArray, FloatArray
 from neckid.models.linear.arx import least_squares, linear_sum
+from neckid.models.set_membership import prior
 from neckid.models.set_membership._kernels import (
     SMTree,
     free_run,
     learn_constants,
     local_bounds,
 )
-from neckid.models.set_membership import prior
 from neckid.models.set_membership.metric import learnt_weights
 from neckid.models.set_membership.prior import (
     GammaCurve,

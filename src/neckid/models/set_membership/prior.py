@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike
 from neckid._typing import FloatArray, IntArray
 from neckid.models.cache import active_cache, array_digest
 from neckid.models.set_membership._kernels import SMTree, gamma_star
+from neckid.models.set_membership.training import duplicate_spread
 
 __all__ = [
     "DEFAULT_GRID_POINTS",
@@ -59,6 +60,14 @@ class GammaCurve:
     output_names : tuple of str
     n_samples : int
         Number of training regressors (the pass is over ``n_samples * (n_samples - 1) / 2`` pairs).
+
+    Notes
+    -----
+    The curve of a default fit (``SetMembership().fit`` with neither ε nor γ, the default grid,
+    at least ``KNEE_SEARCH_MIN_ROWS`` rows) may be partial: :func:`knee_search` computes γ*(ε)
+    exactly on the grid's first values only, up to two or more grid steps past the chosen knee,
+    and ``epsilons`` and ``gamma`` hold those rows (each value exact, the same as on the whole
+    grid); :meth:`knee` gives the chosen ε. :func:`neckid.gamma_curve` computes the whole curve.
     """
 
     epsilons: FloatArray
@@ -247,7 +256,7 @@ def _gamma_star(
 #: only) or ``"walk"`` (γ*(ε) exact on the whole grid over all pairs, the rule before issue 33).
 KNEE_METHOD: Literal["search", "walk"] = "search"
 #: Rows of the subsample on which :func:`knee_search` locates the knee (every k-th row in time).
-KNEE_SUBSAMPLE = 10_000
+KNEE_SUBSAMPLE = 5_000
 #: Below this many training rows the default rule walks the whole curve (it takes < 1 s there).
 KNEE_SEARCH_MIN_ROWS = 20_000
 #: Exact inner points that :func:`knee_search` wants after the chosen knee before it stops.
@@ -291,8 +300,9 @@ def knee_search(
        over the whole curve;
     3. stops when the largest of those, ``r*`` at ``e*``, has ``KNEE_MARGIN`` exact inner
        points after it and every inner point beyond the exact part has a subsample ratio below
-       ``r* / KNEE_SAFETY``; otherwise adds ``KNEE_STEP`` grid values and goes back to 3. At
-       the end of the grid the curve is whole and the choice is that of the walk.
+       ``r* / KNEE_SAFETY``; otherwise extends the exact part (one pass over the pairs) as far
+       as those inner points need, by ``KNEE_STEP`` grid values at least, and goes back to 3.
+       At the end of the grid the curve is whole and the choice is that of the walk.
 
     The inner points before ``e*`` are all exact, so ``e*`` is the walk's choice unless an
     inner point beyond the exact part has a full-data ratio above ``r*`` though its subsample
@@ -326,52 +336,71 @@ def knee_search(
     if rows.size < 2 * k + 1 or 2 * rows.size > n_rows:
         values = _gamma_star(tree.points, tree.targets, grid, progress, tree)
         return GammaCurve(grid, values, names, n_rows)
-    sub = _gamma_star(
-        np.ascontiguousarray(tree.points[rows]),
-        np.ascontiguousarray(tree.targets[rows]),
-        grid,
-        False,
-    )
+    sub = gamma_star(tree.points[rows], tree.targets[rows], grid, method="tree")
+    # γ*(ε) is infinite exactly where identical rows differ by more than 2ε (every row, not the
+    # subsample's): the knee lies at least two grid steps past the last such ε.
+    spread = duplicate_spread(tree.points, tree.targets)
+    infinite = spread[None, :] - 2.0 * grid > 0.0
+    sub = np.where(infinite, np.inf, sub)
     sub_ratio = np.full((n_eps, n_out), np.nan)  # the subsample's r_e, by grid index
-    start = np.zeros(n_out, dtype=np.int64)
+    first = np.argmin(infinite, axis=0)  # the first finite ε (all rows)
+    last = 0
     for c in range(n_out):
+        last = max(last, int(first[c]) + 2 * k + KNEE_MARGIN)
         finite = np.flatnonzero(np.isfinite(sub[:, c]))
-        if finite.size >= 2 * k + 1:
-            centre, ratio = _slope_ratios(grid[finite, c], sub[finite, c])
-            sub_ratio[finite[centre], c] = ratio
-            start[c] = choose_epsilon(grid[:, c], sub[:, c])
-    last = min(n_eps - 1, int(start.max()) + k + KNEE_MARGIN + 1)
+        if finite.size < 2 * k + 1:
+            continue
+        centre, ratio = _slope_ratios(grid[finite, c], sub[finite, c])
+        sub_ratio[finite[centre], c] = ratio
+        # Start at the subsample's knee when it stands out as the knee of the whole curve must
+        # (its ratio KNEE_SAFETY times those past it); from the first finite ε otherwise, as
+        # when the steep part of the curve comes from close pairs the subsample lacks.
+        knee = int(np.argmax(sub_ratio[:, c] == np.nanmax(sub_ratio[:, c])))
+        past = sub_ratio[knee + k + 1 :, c]
+        if np.all(KNEE_SAFETY * past[np.isfinite(past)] < sub_ratio[knee, c]):
+            last = max(last, knee + k + KNEE_MARGIN + 1)
+    last = min(n_eps - 1, last)
     exact = _gamma_star(tree.points, tree.targets, grid[: last + 1], progress, tree)
-    while last < n_eps - 1 and not all(
-        _knee_settled(grid[: last + 1, c], exact[:, c], sub_ratio[:, c], n_eps)
-        for c in range(n_out)
-    ):
-        more = min(n_eps - 1, last + KNEE_STEP)
+    while last < n_eps - 1:
+        needed = max(
+            _knee_needs(grid[: last + 1, c], exact[:, c], sub_ratio[:, c], n_eps)
+            for c in range(n_out)
+        )
+        if needed <= last:
+            break
+        more = min(n_eps - 1, max(needed, last + KNEE_STEP))
         added = _gamma_star(tree.points, tree.targets, grid[last + 1 : more + 1], progress, tree)
         exact = np.vstack([exact, added])
         last = more
     return GammaCurve(np.array(grid[: last + 1]), exact, names, n_rows)
 
 
-def _knee_settled(eps: FloatArray, exact: FloatArray, sub_ratio: FloatArray, n_eps: int) -> bool:
-    """Whether the knee of the exact first values of a curve is the knee of the whole curve.
+def _knee_needs(eps: FloatArray, exact: FloatArray, sub_ratio: FloatArray, n_eps: int) -> int:
+    """How far the exact part of a curve must reach for its knee to be the whole curve's.
 
-    See :func:`knee_search` (step 3). ``sub_ratio`` holds the subsample's ratios by grid index
-    (NaN where it has none); ``n_eps`` is the size of the whole grid.
+    See :func:`knee_search` (step 3): ``eps.size - 1`` (the last exact index) or less when the
+    exact part settles the knee; otherwise the last index that the knee's exact neighbours and
+    the inner points the subsample cannot rule out need (at least one more). ``sub_ratio``
+    holds the subsample's ratios by grid index (NaN where it has none); ``n_eps`` is the size
+    of the whole grid.
     """
     k = SLOPE_WINDOW
     last = eps.size - 1
     finite = np.flatnonzero(np.isfinite(exact))
     # γ*(ε) does not increase with ε: the infinite values come first, then the finite ones.
     if finite.size < 2 * k + 1 or finite[-1] != last or finite.size != last - finite[0] + 1:
-        return False
+        return last + 1
     centre, ratio = _slope_ratios(eps[finite], exact[finite])
     best = int(np.argmax(ratio))
     top = float(ratio[best])
-    if not top > 0 or finite[centre[best]] + k + KNEE_MARGIN > last:
-        return False
+    if not top > 0:
+        return last + 1
+    needed = int(finite[centre[best]]) + k + KNEE_MARGIN
     beyond = sub_ratio[last - k + 1 : n_eps - k]  # inner points with a value past the exact part
-    return bool(np.all(KNEE_SAFETY * beyond < top))
+    doubtful = np.flatnonzero(~(KNEE_SAFETY * beyond < top))
+    if doubtful.size:
+        needed = max(needed, last - k + 1 + int(doubtful[-1]) + k)
+    return min(needed, n_eps - 1)
 
 
 def gamma_from_margin(gamma_star: ArrayLike, margin: float) -> FloatArray:
