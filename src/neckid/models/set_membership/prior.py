@@ -292,12 +292,13 @@ def knee_search(
     largest slope. This search:
 
     1. computes the whole curve on a subsample (every k-th row in time, ``subsample`` rows; its
-       γ*(ε) is a lower bound of the full one, close to it where distant pairs decide) and takes
-       its knee ``k_s``;
+       γ*(ε) is a lower bound of the full one, close to it where distant pairs decide), and the
+       first finite ε ``f`` of the full curve (from the identical rows, all of them);
     2. computes γ*(ε) exactly, on all rows, at the grid's values ``0 .. b`` with
-       ``b = k_s + 2 + KNEE_MARGIN + 1`` (each value exact whatever else is in the grid), and the
-       ratios ``r_e`` at the inner points whose five values are all exact: the same floats as
-       over the whole curve;
+       ``b = f + 4 + KNEE_MARGIN``, or ``k_s + 2 + KNEE_MARGIN + 1`` if larger when the
+       subsample's knee ``k_s`` stands out (its ratio ``KNEE_SAFETY`` times those past it): each
+       value exact whatever else is in the grid, and so the ratios ``r_e`` at the inner points
+       whose five values are all exact, the same floats as over the whole curve;
     3. stops when the largest of those, ``r*`` at ``e*``, has ``KNEE_MARGIN`` exact inner
        points after it and every inner point beyond the exact part has a subsample ratio below
        ``r* / KNEE_SAFETY``; otherwise extends the exact part (one pass over the pairs) as far
