@@ -66,7 +66,7 @@ from neckid.experiments.benchmark.settings import (
     DEFAULT_METHODS,
     LAG_GRIDS,
     PEER_METHODS,
-    SELECTION_BLOCKS,
+    SELECTION_FRACTION,
     candidates,
 )
 
@@ -78,7 +78,7 @@ __all__ = [
     "LAG_GRIDS",
     "PEER_METHODS",
     "PROTOCOLS",
-    "SELECTION_BLOCKS",
+    "SELECTION_FRACTION",
     "SOFTNECK_CROSS_RUN",
     "SOFTNECK_STAIR_EDGES",
     "SOFTNECK_TRAINING_LOG",

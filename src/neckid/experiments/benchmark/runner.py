@@ -4,9 +4,11 @@ For every data set found (:mod:`~neckid.experiments.benchmark.datasets`) and eve
 (:mod:`~neckid.experiments.benchmark.settings`), :func:`run_benchmark`
 
 1. lists the method's candidates on that data set;
-2. chooses one on the training data alone (:func:`neckid.select_safely`: folds over the training
-   experiments, or three time blocks of one record; runaways rejected with the reason; the
-   fewest regressor terms within one standard error of the best mean fold fit);
+2. fits each on the first :data:`~neckid.experiments.benchmark.settings.SELECTION_FRACTION` of
+   the training record and ranks them by free-run RMSE on the rest, or, given several training
+   experiments, on held-out experiments (:func:`neckid.selection.score_candidates`); a candidate
+   whose held-out free run is not finite or leaves the divergence envelope of the training
+   outputs is out (its RMSE is infinite);
 3. refits the best one on the whole training record and simulates every test record once, in free
    run (:func:`neckid.selection.free_run`, with the protocol's initial samples).
 """
@@ -28,7 +30,6 @@ from numpy.typing import NDArray
 from sklearn.base import clone
 
 from neckid._parallel import check_backend
-from neckid.comparison import select_safely
 from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
@@ -38,7 +39,8 @@ from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
     DEFAULT_METHODS,
     PEER_METHODS,
-    SELECTION_BLOCKS,
+    SELECTION_FOLDS,
+    SELECTION_FRACTION,
     Candidate,
     candidates,
     runs_on,
@@ -46,7 +48,7 @@ from neckid.experiments.benchmark.settings import (
 from neckid.metrics import fit_percent, rmse
 from neckid.outputs import StagedFolder, output_folder
 from neckid.registry import DEPRECATED_NAMES, get_method
-from neckid.selection import free_run
+from neckid.selection import free_run, score_candidates
 
 __all__ = ["TABLE_COLUMNS", "BenchmarkReport", "run_benchmark"]
 
@@ -228,48 +230,51 @@ def _select(
     n_initial: int | None,
     sweep: _Sweep | None = None,
 ) -> tuple[Candidate, list[dict[str, Any]]]:
-    """The candidate chosen on the training data alone by :func:`neckid.select_safely`.
+    """The candidate with the smallest free-run RMSE on held-out training data.
 
-    Folds over the training experiments (leave-one-experiment-out), or over three contiguous
-    time blocks of a single training record; a candidate that fails or runs away in any fold
-    is out, with the reason kept; among the rest, the one with fewest regressor terms within one
-    standard error of the best mean fold fit (free run, NRMSE %). ``sweep`` says where the fits
-    run.
+    One training record: fitted on its first :data:`SELECTION_FRACTION`, scored on the rest. A
+    list of two or more experiments: scored on held-out experiments (:data:`SELECTION_FOLDS`,
+    leave-one-experiment-out by default), by the mean RMSE over the folds; each score then also
+    says the scheme and the worst fold's RMSE. ``sweep`` says where the fits run.
     """
     if not options:
         raise ValueError("the method has no candidate on this data set")
     if len(options) == 1:
         return options[0], []
-    names = [str(name) for name, _ in options]
-    if len(set(names)) != len(names):  # unique names for the selection table
-        options = [(f"{name} #{i}", est) for i, (name, est) in enumerate(options)]
-    try:
-        found = select_safely(
-            [(str(name), est) for name, est in options],
-            train,
-            n_blocks=SELECTION_BLOCKS,
+    experiments = as_experiments(train, "train")
+    if len(experiments) > 1:
+        table = score_candidates(
+            options,
+            experiments,
+            None,
+            criteria=("simulation",),
+            n_initial=n_initial,
+            folds=SELECTION_FOLDS,
+            **(sweep or _Sweep()).options(),
+        )
+    else:
+        fit_part, check_part = experiments[0].split(SELECTION_FRACTION)
+        table = score_candidates(
+            options,
+            fit_part,
+            check_part,
+            criteria=("simulation",),
             n_initial=n_initial,
             **(sweep or _Sweep()).options(),
         )
-    except ValueError as exc:
-        raise ValueError(
-            f"no candidate survives the selection on the training data: {exc}"
-        ) from None
+    values = table["rmse_simulation"].to_numpy(dtype=np.float64)
+    worst = table["rmse_simulation_worst"].to_numpy(dtype=np.float64)
     scores: list[dict[str, Any]] = []
-    for row in found.table.to_dict("records"):
-        score: dict[str, Any] = {
-            "settings": str(row["name"]),
-            "mean_fold_fit_percent": float(row["fit_mean"]),
-            "fold_fit_se": float(row["fit_se"]),
-            "worst_fold_fit_percent": float(row["fit_worst"]),
-            "scheme": found.scheme,
-            "status": str(row["status"]),
-        }
-        if row["reason"]:
-            score["error"] = str(row["reason"])
+    for row, value, fold in zip(table.itertuples(index=False), values, worst, strict=True):
+        score: dict[str, Any] = {"settings": str(row.name), "holdout_rmse": float(value)}
+        if row.scheme != "validation":
+            score.update(scheme=str(row.scheme), worst_fold_rmse=float(fold))
+        if row.error:
+            score["error"] = str(row.error)
         scores.append(score)
-    chosen = [str(name) for name, _ in options].index(found.chosen)
-    return options[chosen], scores
+    if np.isinf(values).all():
+        raise ValueError(f"every candidate failed or diverged on the held-out end: {scores}")
+    return options[int(np.argmin(values))], scores
 
 
 # ---------------------------------------------------------------------------- evaluation
@@ -525,14 +530,17 @@ def _run(
             "methods": names,
             "quick": quick,
             "seed": seed,
-            "selection": f"select_safely (time blocks: {SELECTION_BLOCKS})",
+            "selection_fraction": SELECTION_FRACTION,
         },
         "missing": [],
         "benchmarks": {},
     }
     ran: list[str] = []
+    # Every data set is read before any method runs: a file that cannot be read (a missing
+    # optional reader, a damaged file) stops the run at once, not after an hour of fits.
+    loaded = {name: load_benchmark(name, root, quick=quick) for name in datasets}
     for name in datasets:
-        bench = load_benchmark(name, root, quick=quick)
+        bench = loaded[name]
         if bench is None:
             details["missing"].append(name)
             continue

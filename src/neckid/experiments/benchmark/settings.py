@@ -6,8 +6,7 @@ registry, ``neckid.methods()[name].make(lags, quick=..., **params)``. :data:`CAN
 maps a registry name to the small function that lists its candidates on one data set; the
 benchmark runs the methods that have one (:data:`BENCHMARK_METHODS`).
 
-The candidates are chosen on the training data only (:func:`neckid.select_safely`, with
-:data:`SELECTION_BLOCKS` time blocks of a single training record; see
+The candidates are ranked on the training record only (:data:`SELECTION_FRACTION`, see
 :mod:`neckid.experiments.benchmark.runner`).
 """
 
@@ -42,7 +41,8 @@ __all__ = [
     "PUBLIC_BENCHMARKS",
     "SCHEDULED_LAGS",
     "SCHEDULED_PARAMS",
-    "SELECTION_BLOCKS",
+    "SELECTION_FOLDS",
+    "SELECTION_FRACTION",
     "SM_EPSILON_FACTORS",
     "SM_EPSILON_FACTORS_LARGE",
     "SM_INPUT_WEIGHTS",
@@ -65,10 +65,14 @@ Candidate = tuple[str, Any]
 #: The training data of a data set: one record, or several runs (the cross-run protocols).
 Training = IOData | Sequence[IOData]
 
-#: A single training record is cut into this many contiguous time blocks, each held out in turn
-#: to choose the candidates (:func:`neckid.select_safely`); several training experiments are
-#: held out one at a time.
-SELECTION_BLOCKS = 3
+#: Share of the training record the candidates are fitted on; they are ranked by free-run RMSE on
+#: the rest.
+SELECTION_FRACTION = 0.75
+
+#: When the training data are several experiments: the number of folds of experiments the
+#: candidates are ranked on (:func:`neckid.selection.score_candidates`); ``None`` holds out one
+#: experiment at a time. :data:`SELECTION_FRACTION` is then not used.
+SELECTION_FOLDS: int | None = None
 
 #: Candidate regressors per data set (ranked on the training record). A quick run takes the
 #: second (or only) one.
