@@ -13,6 +13,7 @@ seconds that must be sorted, distinct and uniform within 5 %
 
 from __future__ import annotations
 
+import faulthandler
 import multiprocessing
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -471,6 +472,8 @@ def _mat_variables(path: Path, names: Sequence[str]) -> dict[str, Any]:
 
 def _mat_child(sender: Any, path: Path, names: tuple[str, ...]) -> None:
     """In the child process: read the variables and send them, or the error's message."""
+    # A crash here is reported by the parent in one line; no fault dump on the shared stderr.
+    faulthandler.disable()
     try:
         sender.send(("ok", _mat_variables_here(path, names)))
     except ValueError as exc:
