@@ -294,3 +294,28 @@ def test_validate_says_when_a_log_contradicts_the_sm_prior(
     text = _plain(other.output)
     assert "prior contradicted:" in text and "the smallest ε that holds them all is" in text.lower()
     assert "guaranteed bounds of the noise-free output" not in text
+
+
+def test_validate_takes_several_logs_and_writes_json(
+    neck_logs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    train, valid = neck_logs
+    model_path = tmp_path / "arx.npz"
+    args = ["--inputs", "motor_position", "--outputs", "inclination", "--lags", "1-2/1-2"]
+    result = runner.invoke(
+        app, ["identify", str(train), *args, "--method", "arx", "--save", str(model_path)]
+    )
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "v.json"
+    result = runner.invoke(
+        app,
+        ["validate", str(model_path), str(train), str(valid), "--json", str(out), "--plot",
+         str(tmp_path / "v.png")],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "mean over 2 logs (free run)" in _plain(result.output)
+    document = json.loads(out.read_text())
+    fits = [r["outputs"][0]["fit_percent"] for r in document["logs"]]
+    assert [r["log"] for r in document["logs"]] == [train.name, valid.name]
+    assert document["mean"]["outputs"][0]["fit_percent"] == pytest.approx(np.mean(fits))
+    assert document["kind"] == "free run" and (tmp_path / "v.png").stat().st_size > 1000

@@ -37,6 +37,15 @@ from neckid.cli._app import (
     error_console,
     handled,
 )
+from neckid.cli.explain import (
+    _describe_model,
+    _print_band,
+    _print_domain,
+    _print_horizons,
+    _print_prior,
+    _print_prior_check,
+    _report_extrapolation,
+)
 from neckid.registry import methods
 
 
@@ -230,159 +239,108 @@ def _load_for_model(
     return model, data
 
 
-def _describe_model(model: Any) -> str:
-    """The label of the model's method (``Set Membership + linear``), or its class name."""
-    from neckid.registry import method_of
+def _validate_one(model: Any, data: Any, log: Path) -> tuple[dict[str, Any], Any, Any]:
+    """Free-run ``model`` on one log, print what it means; the JSON record, result and domain."""
+    from neckid.models.base import DivergenceError
 
-    method = method_of(model)
-    return method.label if method is not None else type(model).__name__
-
-
-def _print_prior(model: Any) -> None:
-    """ε and γ of a Set Membership model (or of the SM map of a parallel one), with units."""
-    sm = getattr(model, "sm_", model)
-    if not hasattr(sm, "gamma_") or getattr(sm.gamma_, "ndim", 1) != 1:
-        return  # a model with one prior per horizon describes itself (neckid info)
-    for name, unit, epsilon, gamma in zip(
-        model.output_names_, model.output_units_, sm.epsilon_, sm.gamma_, strict=True
-    ):
-        shown = f" {unit}" if unit else ""
-        console.print(
-            f"Set Membership prior for {name}: noise bound ε = {epsilon:.4g}{shown}, Lipschitz"
-            f" constant γ = {gamma:.4g}{shown} per unit of the scaled regressor"
-        )
-
-
-def _print_band(result: Any, data: Any) -> None:
-    """Mean width and coverage of a result's band, and which kind of band it is."""
-    if result.lower is None or result.upper is None:
-        return
-    from neckid.metrics import coverage, mean_width
-    from neckid.models.bands import band_meaning
-
-    kind = band_meaning(result.extras)
-    skip = result.n_initial
-    widths = mean_width(result.lower, result.upper, skip=skip)
-    covered = coverage(data.y, result.lower, result.upper, skip=skip)
-    for j, name in enumerate(data.output_names):
-        unit = f" {data.output_units[j]}" if data.output_units[j] else ""
-        console.print(
-            f"band of {name}: mean width {widths[j]:.4g}{unit}, holds {covered[j]:.1%} of the"
-            f" measured samples. {kind}",
-            markup=False,
-        )
-
-
-def _print_horizons(model: Any, data: Any) -> None:
-    """For a multi-step SM model: the guaranteed k-step band on the log, per named horizon.
-
-    The horizons shown are 1, the block ``horizon`` and the extra ``horizons``; for each, the
-    band of ``predict_ahead`` (its mean width and the share of the measured samples it holds),
-    ε_k, and the smallest ε_k that would hold every sample (γ_k kept).
-    """
-    if not hasattr(model, "horizons_"):
-        return
-    from neckid.metrics import coverage, mean_width
-
-    named = sorted({1, int(model.horizon), *(int(k) for k in model.horizons or ())})
-    rows: list[dict[str, Any]] = []
-    for k in named:
-        i = model.horizons_.tolist().index(k)
-        predictor = model.estimators_[i]  # only the named horizons, not all of invalidation()'s
-        if data.n_samples <= predictor.lags_.max_lag:
-            continue
-        ahead = model.predict_ahead(data, steps=k)
-        skip = ahead.n_initial
-        widths = mean_width(ahead.lower, ahead.upper, skip=skip)
-        held = coverage(data.y, ahead.lower, ahead.upper, skip=skip)
-        needed = predictor.invalidation(data).smallest_epsilon
-        for j, name in enumerate(data.output_names):
-            unit = data.output_units[j] or "-"
-            rows.append(
-                {
-                    "k [samples]": str(k),
-                    "k [s]": f"{k * data.ts:.3g}",
-                    "output": name,
-                    f"mean width [{unit}]": float(widths[j]),
-                    "holds [%]": float(100 * held[j]),
-                    f"eps_k [{unit}]": float(model.epsilon_[i, j]),
-                    f"eps_k to hold all, gamma kept [{unit}]": float(needed[j]),
-                }
-            )
-    if rows:
-        console.print(
-            _metrics_table("guaranteed k-step bands (predicted k samples ahead from the log)", rows)
-        )
-
-
-def _print_prior_check(model: Any, data: Any) -> None:
-    """For an SM model: does the log contradict its prior, one step ahead? And what to do."""
-    check = getattr(model, "invalidation", None)
-    epsilon = getattr(model, "epsilon_", None)
-    if check is None or epsilon is None or hasattr(model, "horizons_") or epsilon.ndim != 1:
-        return
-    found = check(data)
-    for j, name in enumerate(data.output_names):
-        unit = f" {data.output_units[j]}" if data.output_units[j] else ""
-        share = float(found.fraction[j])
-        if share == 0:
-            console.print(
-                f"prior check of {name} (one step ahead, measured regressors): every sample lies"
-                f" in [f_l − ε, f_u + ε] (ε = {float(epsilon[j]):.4g}{unit}); the log does not"
-                " contradict the prior",
-                markup=False,
-            )
-            continue
-        advice = (
-            f"{share:.1%} of the samples of {name} fall outside [f_l − ε, f_u + ε] one step"
-            f" ahead (ε = {float(epsilon[j]):.4g}{unit}, γ kept): the SM bounds are not"
-            " guaranteed on this log. The smallest ε that holds them all is"
-            f" {float(found.smallest_epsilon[j]):.4g}{unit}. Identify again with this log among"
-            " the training logs, or with a larger --set epsilon=..., or update the model with"
-            " it (SetMembership.partial_fit in Python)."
-        )
+    record: dict[str, Any] = {"log": log.name}
+    try:
+        result = model.simulate(data)
+    except DivergenceError as exc:
         error_console.print(
-            f"[yellow]prior contradicted:[/yellow] {escape(advice)}",
-            highlight=False,
-            soft_wrap=True,
+            f"[red]diverged:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True
         )
-
-
-def _print_domain(model: Any, data: Any) -> Any:
-    """The share of the log outside the model's domain (regressor box, SM nearest regressor)."""
-    if not getattr(model, "regressor_ranges_", None) or data.n_samples <= model.max_lag_:
-        return None
-    domain = model.domain(data)
-    worst = sorted(domain.by_term.items(), key=lambda kv: -kv[1])[:3]
-    terms = ", ".join(f"{k} {v:.0%}" for k, v in worst if v > 0) or "none"
-    text = (
-        f"domain: {domain.share:.1%} of the samples lie outside the regressors the model was"
-        f" identified on (terms outside their training range: {terms}"
-    )
-    if domain.radius is not None and domain.distance is not None:
-        far = float(np.nanmean(domain.distance[domain.n_initial :] > domain.radius))
-        text += (
-            f"; {far:.1%} farther from every training regressor than"
-            f" {domain.radius:.3g} (the 99th percentile of the training regressors' own"
-            " nearest-neighbour distances, scaled space)"
+        record["diverged"] = str(exc)
+        return record, None, None
+    fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
+    record["outputs"] = [
+        {"output": n, "unit": u, "fit_percent": float(f), "rmse": float(r), "mae": float(m)}
+        for n, u, f, r, m in zip(
+            data.output_names, data.output_units, fits, rmses, maes, strict=True
         )
-    console.print(text + ")", markup=False)
-    return domain
+    ]
+    rows = [
+        {
+            "output": o["output"],
+            "fit %": o["fit_percent"],
+            f"RMSE [{o['unit'] or '-'}]": o["rmse"],
+            f"MAE [{o['unit'] or '-'}]": o["mae"],
+        }
+        for o in record["outputs"]
+    ]
+    console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
+    _print_prior(model)
+    _print_band(result, data)
+    _print_prior_check(model, data)
+    _print_horizons(model, data)
+    _report_extrapolation(result)
+    domain = _print_domain(model, data)
+    if domain is not None:
+        record["outside_domain"] = domain.share
+    if result.lower is not None:
+        from neckid.models.bands import band_meaning
+
+        record["band"] = band_meaning(result.extras)
+    return record, result, domain
 
 
-def _report_extrapolation(result: Any) -> None:
-    from neckid.models.base import EXTRAPOLATION_WARNING
-
-    shares = result.extras.get("extrapolation", {})
-    far = {k: v for k, v in shares.items() if v > EXTRAPOLATION_WARNING}
-    if far:
-        error_console.print(
-            "[yellow]warning:[/yellow] the log leaves the range the model was identified on: "
-            + ", ".join(f"{k} {v:.0%} of the samples" for k, v in far.items())
-            + "; expect a poor fit there",
-            highlight=False,
-            soft_wrap=True,
+def _print_mean(records: list[dict[str, Any]]) -> dict[str, Any]:
+    """The mean over the logs that did not diverge, per output; printed and returned."""
+    done = [r for r in records if "outputs" in r]
+    mean: dict[str, Any] = {"logs": len(done), "diverged": len(records) - len(done)}
+    if not done:
+        return mean
+    rows = []
+    for j, first in enumerate(done[0]["outputs"]):
+        unit = first["unit"] or "-"
+        fit = float(np.mean([r["outputs"][j]["fit_percent"] for r in done]))
+        error = float(np.mean([r["outputs"][j]["rmse"] for r in done]))
+        rows.append({"output": first["output"], "mean fit %": fit, f"mean RMSE [{unit}]": error})
+        mean.setdefault("outputs", []).append(
+            {"output": first["output"], "fit_percent": fit, "rmse": error, "unit": first["unit"]}
         )
+    title = f"mean over {len(done)} logs (free run)"
+    if mean["diverged"]:
+        title += f"; {mean['diverged']} diverged, left out"
+    console.print(_metrics_table(title, rows))
+    return mean
+
+
+def _validation_plot(model: Any, runs: list[tuple[Path, Any, Any, Any]], plot: Path) -> None:
+    """Measured vs simulated output: with residuals for one log, one panel per log otherwise."""
+    import matplotlib.pyplot as plt
+
+    from neckid.outputs import atomic_path
+    from neckid.report.plots import plot_simulation
+
+    label = _describe_model(model)
+    if len(runs) == 1:
+        log, data, result, domain = runs[0]
+        fit = float(result.fit_percent(data)[0])
+        fig = plot_simulation(
+            data,
+            {label: result},
+            title=f"{label} on {log.name}: free run, fit {fit:.1f} %",
+            residuals=True,
+            outside=None if domain is None else domain.outside,
+        )
+    else:
+        fig, axes = plt.subplots(
+            len(runs), 1, figsize=(10, 3.4 * len(runs)), layout="constrained", squeeze=False
+        )
+        for ax, (log, data, result, domain) in zip(axes[:, 0], runs, strict=True):
+            fit = float(result.fit_percent(data)[0])
+            plot_simulation(
+                data,
+                {label: result},
+                ax=ax,
+                title=f"{log.name}: free run, fit {fit:.1f} %",
+                outside=None if domain is None else domain.outside,
+            )
+    with atomic_path(plot) as temporary:
+        fig.savefig(temporary, dpi=120, format="png")
+    plt.close(fig)
+    console.print(f"figure written to {plot}")
 
 
 @app.command()
@@ -391,7 +349,12 @@ def validate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
     ),
-    log: Path = typer.Argument(..., help=LOG_HELP, exists=True),
+    logs: list[Path] = typer.Argument(
+        ...,
+        metavar="LOG...",
+        help=LOG_HELP + " Several logs: a table each and the mean.",
+        exists=True,
+    ),
     time: str = TIME_OPTION,
     ts: float = TS_OPTION,
     layout: str = LAYOUT_OPTION,
@@ -401,61 +364,43 @@ def validate(
     conditions: list[str] = CONDITION_OPTION,
     tilt: bool = TILT_OPTION,
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
+    json_out: Path = typer.Option(
+        None, "--json", help="Write per log and the mean: fit %, RMSE, MAE, domain, band."
+    ),
     force: bool = FORCE_OPTION,
 ) -> None:
-    """Free-run simulate a saved model on a log and print fit (%), RMSE and MAE per output.
+    """Free-run simulate a saved model on one log or several; print fit (%), RMSE and MAE per output.
 
     Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), skipping the initial samples.
-    A free run that diverges is reported as such (exit status 3).
+    A free run that diverges is reported as such (exit status 3, after the other logs).
     """
-    from neckid.models.base import DivergenceError
+    import json
+
     from neckid.outputs import atomic_path, check_output_file
 
-    if plot is not None:
-        check_output_file(plot, force=force, inputs=[log, model_path], option="--plot")
-    model, data = _load_for_model(
-        model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
-    )
-    try:
-        result = model.simulate(data)
-    except DivergenceError as exc:
-        error_console.print(
-            f"[red]diverged:[/red] {escape(str(exc))}", highlight=False, soft_wrap=True
+    given = [*logs, model_path]
+    for path, option in ((plot, "--plot"), (json_out, "--json")):
+        if path is not None:
+            check_output_file(path, force=force, inputs=given, option=option)
+    records, runs = [], []
+    for log in logs:
+        model, data = _load_for_model(
+            model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
         )
-        raise typer.Exit(code=3) from None
-    fits, rmses, maes = result.fit_percent(data), result.rmse(data), result.mae(data)
-    rows = [
-        {
-            "output": n,
-            "fit %": float(f),
-            f"RMSE [{unit or '-'}]": float(r),
-            f"MAE [{unit or '-'}]": float(m),
-        }
-        for n, unit, f, r, m in zip(
-            data.output_names, data.output_units, fits, rmses, maes, strict=True
-        )
-    ]
-    console.print(_metrics_table(f"{_describe_model(model)} on {log.name} (free run)", rows))
-    _print_prior(model)
-    _print_band(result, data)
-    _print_prior_check(model, data)
-    _print_horizons(model, data)
-    _report_extrapolation(result)
-    domain = _print_domain(model, data)
-    if plot is not None:
-        from neckid.report.plots import plot_simulation
-
-        label = _describe_model(model)
-        fig = plot_simulation(
-            data,
-            {label: result},
-            title=f"{label} on {log.name}: free run, fit {float(fits[0]):.1f} %",
-            residuals=True,
-            outside=None if domain is None else domain.outside,
-        )
-        with atomic_path(plot) as temporary:
-            fig.savefig(temporary, dpi=120, format="png")
-        console.print(f"figure written to {plot}")
+        record, result, domain = _validate_one(model, data, log)
+        records.append(record)
+        if result is not None:
+            runs.append((log, data, result, domain))
+    mean = _print_mean(records) if len(logs) > 1 else None
+    if json_out is not None:
+        document = {"model": model_path.name, "kind": "free run", "logs": records, "mean": mean}
+        with atomic_path(json_out) as temporary:
+            temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
+        console.print(f"results written to {json_out}")
+    if plot is not None and runs:
+        _validation_plot(model, runs, plot)
+    if any("diverged" in r for r in records):
+        raise typer.Exit(code=3)
 
 
 @app.command()

@@ -1,0 +1,168 @@
+"""What a free run means, said under its table: the prior, the band, the domain, extrapolation.
+
+Helpers of ``neckid validate`` and ``neckid simulate`` (:mod:`neckid.cli.models`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from rich.markup import escape
+
+from neckid.cli._app import _metrics_table, console, error_console
+
+
+def _describe_model(model: Any) -> str:
+    """The label of the model's method (``Set Membership + linear``), or its class name."""
+    from neckid.registry import method_of
+
+    method = method_of(model)
+    return method.label if method is not None else type(model).__name__
+
+
+def _print_prior(model: Any) -> None:
+    """ε and γ of a Set Membership model (or of the SM map of a parallel one), with units."""
+    sm = getattr(model, "sm_", model)
+    if not hasattr(sm, "gamma_") or getattr(sm.gamma_, "ndim", 1) != 1:
+        return  # a model with one prior per horizon describes itself (neckid info)
+    for name, unit, epsilon, gamma in zip(
+        model.output_names_, model.output_units_, sm.epsilon_, sm.gamma_, strict=True
+    ):
+        shown = f" {unit}" if unit else ""
+        console.print(
+            f"Set Membership prior for {name}: noise bound ε = {epsilon:.4g}{shown}, Lipschitz"
+            f" constant γ = {gamma:.4g}{shown} per unit of the scaled regressor"
+        )
+
+
+def _print_band(result: Any, data: Any) -> None:
+    """Mean width and coverage of a result's band, and which kind of band it is."""
+    if result.lower is None or result.upper is None:
+        return
+    from neckid.metrics import coverage, mean_width
+    from neckid.models.bands import band_meaning
+
+    kind = band_meaning(result.extras)
+    skip = result.n_initial
+    widths = mean_width(result.lower, result.upper, skip=skip)
+    covered = coverage(data.y, result.lower, result.upper, skip=skip)
+    for j, name in enumerate(data.output_names):
+        unit = f" {data.output_units[j]}" if data.output_units[j] else ""
+        console.print(
+            f"band of {name}: mean width {widths[j]:.4g}{unit}, holds {covered[j]:.1%} of the"
+            f" measured samples. {kind}",
+            markup=False,
+        )
+
+
+def _print_horizons(model: Any, data: Any) -> None:
+    """For a multi-step SM model: the guaranteed k-step band on the log, per named horizon.
+
+    The horizons shown are 1, the block ``horizon`` and the extra ``horizons``; for each, the
+    band of ``predict_ahead`` (its mean width and the share of the measured samples it holds),
+    ε_k, and the smallest ε_k that would hold every sample (γ_k kept).
+    """
+    if not hasattr(model, "horizons_"):
+        return
+    from neckid.metrics import coverage, mean_width
+
+    named = sorted({1, int(model.horizon), *(int(k) for k in model.horizons or ())})
+    rows: list[dict[str, Any]] = []
+    for k in named:
+        i = model.horizons_.tolist().index(k)
+        predictor = model.estimators_[i]  # only the named horizons, not all of invalidation()'s
+        if data.n_samples <= predictor.lags_.max_lag:
+            continue
+        ahead = model.predict_ahead(data, steps=k)
+        skip = ahead.n_initial
+        widths = mean_width(ahead.lower, ahead.upper, skip=skip)
+        held = coverage(data.y, ahead.lower, ahead.upper, skip=skip)
+        needed = predictor.invalidation(data).smallest_epsilon
+        for j, name in enumerate(data.output_names):
+            unit = data.output_units[j] or "-"
+            rows.append(
+                {
+                    "k [samples]": str(k),
+                    "k [s]": f"{k * data.ts:.3g}",
+                    "output": name,
+                    f"mean width [{unit}]": float(widths[j]),
+                    "holds [%]": float(100 * held[j]),
+                    f"eps_k [{unit}]": float(model.epsilon_[i, j]),
+                    f"eps_k to hold all, gamma kept [{unit}]": float(needed[j]),
+                }
+            )
+    if rows:
+        console.print(
+            _metrics_table("guaranteed k-step bands (predicted k samples ahead from the log)", rows)
+        )
+
+
+def _print_prior_check(model: Any, data: Any) -> None:
+    """For an SM model: does the log contradict its prior, one step ahead? And what to do."""
+    check = getattr(model, "invalidation", None)
+    epsilon = getattr(model, "epsilon_", None)
+    if check is None or epsilon is None or hasattr(model, "horizons_") or epsilon.ndim != 1:
+        return
+    found = check(data)
+    for j, name in enumerate(data.output_names):
+        unit = f" {data.output_units[j]}" if data.output_units[j] else ""
+        share = float(found.fraction[j])
+        if share == 0:
+            console.print(
+                f"prior check of {name} (one step ahead, measured regressors): every sample lies"
+                f" in [f_l − ε, f_u + ε] (ε = {float(epsilon[j]):.4g}{unit}); the log does not"
+                " contradict the prior",
+                markup=False,
+            )
+            continue
+        advice = (
+            f"{share:.1%} of the samples of {name} fall outside [f_l − ε, f_u + ε] one step"
+            f" ahead (ε = {float(epsilon[j]):.4g}{unit}, γ kept): the SM bounds are not"
+            " guaranteed on this log. The smallest ε that holds them all is"
+            f" {float(found.smallest_epsilon[j]):.4g}{unit}. Identify again with this log among"
+            " the training logs, or with a larger --set epsilon=..., or update the model with"
+            " it (SetMembership.partial_fit in Python)."
+        )
+        error_console.print(
+            f"[yellow]prior contradicted:[/yellow] {escape(advice)}",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+
+def _print_domain(model: Any, data: Any) -> Any:
+    """The share of the log outside the model's domain (regressor box, SM nearest regressor)."""
+    if not getattr(model, "regressor_ranges_", None) or data.n_samples <= model.max_lag_:
+        return None
+    domain = model.domain(data)
+    worst = sorted(domain.by_term.items(), key=lambda kv: -kv[1])[:3]
+    terms = ", ".join(f"{k} {v:.0%}" for k, v in worst if v > 0) or "none"
+    text = (
+        f"domain: {domain.share:.1%} of the samples lie outside the regressors the model was"
+        f" identified on (terms outside their training range: {terms}"
+    )
+    if domain.radius is not None and domain.distance is not None:
+        far = float(np.nanmean(domain.distance[domain.n_initial :] > domain.radius))
+        text += (
+            f"; {far:.1%} farther from every training regressor than"
+            f" {domain.radius:.3g} (the 99th percentile of the training regressors' own"
+            " nearest-neighbour distances, scaled space)"
+        )
+    console.print(text + ")", markup=False)
+    return domain
+
+
+def _report_extrapolation(result: Any) -> None:
+    from neckid.models.base import EXTRAPOLATION_WARNING
+
+    shares = result.extras.get("extrapolation", {})
+    far = {k: v for k, v in shares.items() if v > EXTRAPOLATION_WARNING}
+    if far:
+        error_console.print(
+            "[yellow]warning:[/yellow] the log leaves the range the model was identified on: "
+            + ", ".join(f"{k} {v:.0%} of the samples" for k, v in far.items())
+            + "; expect a poor fit there",
+            highlight=False,
+            soft_wrap=True,
+        )
