@@ -234,3 +234,13 @@ def test_the_iosystem_runs_on_the_model_state(noisy_model) -> None:
     time = TS * np.arange(test.n_samples - m)
     response = control.input_output_response(system, time, test.u[m:].T, X0=x0)
     np.testing.assert_array_equal(response.outputs.T, noisy_model.simulate(test).y[m:])
+
+
+def test_info_shows_the_order_and_the_values_it_was_chosen_from() -> None:
+    from neckid.workflow import describe_model
+
+    data, _ = _record(3, n=1500)
+    model = SubspaceStateSpace(refine=False).fit(data)
+    described = describe_model(model)
+    assert described["order"] == model.order_ == 4
+    np.testing.assert_allclose(described["singular_values"], model.singular_values_)

@@ -721,4 +721,8 @@ def describe_model(model: Any) -> dict[str, Any]:
         info["distance"] = scaling if isinstance(scaling, str) else "user weights"
         if hasattr(model, "estimate"):
             info["estimate"] = str(model.estimate)
+    values = getattr(model, "singular_values_", None)
+    if values is not None:  # subspace model: the order chosen and what it was chosen from
+        info["order"] = int(model.order_)
+        info["singular_values"] = [float(v) for v in values]
     return info

@@ -231,6 +231,8 @@ def _info_model(path: Path, as_json: bool) -> None:
         "lipschitz",
         "distance",
         "estimate",
+        "order",
+        "singular_values",
     ):
         if key in described:
             table.add_row(
