@@ -73,3 +73,11 @@ def test_the_old_condition_function_is_the_method() -> None:
     assert conditions.conditions_as_inputs(log, ["payload"]) == log.conditions_as_inputs(
         ["payload"]
     )
+
+
+def test_neckid_models_re_exports_every_estimator_of_the_registry() -> None:
+    import neckid
+    import neckid.models
+
+    classes = {entry.estimator_class() for entry in neckid.methods().values()}
+    assert classes <= {getattr(neckid.models, name) for name in neckid.models.__all__}
