@@ -204,23 +204,32 @@ class Estimator(BaseEstimator, ModelFile):
         found = regressor_domain(self, data, nearest=False)
         return found.share, found.by_term
 
-    def _check_envelope(self, data: IOData, y: FloatArray, result: ModelResult) -> None:
-        """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope."""
+    def first_runaway(self, y: FloatArray, start: int) -> tuple[int, int] | None:
+        """The first sample from ``start`` on where a run ``y`` leaves the divergence envelope.
+
+        Returns ``(sample, output)``, or None when every output stays inside
+        :meth:`divergence_envelope` (non-finite values are not counted here).
+        """
         envelope = self.divergence_envelope()
-        m = self.max_lag_
         first: tuple[int, int] | None = None
         for j, name in enumerate(self.output_names_):
             if name not in envelope:
                 continue
             low, high = envelope[name]
-            out = np.flatnonzero((y[m:, j] < low) | (y[m:, j] > high))
-            if out.size and (first is None or out[0] + m < first[0]):
-                first = (int(out[0]) + m, j)
+            with np.errstate(invalid="ignore"):
+                out = np.flatnonzero((y[start:, j] < low) | (y[start:, j] > high))
+            if out.size and (first is None or out[0] + start < first[0]):
+                first = (int(out[0]) + start, j)
+        return first
+
+    def _check_envelope(self, data: IOData, y: FloatArray, result: ModelResult) -> None:
+        """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope."""
+        first = self.first_runaway(y, self.max_lag_)
         if first is None:
             return
         row, j = first
         name, unit = self.output_names_[j], self.output_units_[j]
-        low, high = envelope[name]
+        low, high = self.divergence_envelope()[name]
         shown = f" {unit}" if unit else ""
         raise DivergenceError(
             f"the {type(self).__name__} free run ran away: output {name!r} = {y[row, j]:.4g}{shown}"

@@ -287,18 +287,9 @@ def _first_non_finite(y: NDArray[np.float64], skip: int) -> int | None:
 def _first_runaway(model: Any, y: NDArray[np.float64], skip: int) -> int | None:
     """The first sample after ``skip`` that is not finite or leaves the model's envelope."""
     first = _first_non_finite(y, skip)
-    envelope = getattr(model, "divergence_envelope", None)
-    if envelope is None:
-        return first
-    bounds = envelope()
-    for j, name in enumerate(getattr(model, "output_names_", ())):
-        if name not in bounds:
-            continue
-        low, high = bounds[name]
-        with np.errstate(invalid="ignore"):
-            out = np.flatnonzero((y[skip:, j] < low) | (y[skip:, j] > high))
-        if out.size and (first is None or out[0] + skip < first):
-            first = int(out[0]) + skip
+    away = model.first_runaway(y, skip) if hasattr(model, "first_runaway") else None
+    if away is not None and (first is None or away[0] < first):
+        first = away[0]
     return first
 
 
