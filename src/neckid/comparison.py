@@ -43,7 +43,7 @@ from sklearn.base import clone
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
 from neckid.models.bands import band_meaning
-from neckid.models.base import DivergenceError
+from neckid.models.base import DivergenceError, ModelResult
 from neckid.registry import get_method
 from neckid.regressors import Lags
 from neckid.selection import score_candidates
@@ -325,6 +325,8 @@ class Comparison:
         The method of the chosen candidate.
     reasons : list of str
         Why it is recommended (fold scores, rejected candidates, domain).
+    runs : list of dict of str to ModelResult
+        Per test log (in the order given), each method's free run (not the diverged ones).
     """
 
     selection: SafeSelection
@@ -333,6 +335,7 @@ class Comparison:
     results: pd.DataFrame
     recommended: str
     reasons: list[str] = field(default_factory=list)
+    runs: list[dict[str, ModelResult]] = field(default_factory=list)
 
     def summary(self) -> pd.DataFrame:
         """Per method: the mean over test logs and outputs of fit, RMSE and outside share."""
@@ -398,8 +401,10 @@ def _outside_domain(model: Any, data: IOData) -> float:
     return float(outside.mean()) if data.n_samples else 0.0
 
 
-def _test_rows(method: str, model: Any, record: IOData) -> list[dict[str, Any]]:
-    """One free run of ``model`` on ``record``: a row per output."""
+def _test_rows(
+    method: str, model: Any, record: IOData
+) -> tuple[list[dict[str, Any]], ModelResult | None]:
+    """One free run of ``model`` on ``record``: a row per output, and the run (None if diverged)."""
     base = {"method": method, "log": record.name or "test", "error": ""}
     outside = _outside_domain(model, record)
     try:
@@ -407,7 +412,7 @@ def _test_rows(method: str, model: Any, record: IOData) -> list[dict[str, Any]]:
             warnings.simplefilter("ignore")
             result = model.simulate(record)
     except DivergenceError as exc:
-        return [
+        diverged = [
             {
                 **base,
                 "output": name,
@@ -422,6 +427,7 @@ def _test_rows(method: str, model: Any, record: IOData) -> list[dict[str, Any]]:
             }
             for name, unit in zip(record.output_names, record.output_units, strict=True)
         ]
+        return diverged, None
     skip = result.n_initial
     fits = fit_percent(record.y, result.y, skip=skip)
     errors = rmse(record.y, result.y, skip=skip)
@@ -430,7 +436,7 @@ def _test_rows(method: str, model: Any, record: IOData) -> list[dict[str, Any]]:
         band = band_meaning(result.extras)
         widths = mean_width(result.lower, result.upper, skip=skip)
         held = coverage(record.y, result.lower, result.upper, skip=skip)
-    return [
+    rows = [
         {
             **base,
             "output": name,
@@ -444,6 +450,7 @@ def _test_rows(method: str, model: Any, record: IOData) -> list[dict[str, Any]]:
         }
         for j, (name, unit) in enumerate(zip(record.output_names, record.output_units, strict=True))
     ]
+    return rows, result
 
 
 def _candidates(
@@ -531,6 +538,7 @@ def compare(
     )
     table = selection.table
     models, settings, rows = {}, {}, []
+    runs: list[dict[str, ModelResult]] = [{} for _ in tests]
     for method in dict.fromkeys(method_of.values()):
         own = table[[method_of[n] == method for n in table["name"]]]
         usable = own[own["status"] != "rejected"]
@@ -543,8 +551,11 @@ def compare(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             models[method] = estimator.fit(experiments if len(experiments) > 1 else experiments[0])
-        for record in tests:
-            rows.extend(_test_rows(method, models[method], record))
+        for record, by_method in zip(tests, runs, strict=True):
+            made, result = _test_rows(method, models[method], record)
+            rows.extend(made)
+            if result is not None:
+                by_method[method] = result
     recommended = method_of[selection.chosen]
     chosen = table[table["name"] == selection.chosen].iloc[0]
     reasons = [
@@ -553,4 +564,4 @@ def compare(
         f" standard error of the best ({selection.bar:.1f} %)",
         *(f"rejected {n}: {r}" for n, r in selection.rejected.items()),
     ]
-    return Comparison(selection, models, settings, pd.DataFrame(rows), recommended, reasons)
+    return Comparison(selection, models, settings, pd.DataFrame(rows), recommended, reasons, runs)

@@ -30,6 +30,7 @@ from neckid.cli._app import (
     error_console,
     handled,
 )
+from neckid.cli.explain import _save_panels
 
 
 def _read_all(paths: list[Path], options: dict[str, Any]) -> list[Any]:
@@ -74,31 +75,15 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
 
 
 def _write_plot(comparison: Any, tests: list[Any], path: Path) -> None:
-    """Measured output of each test log against every method's free run, one panel per log."""
-    import warnings
+    """Measured output of each test log against every method's free run, one panel per log.
 
-    import matplotlib.pyplot as plt
-
-    from neckid.models.base import DivergenceError
-    from neckid.outputs import atomic_path
-    from neckid.report.plots import plot_simulation
-
-    fig, axes = plt.subplots(
-        len(tests), 1, figsize=(9.0, 3.4 * len(tests)), layout="constrained", squeeze=False
-    )
-    for ax, record in zip(axes[:, 0], tests, strict=True):
-        runs = {}
-        for method, model in comparison.models.items():
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    runs[method] = model.simulate(record)
-            except DivergenceError:
-                continue  # said in the table; a runaway would hide the others
-        plot_simulation(record, runs, ax=ax, title=f"{record.name}: free runs")
-    with atomic_path(path) as temporary:
-        fig.savefig(temporary, dpi=110, format="png")
-    plt.close(fig)
+    The runs are those of the comparison (a diverged one is left out: the table says it).
+    """
+    panels = [
+        (record, runs, f"{record.name}: free runs", None)
+        for record, runs in zip(tests, comparison.runs, strict=True)
+    ]
+    _save_panels(panels, path)
 
 
 def _write_report(comparison: Any, tests: list[Any], folder: Path, force: bool) -> None:

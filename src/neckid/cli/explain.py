@@ -166,3 +166,20 @@ def _report_extrapolation(result: Any) -> None:
             highlight=False,
             soft_wrap=True,
         )
+
+
+def _save_panels(panels: list[tuple[Any, dict[str, Any], str, Any]], path: Any) -> None:
+    """One panel per log, stacked: ``(log data, {label: run}, title, samples outside or None)``."""
+    import matplotlib.pyplot as plt
+
+    from neckid.outputs import atomic_path
+    from neckid.report.plots import plot_simulation
+
+    fig, axes = plt.subplots(
+        len(panels), 1, figsize=(10, 3.4 * len(panels)), layout="constrained", squeeze=False
+    )
+    for ax, (data, runs, title, outside) in zip(axes[:, 0], panels, strict=True):
+        plot_simulation(data, runs, ax=ax, title=title, outside=outside)
+    with atomic_path(path) as temporary:
+        fig.savefig(temporary, dpi=120, format="png")
+    plt.close(fig)

@@ -45,6 +45,7 @@ from neckid.cli.explain import (
     _print_prior,
     _print_prior_check,
     _report_extrapolation,
+    _save_panels,
 )
 from neckid.registry import methods
 
@@ -308,38 +309,35 @@ def _print_mean(records: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _validation_plot(model: Any, runs: list[tuple[Path, Any, Any, Any]], plot: Path) -> None:
     """Measured vs simulated output: with residuals for one log, one panel per log otherwise."""
-    import matplotlib.pyplot as plt
-
-    from neckid.outputs import atomic_path
-    from neckid.report.plots import plot_simulation
-
     label = _describe_model(model)
-    if len(runs) == 1:
+    if len(runs) > 1:
+        panels = [
+            (
+                data,
+                {label: result},
+                f"{log.name}: free run, fit {float(result.fit_percent(data)[0]):.1f} %",
+                None if domain is None else domain.outside,
+            )
+            for log, data, result, domain in runs
+        ]
+        _save_panels(panels, plot)
+    else:
+        import matplotlib.pyplot as plt
+
+        from neckid.outputs import atomic_path
+        from neckid.report.plots import plot_simulation
+
         log, data, result, domain = runs[0]
-        fit = float(result.fit_percent(data)[0])
         fig = plot_simulation(
             data,
             {label: result},
-            title=f"{label} on {log.name}: free run, fit {fit:.1f} %",
+            title=f"{label} on {log.name}: free run, fit {float(result.fit_percent(data)[0]):.1f} %",
             residuals=True,
             outside=None if domain is None else domain.outside,
         )
-    else:
-        fig, axes = plt.subplots(
-            len(runs), 1, figsize=(10, 3.4 * len(runs)), layout="constrained", squeeze=False
-        )
-        for ax, (log, data, result, domain) in zip(axes[:, 0], runs, strict=True):
-            fit = float(result.fit_percent(data)[0])
-            plot_simulation(
-                data,
-                {label: result},
-                ax=ax,
-                title=f"{log.name}: free run, fit {fit:.1f} %",
-                outside=None if domain is None else domain.outside,
-            )
-    with atomic_path(plot) as temporary:
-        fig.savefig(temporary, dpi=120, format="png")
-    plt.close(fig)
+        with atomic_path(plot) as temporary:
+            fig.savefig(temporary, dpi=120, format="png")
+        plt.close(fig)
     console.print(f"figure written to {plot}")
 
 
