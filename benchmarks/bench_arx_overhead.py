@@ -29,7 +29,7 @@ from bench_arx_free_run import siso_data
 from scipy import signal
 
 from neckid import IOData, Lags, LinearARX
-from neckid.models.base import NarxModel
+from neckid.models.domain import regressor_domain
 from neckid.models.linear.arx import _linear_free_run
 from neckid.models.results import ModelResult
 
@@ -59,7 +59,10 @@ def previous_free_run(resolved, coef, intercept, u, y_initial):  # type: ignore[
 class PreviousARX(LinearARX):
     """``LinearARX.simulate`` as before issue 33."""
 
-    _domain_shares = NarxModel._domain_shares  # the regressor matrix, built per call
+    def _domain_shares(self, data: IOData) -> tuple[float, dict[str, float]]:
+        """The box shares from the regressor matrix, built per call."""
+        found = regressor_domain(self, data, nearest=False)
+        return found.share, found.by_term
 
     def simulate(self, data: IOData, initial=None) -> ModelResult:  # type: ignore[no-untyped-def]
         data = self._with_conditions(data)

@@ -27,7 +27,7 @@ import numpy as np
 from neckid._typing import BoolArray, FloatArray
 from neckid.data.iodata import IOData
 
-__all__ = ["NEAREST_QUANTILE", "Domain", "regressor_box", "regressor_domain"]
+__all__ = ["NEAREST_QUANTILE", "Domain", "box_shares", "regressor_box", "regressor_domain"]
 
 #: The radius of the nearest-regressor domain: this quantile of the training regressors'
 #: distances to their own nearest neighbour.
@@ -77,6 +77,35 @@ def regressor_box(x: FloatArray, names: tuple[str, ...]) -> dict[str, tuple[floa
     """Each regressor term's training range: name -> (lowest, highest)."""
     low, high = x.min(axis=0), x.max(axis=0)
     return {name: (float(low[j]), float(high[j])) for j, name in enumerate(names)}
+
+
+def box_shares(model: Any, data: IOData) -> tuple[float, dict[str, float]]:
+    """``Domain.share`` and ``Domain.by_term`` of the training box alone, in one compiled pass.
+
+    The same numbers as :func:`regressor_domain` with ``nearest=False``, without building the
+    regressor matrix (every free run's extrapolation warning counts them).
+    """
+    from neckid.models._domain_kernels import box_counts
+
+    lags = model.lags_
+    box: dict[str, tuple[float, float]] = getattr(model, "regressor_ranges_", {})
+    data = model._with_conditions(data)
+    lags.check_compatible(data)
+    terms = [j for j, name in enumerate(lags.names) if name in box]
+    bounds = np.array([box[lags.names[j]] for j in terms], dtype=np.float64).reshape(-1, 2)
+    counts, rows = box_counts(
+        np.asarray(data.y, dtype=np.float64),
+        np.asarray(data.u, dtype=np.float64),
+        np.ascontiguousarray(lags.source[terms], dtype=np.int64),
+        np.ascontiguousarray(lags.channel[terms], dtype=np.int64),
+        np.ascontiguousarray(lags.lag[terms], dtype=np.int64),
+        np.ascontiguousarray(bounds[:, 0]),
+        np.ascontiguousarray(bounds[:, 1]),
+        lags.max_lag,
+    )
+    n_rows = data.n_samples - lags.max_lag
+    by_term = {lags.names[j]: int(c) / n_rows for j, c in zip(terms, counts, strict=True)}
+    return rows / n_rows, by_term
 
 
 def _nearest(model: Any, x: FloatArray) -> tuple[FloatArray, float] | None:

@@ -207,48 +207,6 @@ def _all_pole_filter(
 
 
 @numba.njit(cache=True, nogil=True)
-def _box_counts(
-    y: FloatArray,
-    u: FloatArray,
-    source: NDArray[np.int64],
-    channel: NDArray[np.int64],
-    lag: NDArray[np.int64],
-    low: FloatArray,
-    high: FloatArray,
-    start: int,
-) -> tuple[NDArray[np.int64], int]:  # pragma: no cover - compiled; tested against regressor_domain
-    """Rows ``t >= start`` whose regressor term ``j`` is outside ``[low_j, high_j]``, and any term.
-
-    Term ``j`` at row ``t`` is ``y`` (source 0) or ``u`` at ``[t − lag_j, channel_j]``, as
-    :meth:`~neckid.regressors.ResolvedLags.build_one` puts it in the regressor, without building
-    the regressor matrix.
-    """
-    n_rows = y.shape[0] - start
-    counts = np.zeros(lag.shape[0], np.int64)
-    for j in range(lag.shape[0]):
-        column = (y if source[j] == 0 else u)[start - lag[j] : y.shape[0] - lag[j], channel[j]]
-        lo, hi = low[j], high[j]
-        count = 0
-        for t in range(n_rows):
-            count += (column[t] < lo) | (column[t] > hi)
-        counts[j] = count
-    if np.count_nonzero(counts) < 2:  # no term outside, or one: no union to count
-        return counts, int(counts.sum())
-    rows = 0
-    for t in range(n_rows):
-        for j in range(lag.shape[0]):
-            v = (
-                y[start + t - lag[j], channel[j]]
-                if source[j] == 0
-                else u[t + start - lag[j], channel[j]]
-            )
-            if v < low[j] or v > high[j]:
-                rows += 1
-                break
-    return counts, rows
-
-
-@numba.njit(cache=True, nogil=True)
 def _linear_free_run_kernel(
     y: FloatArray,
     u: FloatArray,
@@ -423,28 +381,6 @@ class LinearARX(NarxModel):
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
             y = _linear_free_run(self.lags_, self.coef_, self.intercept_, data.u, y0)
         return self._result("simulation", data, y)
-
-    def _domain_shares(self, data: IOData) -> tuple[float, dict[str, float]]:
-        """:meth:`NarxModel._domain_shares` in one compiled pass, without the regressor matrix."""
-        lags = self.lags_
-        box: dict[str, tuple[float, float]] = getattr(self, "regressor_ranges_", {})
-        data = self._with_conditions(data)
-        lags.check_compatible(data)
-        terms = [j for j, name in enumerate(lags.names) if name in box]
-        bounds = np.array([box[lags.names[j]] for j in terms], dtype=np.float64).reshape(-1, 2)
-        counts, rows = _box_counts(
-            np.asarray(data.y, dtype=np.float64),
-            np.asarray(data.u, dtype=np.float64),
-            np.ascontiguousarray(lags.source[terms], dtype=np.int64),
-            np.ascontiguousarray(lags.channel[terms], dtype=np.int64),
-            np.ascontiguousarray(lags.lag[terms], dtype=np.int64),
-            np.ascontiguousarray(bounds[:, 0]),
-            np.ascontiguousarray(bounds[:, 1]),
-            lags.max_lag,
-        )
-        n_rows = data.n_samples - lags.max_lag
-        by_term = {lags.names[j]: int(c) / n_rows for j, c in zip(terms, counts, strict=True)}
-        return rows / n_rows, by_term
 
     def _check_state(self) -> None:
         super()._check_state()
