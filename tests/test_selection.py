@@ -13,6 +13,7 @@ from _synthetic import arx_system
 from neckid import IOData, Lags, LinearARX
 from neckid.experiments.benchmark.runner import _select
 from neckid.metrics import fit_percent
+from neckid.models.results import DivergenceError
 from neckid.models.neural.narx import NeuralNARX
 from neckid.report.selection_plots import plot_lipschitz_index
 from neckid.selection import (
@@ -328,8 +329,8 @@ def test_score_candidates_and_select_lags_agree_on_grouped_scores() -> None:
 @pytest.mark.parametrize(
     ("train", "kwargs", "error", "match"),
     [
-        (1, {}, ValueError, r"validation is None.* at least 2 experiments; got 1"),
-        ("one", {}, ValueError, r"validation is None.* at least 2 experiments; got 1"),
+        (1, {"folds": 2}, ValueError, r"validation is None.* at least 2 experiments; got 1"),
+        (3, {"rule": "top"}, ValueError, r"rule must be 'safe' or 'best'; got 'top'"),
         (3, {"folds": 1}, ValueError, r"folds must be in \[2, 3\] .*; got 1"),
         (3, {"folds": 4}, ValueError, r"folds must be in \[2, 3\] .*; got 4"),
         (3, {"folds": 2.0}, TypeError, r"folds must be an int or None; got 2.0"),
@@ -352,6 +353,47 @@ def test_grouped_selection_bad_input(train: Any, kwargs: dict, error: type, matc
         arguments["validation"] = runs[0]
     with pytest.raises(error, match=match):
         select_lags(**arguments)
+
+
+def test_one_record_is_cut_into_time_blocks() -> None:
+    run = three_runs()[0]
+    selection = select_lags(run, None, [Lags.arx(1, 1, 1)], LinearARX(), progress=False)
+    assert selection.scheme == "time-blocks"
+    assert selection.table.attrs["folds"] == [[f"{run.name} [block {i}/3]"] for i in (1, 2, 3)]
+    with pytest.raises(ValueError, match=r"too few for 3 time blocks"):
+        select_lags(run[:5], None, [Lags.arx(1, 1, 1)], LinearARX(), progress=False)
+
+
+def test_safe_rule_takes_fewer_terms_within_one_standard_error() -> None:
+    # the system is TRUE_LAGS: longer memories fit as well, within the noise
+    runs = three_runs()
+    grid = [Lags.arx(3, 3, 3), TRUE_LAGS]
+    safe = select_lags(runs, None, grid, LinearARX(), progress=False)
+    best = select_lags(runs, None, grid, LinearARX(), progress=False, rule="best")
+    table = safe.table.set_index("candidate")
+    assert table.loc[1, "status"] == "chosen"
+    assert table.loc[1, "fit_simulation"] >= (
+        table["fit_simulation"].max()
+        - table.loc[table["fit_simulation"].idxmax(), "fit_simulation_se"]
+    )
+    assert safe.best_lags == grid[1]
+    assert best.best_lags == grid[int(best.table["candidate"].iloc[0])]
+    assert (safe.table["status"] == "chosen").sum() == 1
+
+
+def test_safe_rule_rejects_a_candidate_that_diverges_in_a_fold() -> None:
+    class Exploding(LinearARX):
+        def simulate(self, data, initial=None):  # type: ignore[no-untyped-def]
+            raise DivergenceError("the free run left the envelope at sample 10")
+
+    runs = three_runs()
+    options = [Lags.arx(1, 1, 1)]
+    selection = select_lags(runs, None, options, Exploding(), progress=False)
+    row = selection.table.iloc[0]
+    assert row["status"] == "rejected" and "DivergenceError" in row["reason"]
+    assert selection.chosen is None
+    with pytest.raises(ValueError, match="every candidate was rejected"):
+        selection.best_lags
 
 
 # ---------------------------------------------------------------------- the benchmark's selection

@@ -41,6 +41,7 @@ import pandas as pd
 from sklearn.base import clone
 
 from neckid.data.iodata import IOData, as_experiments
+from neckid.folds import MIN_BLOCKS, fold_statistics, one_standard_error, time_blocks
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
 from neckid.models.bands import band_meaning
 from neckid.models.base import DivergenceError, ModelResult
@@ -72,36 +73,6 @@ COMPLEXITY: Mapping[str, int] = {
     "sm-parallel-poly": 5,
     "nn": 6,
 }
-
-#: Fewest contiguous blocks a single training record is cut into.
-MIN_BLOCKS = 3
-
-
-def time_blocks(data: IOData, n_blocks: int = MIN_BLOCKS) -> list[IOData]:
-    """``data`` cut into ``n_blocks`` contiguous blocks of (nearly) equal length, in order.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> blocks = time_blocks(IOData(np.zeros(10), np.arange(10.0), ts=0.1, name="run"), 3)
-    >>> [b.n_samples for b in blocks], blocks[0].name
-    ([4, 3, 3], 'run [block 1/3]')
-    """
-    if isinstance(n_blocks, bool) or not isinstance(n_blocks, int) or n_blocks < MIN_BLOCKS:
-        raise ValueError(f"n_blocks must be an integer >= {MIN_BLOCKS}; got {n_blocks!r}")
-    if data.n_samples < 2 * n_blocks:
-        raise ValueError(
-            f"{data.name or 'the log'} has {data.n_samples} samples, too few for {n_blocks}"
-            " time blocks; give a longer log or several logs"
-        )
-    edges = np.linspace(0, data.n_samples, n_blocks + 1)
-    starts = np.ceil(edges).astype(int)
-    return [
-        data[int(starts[i]) : int(starts[i + 1])].renamed(
-            f"{data.name or 'log'} [block {i + 1}/{n_blocks}]"
-        )
-        for i in range(n_blocks)
-    ]
 
 
 def stretched(data: IOData, stress: float) -> IOData:
@@ -178,17 +149,16 @@ def _stress_reason(estimator: Any, train: list[IOData], stress: float) -> str:
 
 def _ranked(rows: list[dict[str, Any]]) -> tuple[pd.DataFrame, str, float]:
     """Status and order by the one-standard-error rule; the chosen name and the bar."""
-    accepted = [i for i, row in enumerate(rows) if row["status"] != "rejected"]
-    if not accepted:
+    try:
+        pick, bar = one_standard_error(
+            [float(row["fit_mean"]) for row in rows],
+            [float(row["fit_se"]) for row in rows],
+            [(row["complexity"], row["n_terms"]) for row in rows],
+            [row["status"] != "rejected" for row in rows],
+        )
+    except ValueError:
         reasons = "; ".join(f"{row['name']}: {row['reason']}" for row in rows)
-        raise ValueError(f"every candidate was rejected on the training logs ({reasons})")
-    best = max(accepted, key=lambda i: float(rows[i]["fit_mean"]))
-    bar = float(rows[best]["fit_mean"]) - float(rows[best]["fit_se"])
-    eligible = [i for i in accepted if float(rows[i]["fit_mean"]) >= bar]
-    pick = min(
-        eligible,
-        key=lambda i: (rows[i]["complexity"], rows[i]["n_terms"], -float(rows[i]["fit_mean"])),
-    )
+        raise ValueError(f"every candidate was rejected on the training logs ({reasons})") from None
     rows[pick]["status"] = "chosen"
     table = pd.DataFrame(rows).sort_values(["fit_mean"], ascending=False, kind="mergesort")
     return table.reset_index(drop=True), str(rows[pick]["name"]), bar
@@ -284,17 +254,16 @@ def select_safely(
         reason = str(scored.at[i, "error"])
         if not reason and stress > 0:
             reason = _stress_reason(estimator, experiments, stress)
-        finite = bool(np.all(np.isfinite(fits)))
+        mean, se, worst = fold_statistics(fits)
+        finite = bool(np.isfinite(mean))
         rows.append(
             {
                 "name": name,
                 "complexity": ranks[i],
                 "n_terms": terms[i],
-                "fit_mean": float(np.mean(fits)) if finite else -np.inf,
-                "fit_se": float(np.std(fits, ddof=1) / np.sqrt(fits.size))
-                if finite and fits.size > 1
-                else 0.0,
-                "fit_worst": float(np.min(fits)),
+                "fit_mean": mean,
+                "fit_se": se,
+                "fit_worst": worst,
                 "fold_fits": [float(f) for f in fits],
                 "status": "rejected" if reason or not finite else "accepted",
                 "reason": reason or ("" if finite else "a fold's fit is not finite"),

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import math
 import os
 import secrets
 import shutil
@@ -41,6 +42,7 @@ __all__ = [
     "output_folder",
     "output_name",
     "release_outputs",
+    "write_json",
 ]
 
 #: The extensions an option's file may have, by option, when the caller gives none: what the
@@ -357,6 +359,31 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     finally:
         if lock is not None:
             lock.release()
+
+
+def write_json(path: str | Path, document: Any) -> None:
+    """Write ``document`` as indented JSON to ``path`` atomically (:func:`atomic_path`).
+
+    Non-finite floats are written as ``null`` (JSON has no ``NaN`` nor ``Infinity``); NumPy
+    scalars and arrays as numbers and lists.
+    """
+    import json
+
+    with atomic_path(path) as temporary:
+        temporary.write_text(json.dumps(_plain_json(document), indent=2), encoding="utf-8")
+
+
+def _plain_json(value: Any) -> Any:
+    """``value`` with NumPy types as Python ones and non-finite floats as ``None``."""
+    if isinstance(value, dict):
+        return {str(k): _plain_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain_json(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, str):
+        return _plain_json(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 class StagedFolder:

@@ -4,14 +4,15 @@ Two complementary tools:
 
 - :func:`select_lags` trains a copy of any estimator (NeuralNARX, SetMembership, LinearARX, ...)
   on every candidate lag set and ranks them by one-step or free-run fit on a validation record, as
-  the seed paper chose its network's regressor, or, given a list of experiments and no validation
-  record, by how well a model fitted on the other experiments fits each held-out one
-  (leave-one-experiment-out, or k folds of experiments). The scoring itself is
+  the seed paper chose its network's regressor, or, given no validation record, by how well a
+  model fitted on the other experiments fits each held-out one (leave-one-experiment-out, k
+  folds of experiments, or 3 time blocks of a single record). The scoring itself is
   :func:`score_candidates` (any list of named estimators, also what the benchmark ranks its
   candidates with), and a free run with a protocol's initial samples is :func:`free_run`.
-- :func:`lipschitz_quotients` computes He & Asada's order index from the data alone, no model
-  needed; :func:`neckid.report.selection_plots.plot_lipschitz_index` draws it against the
-  order.
+- :func:`lipschitz_quotients` (in :mod:`neckid.lipschitz_index`, re-exported here) computes He
+  & Asada's order index from the data alone, no model needed.
+
+The choice among the scored candidates follows the safe rule of :mod:`neckid.folds`.
 """
 
 from __future__ import annotations
@@ -32,10 +33,12 @@ from sklearn.base import clone
 from neckid._parallel import check_backend, run_jobs
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
+from neckid.folds import fold_statistics, one_standard_error, time_blocks
+from neckid.lipschitz_index import lipschitz_quotients
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
 from neckid.registry import get_method
-from neckid.regressors import Lags, ResolvedLags
+from neckid.regressors import Lags
 
 __all__ = [
     "LagSelection",
@@ -48,7 +51,9 @@ __all__ = [
 
 Criterion = Literal["prediction", "simulation"]
 #: How candidates were scored: on the validation records given, or on held-out experiments.
-Scheme = Literal["validation", "leave-one-experiment-out", "grouped-k-fold"]
+Scheme = Literal["validation", "leave-one-experiment-out", "grouped-k-fold", "time-blocks"]
+#: How :func:`select_lags` picks: the safe rule of :mod:`neckid.folds`, or the top mean fit.
+Rule = Literal["safe", "best"]
 
 
 # ---------------------------------------------------------------------- candidates
@@ -130,21 +135,33 @@ class LagSelection:
         NRMSE fit in % over outputs and validation records, then over folds; ``-inf`` for a
         failed candidate), ``fit_prediction_worst`` and ``fit_simulation_worst`` (the fit of the
         worst fold), ``fit_prediction[<output>]`` / ``fit_simulation[<output>]`` per output (mean
-        over folds), ``fit_time_s`` (seconds to train, summed over folds), ``scheme``,
-        ``n_folds`` and ``error`` (empty, or the error of a failed candidate).
+        over folds), ``fit_<criterion>_se`` (the standard error of the mean over folds),
+        ``fit_<criterion>_folds`` (each fold's fit),
+        ``fit_time_s`` (seconds to train, summed over folds), ``scheme``, ``n_folds``, ``error``
+        (empty, or the error of a failed candidate), ``status`` (``"chosen"``, ``"accepted"``
+        or ``"rejected"``) and ``reason`` (why rejected: it failed, or its free run diverged, in
+        a fold).
     candidates : tuple of Lags
         The candidates, in the order given (``table.candidate`` indexes into it).
     criterion : {"prediction", "simulation"}
         The column the table is sorted by (``fit_<criterion>``).
-    scheme : {"validation", "leave-one-experiment-out", "grouped-k-fold"}, default "validation"
+    scheme : {"validation", "leave-one-experiment-out", "grouped-k-fold", "time-blocks"}
         How the fits were measured (see :func:`score_candidates`); with ``"validation"`` there
-        is one fold, so the worst-fold fit equals the mean.
+        is one fold, so the worst-fold fit equals the mean; ``"time-blocks"``: one record cut
+        into contiguous blocks, each held out once.
+    chosen : int or None
+        The candidate the rule chose (its position in :attr:`candidates`); ``None`` when every
+        candidate was rejected.
+    rule : {"safe", "best"}
+        The rule :attr:`best_lags` follows.
     """
 
     table: pd.DataFrame
     candidates: tuple[Lags, ...]
     criterion: Criterion
     scheme: Scheme = "validation"
+    chosen: int | None = None
+    rule: Rule = "best"
     column: str = field(init=False)
 
     def __post_init__(self) -> None:
@@ -152,7 +169,20 @@ class LagSelection:
 
     @property
     def best_lags(self) -> Lags:
-        """The lag set with the best validation fit (the first row of :attr:`table`)."""
+        """The lag set the rule chose.
+
+        With ``rule="safe"``: the fewest regressor terms among the candidates that never failed
+        nor diverged and whose mean fold fit is within one standard error of the best
+        (:func:`neckid.folds.one_standard_error`); with ``rule="best"``: the first row of
+        :attr:`table`.
+        """
+        if self.rule == "safe":
+            if self.chosen is None:
+                raise ValueError(
+                    "every candidate was rejected (failed or diverged in a fold); see the"
+                    f" 'reason' column of the table: {self.table['reason'].iloc[0]}"
+                )
+            return self.candidates[self.chosen]
         return self.best()
 
     def best(self, tolerance: float = 0.0) -> Lags:
@@ -550,6 +580,33 @@ def score_candidates(
     return table
 
 
+def _checked_candidates(
+    candidates: Sequence[Lags] | Lags, estimator: Any
+) -> tuple[Any, list[Lags]]:
+    """The estimator (a registry name made) and the candidates as a list, both checked."""
+    if isinstance(estimator, str):
+        estimator = get_method(estimator).make()
+    try:
+        params = estimator.get_params(deep=False)
+    except AttributeError:
+        raise TypeError(
+            f"estimator must be a neckid model with a 'lags' parameter; got {type(estimator).__name__}"
+        ) from None
+    if "lags" not in params:
+        raise TypeError(
+            f"estimator must have a 'lags' parameter; {type(estimator).__name__} has {sorted(params)}"
+        )
+    if isinstance(candidates, Lags):
+        candidates = [candidates]
+    lag_list = list(candidates)
+    if not lag_list:
+        raise ValueError("candidates is empty; give at least one Lags (see lag_grid)")
+    for i, lags in enumerate(lag_list):
+        if not isinstance(lags, Lags):
+            raise TypeError(f"candidates[{i}] must be a neckid.Lags; got {type(lags).__name__}")
+    return estimator, lag_list
+
+
 def select_lags(
     train: IOData | Sequence[IOData],
     validation: IOData | Sequence[IOData] | None = None,
@@ -561,6 +618,7 @@ def select_lags(
     *,
     folds: int | None = None,
     backend: str | None = None,
+    rule: Rule = "safe",
 ) -> LagSelection:
     """Train a copy of ``estimator`` on every candidate lag set and rank them on held-out data.
 
@@ -571,12 +629,19 @@ def select_lags(
     folds (:func:`score_candidates`). The held-out records are ``validation`` when it is given
     (fitted on ``train``); with ``validation=None`` and a list of experiments as ``train``, every
     experiment is held out once and the model fitted on the others (leave-one-experiment-out),
-    or ``folds=k`` groups of experiments are.
+    or ``folds=k`` groups of experiments are; with ``validation=None`` and one record, it is cut
+    into 3 contiguous time blocks, each held out once.
+
+    The choice (:attr:`LagSelection.best_lags`) follows ``rule``: ``"safe"`` (the default) puts
+    out every candidate that failed or diverged in a fold and takes the fewest regressor terms
+    within one standard error of the best mean fold fit (:mod:`neckid.folds`); ``"best"`` takes
+    the top mean fit, the rule of earlier versions.
 
     Parameters
     ----------
     train : IOData or list of IOData
-        Training records; with ``validation=None``, at least 2 experiments.
+        Training records: one record (cut into time blocks when ``validation=None``) or
+        several experiments.
     validation : IOData, list of IOData or None, default None
         Validation records, with the channels of ``train``. ``None`` scores on held-out
         experiments of ``train``, which says how a lag set carries over to another run.
@@ -597,6 +662,8 @@ def select_lags(
     folds : int or None, default None
         With ``validation=None``: group the experiments into ``k`` folds (experiment ``i`` in
         fold ``i mod k``); ``None`` is leave-one-experiment-out.
+    rule : {"safe", "best"}, default "safe"
+        How :attr:`LagSelection.best_lags` chooses (see above).
     backend : str or None, default None
         The joblib backend the fits run on: ``None`` is the active ``joblib.parallel_config``
         (joblib's default outside one); ``"dask"`` runs them on the cluster of the active
@@ -617,7 +684,8 @@ def select_lags(
     ValueError
         If ``estimator`` is a name no registered method has, ``criterion`` is unknown,
         ``candidates`` is empty, the records do not share channels, ``validation`` is None and
-        ``train`` holds fewer than 2 experiments, ``folds`` is out of range, ``backend`` is
+        a single ``train`` record is too short for 3 blocks, ``folds`` is out of range, ``rule``
+        is unknown, ``backend`` is
         unknown, or ``backend="dask"`` and no ``distributed.Client`` is active.
     ImportError
         If ``backend="dask"`` and the ``distributed`` package is not installed.
@@ -664,28 +732,16 @@ def select_lags(
     if criterion not in ("prediction", "simulation"):
         raise ValueError(f"criterion must be 'simulation' or 'prediction'; got {criterion!r}")
     check_backend(backend)  # before any work: a missing cluster is said at once
-    if isinstance(estimator, str):
-        estimator = get_method(estimator).make()
-    try:
-        params = estimator.get_params(deep=False)
-    except AttributeError:
-        raise TypeError(
-            f"estimator must be a neckid model with a 'lags' parameter; got {type(estimator).__name__}"
-        ) from None
-    if "lags" not in params:
-        raise TypeError(
-            f"estimator must have a 'lags' parameter; {type(estimator).__name__} has {sorted(params)}"
-        )
-    if isinstance(candidates, Lags):
-        candidates = [candidates]
-    lag_list = list(candidates)
-    if not lag_list:
-        raise ValueError("candidates is empty; give at least one Lags (see lag_grid)")
-    for i, lags in enumerate(lag_list):
-        if not isinstance(lags, Lags):
-            raise TypeError(f"candidates[{i}] must be a neckid.Lags; got {type(lags).__name__}")
+    estimator, lag_list = _checked_candidates(candidates, estimator)
+    if rule not in ("safe", "best"):
+        raise ValueError(f"rule must be 'safe' or 'best'; got {rule!r}")
     train_list = as_experiments(train, "train")
+    blocks = validation is None and folds is None and len(train_list) == 1
+    if blocks:  # one record: contiguous time blocks, each held out once
+        train_list = time_blocks(train_list[0])
     _, fold_names, scheme = _splits(train_list, validation, folds)
+    if blocks:
+        scheme = "time-blocks"
     n_folds = len(fold_names)
 
     rows: list[dict[str, Any]] = []
@@ -710,255 +766,72 @@ def select_lags(
             folds=folds,
             backend=backend,
         )
-        for row, score in zip(fitted, scores.to_dict(orient="records"), strict=True):
+        fold_fits = scores.attrs["fold_scores"][f"fit_{criterion}"]
+        for row, score, fits in zip(
+            fitted, scores.to_dict(orient="records"), fold_fits, strict=True
+        ):
             row.update({str(k): v for k, v in score.items() if k not in ("candidate", "name")})
+            row[f"fit_{criterion}_se"] = fold_statistics(fits)[1]
+            row[f"fit_{criterion}_folds"] = [float(f) for f in fits]
+            row["scheme"] = scheme
 
     output_names = train_list[0].output_names
     columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]
     columns += ["fit_prediction_worst", "fit_simulation_worst"]
     columns += [f"fit_{k}[{n}]" for k in ("prediction", "simulation") for n in output_names]
+    columns += [f"fit_{criterion}_se", f"fit_{criterion}_folds"]
     columns += ["fit_time_s", "scheme", "n_folds", "error"]
-    for row in rows:
-        for name in columns:
-            if name.startswith("fit_") and name != "fit_time_s":
-                row.setdefault(name, -np.inf)
+    columns += ["status", "reason"]
+    chosen = _rule_status(rows, columns, criterion)
     table = pd.DataFrame(rows, columns=columns)
     table["n_terms"] = table["n_terms"].astype("Int64")
     column = f"fit_{criterion}"
     table = table.sort_values(
         [column, "n_terms"], ascending=[False, True], kind="mergesort", na_position="last"
     ).reset_index(drop=True)
-    table.attrs.update(criterion=criterion, scheme=scheme, folds=fold_names)
-    return LagSelection(table=table, candidates=tuple(lag_list), criterion=criterion, scheme=scheme)
-
-
-# ---------------------------------------------------------------------- Lipschitz index
-def _top_quotients(
-    x: FloatArray, target: FloatArray, p: int, block_size: int
-) -> tuple[FloatArray, int]:
-    """The ``p`` largest ``|y_i - y_j| / ||x_i - x_j||`` over pairs ``i < j`` with ``x_i != x_j``.
-
-    Returns the quotients (descending) and the number of pairs skipped because ``x_i == x_j``.
-    """
-    n = x.shape[0]
-    best = np.empty(0)
-    skipped = 0
-    for start in range(0, n - 1, block_size):
-        stop = min(start + block_size, n - 1)
-        # Pairs (i, j) with i in [start, stop) and j > i: take j in [start + 1, n) and mask.
-        dx = x[start:stop, None, :] - x[None, start + 1 :, :]
-        dist = np.sqrt(np.einsum("ijk,ijk->ij", dx, dx))
-        dy = np.abs(target[start:stop, None] - target[None, start + 1 :])
-        i_idx = np.arange(start, stop)[:, None]
-        j_idx = np.arange(start + 1, n)[None, :]
-        upper = j_idx > i_idx
-        same = upper & (dist == 0)
-        skipped += int(same.sum())
-        valid = upper & (dist > 0)
-        q = dy[valid] / dist[valid]
-        pool = np.concatenate([best, q])
-        if pool.size > p:
-            pool = np.partition(pool, pool.size - p)[pool.size - p :]
-        best = pool
-    return np.sort(best)[::-1], skipped
-
-
-def lipschitz_quotients(
-    data: IOData | Sequence[IOData],
-    max_output_lag: int,
-    max_input_lag: int,
-    input_delay: int = 1,
-    fraction: float = 0.015,
-    max_samples: int | None = 1000,
-    seed: int | np.random.Generator | None = 0,
-    standardize: bool = True,
-) -> pd.DataFrame:
-    """He & Asada's Lipschitz order index for every output and input order up to the maxima.
-
-    For output order ``na`` and input order ``nb`` the regressor is
-    ``x(t) = [y(t-1..t-na) of every output, u(t-d..t-d-nb+1) of every input]`` (``d`` the input
-    delay), with ``n = na n_outputs + nb n_inputs`` components. For each output channel the index is
-
-    ``q(n) = (prod_{k=1..p} sqrt(n) q_(k))^(1/p)``, ``q_ij = |y_i - y_j| / ||x_i - x_j||``,
-
-    the geometric mean of the ``p`` largest Lipschitz quotients ``q_(k)`` scaled by ``sqrt(n)``,
-    with ``p = max(1, round(fraction * N))`` over ``N`` regressor rows. A missing regressor term
-    leaves pairs that are close in ``x`` but far apart in ``y``, so the index falls steeply while
-    the order is too small and levels off once it reaches the true order: the order to choose is
-    the knee of the curve.
-
-    Parameters
-    ----------
-    data : IOData or list of IOData
-        Records (rows never straddle two experiments).
-    max_output_lag : int
-        Largest output order tried (>= 0).
-    max_input_lag : int
-        Largest input order tried (>= 0).
-    input_delay : int, default 1
-        Input lags start at this delay (0 includes ``u(t)``).
-    fraction : float, default 0.015
-        ``p / N``; He & Asada recommend 0.01 to 0.02.
-    max_samples : int or None, default 1000
-        If there are more regressor rows, a random subset of this many rows (the same for every
-        order, drawn with ``seed``) is used: the cost grows as ``N^2``. ``None`` uses all rows.
-    seed : int, numpy.random.Generator or None, default 0
-        Seed of the subsample.
-    standardize : bool, default True
-        Divide every channel by its standard deviation first, so that inputs and outputs in
-        different units weigh alike in ``||x_i - x_j||`` (the index then has the unit 1).
-
-    Returns
-    -------
-    pandas.DataFrame
-        One row per output channel and order pair ``(na, nb) != (0, 0)``: columns ``output``,
-        ``output_order``, ``input_order``, ``n_terms``, ``index``, ``n_rows`` (``N``) and ``p``.
-
-    Raises
-    ------
-    ValueError
-        If an order is negative, both are 0, ``fraction`` is not in (0, 1), or the data are too
-        short for the largest lag.
-
-    Notes
-    -----
-    All pairs are formed in blocks of rows (memory ``O(block N n)``), keeping only the running
-    ``p`` largest quotients. Pairs with identical regressors are skipped (their quotient is
-    undefined). Noise raises the floor of the index; the knee stays where it is as long as the
-    noise is small compared with the signal.
-
-    References
-    ----------
-    .. [1] X. He and H. Asada, "A new method for identifying orders of input-output models for
-       nonlinear dynamic systems," in Proc. American Control Conference, San Francisco, 1993,
-       pp. 2520-2523.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from neckid import IOData
-    >>> rng = np.random.default_rng(0)
-    >>> u = rng.uniform(-1, 1, size=600)
-    >>> y = np.zeros(600)
-    >>> for t in range(1, 600):
-    ...     y[t] = 0.5 * y[t - 1] + np.sin(2 * u[t - 1])
-    >>> table = lipschitz_quotients(IOData(u, y, ts=0.1), max_output_lag=2, max_input_lag=2)
-    >>> index = table.set_index(["output_order", "input_order"])["index"]
-    >>> bool(index[1, 1] < index[0, 1] / 3 and index[1, 1] < index[1, 0] / 3)
-    True
-    >>> bool(index[2, 2] > 0.5 * index[1, 1])
-    True
-    """
-    _check_quotient_arguments(max_output_lag, max_input_lag, input_delay, fraction, max_samples)
-    experiments = as_experiments(data)
-    first = experiments[0]
-    if first.n_outputs == 0:
-        raise ValueError("data has no output channel; the Lipschitz index needs outputs")
-    x_all, y_all, resolved = _quotient_rows(
-        experiments, max_output_lag, max_input_lag, input_delay, max_samples, seed, standardize
+    table.attrs.update(criterion=criterion, scheme=scheme, folds=fold_names, rule=rule)
+    if rule == "best":
+        top = table.iloc[0]
+        chosen = int(top["candidate"]) if np.isfinite(float(top[column])) else None
+    if chosen is not None:
+        table.loc[table["candidate"] == chosen, "status"] = "chosen"
+    return LagSelection(
+        table=table,
+        candidates=tuple(lag_list),
+        criterion=criterion,
+        scheme=scheme,
+        chosen=chosen,
+        rule=rule,
     )
-    n_rows = x_all.shape[0]
-    p = max(1, round(fraction * n_rows))
-    block = max(1, int(2_000_000 // max(1, n_rows * max(1, resolved.n_terms))))
-
-    records = []
-    for na in range(max_output_lag + 1):
-        for nb in range(max_input_lag + 1):
-            if na == 0 and nb == 0:
-                continue
-            columns = ((resolved.source == 0) & (resolved.lag <= na)) | (
-                (resolved.source == 1) & (resolved.lag < input_delay + nb)
-            )
-            x = np.ascontiguousarray(x_all[:, columns])
-            n_terms = int(columns.sum())
-            for j, name in enumerate(first.output_names):
-                records.append(
-                    {
-                        "output": name,
-                        "output_order": na,
-                        "input_order": nb,
-                        "n_terms": n_terms,
-                        "index": _lipschitz_index(x, y_all[:, j], n_terms, p, block),
-                        "n_rows": n_rows,
-                        "p": p,
-                    }
-                )
-    table = pd.DataFrame.from_records(records)
-    table.attrs["input_delay"] = int(input_delay)
-    table.attrs["reference"] = "He & Asada, ACC 1993"
-    return table
 
 
-def _check_quotient_arguments(
-    max_output_lag: int,
-    max_input_lag: int,
-    input_delay: int,
-    fraction: float,
-    max_samples: int | None,
-) -> None:
-    """Raise the ValueError of :func:`lipschitz_quotients` for a bad order, delay, fraction or size."""
-    for name, value in (("max_output_lag", max_output_lag), ("max_input_lag", max_input_lag)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-            raise ValueError(f"{name} must be an int >= 0; got {value!r}")
-    if max_output_lag == 0 and max_input_lag == 0:
-        raise ValueError("max_output_lag and max_input_lag are both 0; there is no order to try")
-    if (
-        isinstance(input_delay, bool)
-        or not isinstance(input_delay, int | np.integer)
-        or input_delay < 0
-    ):
-        raise ValueError(f"input_delay must be an int >= 0; got {input_delay!r}")
-    if not 0.0 < fraction < 1.0:
-        raise ValueError(f"fraction must be in (0, 1); He & Asada use 0.01-0.02; got {fraction!r}")
-    if max_samples is not None and (
-        isinstance(max_samples, bool)
-        or not isinstance(max_samples, int | np.integer)
-        or max_samples < 10
-    ):
-        raise ValueError(f"max_samples must be an int >= 10 or None; got {max_samples!r}")
+def _rule_status(
+    rows: list[dict[str, Any]], columns: list[str], criterion: Criterion
+) -> int | None:
+    """Fill missing scores, ``status`` and ``reason``; the safe rule's choice (None: all out).
 
-
-def _quotient_rows(
-    experiments: list[IOData],
-    max_output_lag: int,
-    max_input_lag: int,
-    input_delay: int,
-    max_samples: int | None,
-    seed: int | np.random.Generator | None,
-    standardize: bool,
-) -> tuple[FloatArray, FloatArray, ResolvedLags]:
-    """The rows of the largest regressor and their outputs (scaled, subsampled) and its terms."""
-    # The largest regressor: every candidate is a subset of its columns, and all use the same rows.
-    full = Lags(
-        outputs=list(range(1, max_output_lag + 1)),
-        inputs=list(range(input_delay, input_delay + max_input_lag)),
-    )
-    x_all, y_all = full.build(experiments)
-    resolved = full.resolve(experiments)
-    if standardize:
-        y_std = np.concatenate([d.y for d in experiments]).std(axis=0)
-        u_std = np.concatenate([d.u for d in experiments]).std(axis=0)
-        y_std[y_std == 0] = 1.0
-        u_std[u_std == 0] = 1.0
-        column_scale = np.where(
-            resolved.source == 0, y_std[resolved.channel], u_std[resolved.channel]
+    A candidate is out when it failed to fit or its free run (or one-step run) was not finite
+    in a fold; the rest go to :func:`~neckid.folds.one_standard_error`, simpler meaning fewer
+    regressor terms, then a shorter memory.
+    """
+    column = f"fit_{criterion}"
+    for row in rows:
+        for name in columns:
+            if name.startswith("fit_") and name not in ("fit_time_s", f"{column}_se"):
+                row.setdefault(name, -np.inf)
+        row.setdefault(f"{column}_se", np.nan)
+        row[f"{column}_folds"] = row.get(f"{column}_folds", [])
+        error = row.get("error") if isinstance(row.get("error"), str) else ""
+        finite = bool(np.isfinite(float(row[column])))
+        row["status"] = "accepted" if finite and not error else "rejected"
+        row["reason"] = error or ("" if finite else f"{column} not finite in a fold (diverged)")
+    try:
+        pick, _ = one_standard_error(
+            [float(row[column]) for row in rows],
+            [float(row[f"{column}_se"]) for row in rows],
+            [(float(row["n_terms"]), int(row["max_lag"])) for row in rows],
+            [row["status"] == "accepted" for row in rows],
         )
-        x_all = x_all / column_scale
-        y_all = y_all / y_std
-    n_rows = x_all.shape[0]
-    if max_samples is not None and n_rows > max_samples:
-        rng = np.random.default_rng(seed)
-        keep = np.sort(rng.choice(n_rows, size=int(max_samples), replace=False))
-        x_all, y_all = x_all[keep], y_all[keep]
-        n_rows = int(max_samples)
-    if n_rows < 2:
-        raise ValueError(f"the Lipschitz index needs at least 2 regressor rows; got {n_rows}")
-    return x_all, y_all, resolved
-
-
-def _lipschitz_index(x: FloatArray, y: FloatArray, n_terms: int, p: int, block: int) -> float:
-    """He & Asada's index of one output: the geometric mean of the ``p`` largest scaled quotients."""
-    top, _ = _top_quotients(x, y, p, block)
-    if top.size == 0 or np.any(top == 0):
-        return 0.0 if top.size else np.nan
-    return float(np.exp(np.mean(np.log(np.sqrt(n_terms) * top))))
+    except ValueError:
+        return None
+    return int(rows[pick]["candidate"])

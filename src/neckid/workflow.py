@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
+
+import numpy as np
 
 from neckid.data.iodata import IOData
 from neckid.data.preprocess import (
@@ -17,64 +18,33 @@ from neckid.data.preprocess import (
     Restamp,
     Tilt,
 )
+from neckid.lag_text import (
+    format_lags,
+    lone_lag_note,
+    parse_lags,
+    parse_order_grid,
+    parse_orders,
+)
 from neckid.regressors import Lags
 
 __all__ = [
     "describe_log",
     "describe_model",
     "fit_model",
+    "format_lags",
+    "lone_lag_note",
     "make_estimator",
     "map_channels",
     "parse_channels",
     "parse_lags",
     "parse_mapping",
+    "parse_order_grid",
+    "parse_orders",
     "pipeline_from_options",
     "prepare_log",
     "read_log",
     "read_log_for_model",
 ]
-
-_RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
-
-
-def _parse_lag_list(text: str, argument: str) -> list[int]:
-    lags: list[int] = []
-    for part in text.split(","):
-        if not part.strip():
-            continue
-        match = _RANGE.match(part)
-        if match is None:
-            raise ValueError(
-                f"{argument}: cannot read {part.strip()!r}; write lags as 1-3 or 1,2,3 or 8-10"
-            )
-        lo = int(match.group(1))
-        hi = int(match.group(2)) if match.group(2) is not None else lo
-        if hi < lo:
-            raise ValueError(f"{argument}: range {part.strip()!r} goes backwards")
-        lags.extend(range(lo, hi + 1))
-    return lags
-
-
-def parse_lags(text: str) -> Lags:
-    """Read a regressor from text: ``"OUTPUT_LAGS/INPUT_LAGS"``, each a list of lags or ranges.
-
-    The same lags apply to every output and every input. ``"1-3/8-10"`` is the seed paper's
-    regressor ``[y(t-1..t-3), u(t-8..t-10)]``; ``"1,2/0-2"`` uses ``y(t-1), y(t-2), u(t), u(t-1), u(t-2)``.
-
-    Examples
-    --------
-    >>> parse_lags("1-3/8-10")
-    Lags(outputs=[1, 2, 3], inputs=[8, 9, 10])
-    """
-    if text.count("/") != 1:
-        raise ValueError(
-            f"--lags must look like OUTPUT_LAGS/INPUT_LAGS, e.g. 1-3/8-10; got {text!r}"
-        )
-    out_text, in_text = text.split("/")
-    return Lags(
-        outputs=_parse_lag_list(out_text, "--lags (outputs)"),
-        inputs=_parse_lag_list(in_text, "--lags (inputs)"),
-    )
 
 
 def read_log(
@@ -575,7 +545,6 @@ def describe_log(
         ``{"kind", "unit", "min", "max", "mean"}``. A gap is a time step more than 1.5 times
         the median one; a repeated stamp, a step of zero.
     """
-    import numpy as np
     import pandas as pd
 
     path = Path(path)

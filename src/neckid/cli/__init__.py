@@ -1,13 +1,13 @@
-"""The ``neckid`` command line: demo, identify, validate, simulate, compare, bandwidth, benchmark, info.
+"""The ``neckid`` command line: demo, identify, select, validate, simulate, compare, benchmark, info.
 
 ``app`` is the Typer application (the ``neckid`` script). The commands live in modules by what
 they work on (:mod:`neckid.cli.models`, :mod:`neckid.cli.compare`, :mod:`neckid.cli.runs`,
-:mod:`neckid.cli.logs`); importing
+:mod:`neckid.cli.logs`, :mod:`neckid.cli.select`); importing
 them registers them on ``app``. Every command runs under one error policy
 (:func:`neckid.cli._app.handled`).
 """
 
-from neckid.cli import compare, logs, models, runs
+from neckid.cli import compare, export, logs, models, runs, select
 from neckid.cli._app import app
 
-__all__ = ["app", "compare", "logs", "models", "runs"]
+__all__ = ["app", "compare", "export", "logs", "models", "runs", "select"]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +36,14 @@ from neckid.cli._app import (
     error_console,
     handled,
 )
+from neckid.cli._training import (
+    LAGS_OPTION,
+    ORDERS_OPTION,
+    _method_settings,
+    _regressor,
+    _regressor_text,
+    _training_logs,
+)
 from neckid.cli.explain import (
     _describe_model,
     _print_band,
@@ -66,11 +73,8 @@ def identify(
         "--method",
         help=" | ".join(methods()) + " (neckid.methods()).",
     ),
-    lags: str = typer.Option(
-        "1-3/8-10",
-        "--lags",
-        help="OUTPUT_LAGS/INPUT_LAGS in samples, e.g. 1-3/8-10 (the paper's regressor).",
-    ),
+    lags: str = LAGS_OPTION,
+    orders: str = ORDERS_OPTION,
     save: Path = typer.Option(
         Path("model.npz"), "--save", help="Where to write the model (.npz, no pickle)."
     ),
@@ -104,67 +108,80 @@ def identify(
         " --set horizons=[40]; VALUE is read as JSON (numbers, true/false, lists), else as"
         " text (repeat the option).",
     ),
+    json_out: Path = typer.Option(
+        None, "--json", help="Write the model's regressor, settings and training fit as JSON."
+    ),
     force: bool = FORCE_OPTION,
 ) -> None:
     """Identify a model from one log or several (one experiment each) and save it.
 
-    Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --lags 1-3/8-10
+    Example: neckid identify run.csv --inputs velocity_command --outputs inclination --method sm --orders 2,2,1
+
+    The regressor: --orders NA,NB,NK (MATLAB's [na nb nk]: y(t-1..t-NA), u(t-NK..t-NK-NB+1))
+    or --lags OUTPUT_LAGS/INPUT_LAGS (each lag listed: 1-3/8-10 is y(t-1..t-3), u(t-8..t-10);
+    3/1 is y(t-3) alone). Neither: --orders 2,2,1 (the scheduled model: first order).
+    neckid select chooses one on your logs.
 
     Preprocessing (--restamp, --tilt, --relative, --offset, --lowpass, --resample, in that order)
     is stored in the model and applied again by validate, simulate and info --model.
     """
     from neckid.outputs import check_output_file, output_name
-    from neckid.regressors import Lags
     from neckid.workflow import (
         make_estimator,
-        parse_lags,
-        parse_mapping,
-        pipeline_from_options,
-        read_log,
     )
 
     save = output_name(save, ".npz", option="--save")
     check_output_file(save, force=force, inputs=list(logs), option="--save")
-    pipeline = pipeline_from_options(
-        relative=relative or (),
-        offsets=offsets or (),
-        lowpass=lowpass or (),
+    if json_out is not None:
+        check_output_file(json_out, force=force, inputs=[*logs, save], option="--json")
+    experiments, pipeline = _training_logs(
+        logs,
+        inputs=inputs,
+        outputs=outputs,
+        time=time,
+        ts=ts,
+        layout=layout,
+        sep=sep,
+        channels=channels,
+        conditions=conditions,
+        maps=maps,
+        tilt=tilt,
+        relative=relative,
+        offsets=offsets,
+        lowpass=lowpass,
         resample=resample,
         restamp=restamp,
-        tilt=tilt,
     )
-    experiments = [
-        read_log(
-            log,
-            _split(inputs),
-            _split(outputs),
-            time=time,
-            ts=ts,
-            layout=layout,  # type: ignore[arg-type]
-            sep=_sep(sep),
-            channels=channels or (),
-            conditions=conditions or (),
-            maps=parse_mapping(maps or []),
-            preprocessing=pipeline,
-        )
-        for log in logs
-    ]
     method = _method_name(method)
     options = _method_settings(method, settings or ())
-    parsed = parse_lags(lags)
-    regressor = Lags(parsed.outputs, parsed.inputs, conditions=_split(use_conditions) or ())
+    regressor, chosen_by = _regressor(method, lags, orders, _split(use_conditions) or ())
     estimator = make_estimator(method, regressor, random_state=seed, **options)
     estimator.fit(experiments if len(experiments) > 1 else experiments[0])
-    rows: list[dict[str, Any]] = []
+    records: list[dict[str, Any]] = []
     for log, data in zip(logs, experiments, strict=True):
         result = estimator.simulate(data)  # a diverging model stops here, before it is saved
         fits, rmses = result.fit_percent(data), result.rmse(data)
-        rows.extend(
-            {"log": log.name, "output": name, "fit %": float(f), f"RMSE [{unit or '-'}]": float(r)}
+        records.extend(
+            {
+                "log": log.name,
+                "output": name,
+                "unit": unit,
+                "fit_percent": float(f),
+                "rmse": float(r),
+            }
             for name, unit, f, r in zip(
                 data.output_names, data.output_units, fits, rmses, strict=True
             )
         )
+    rows = [
+        {
+            "log": r["log"],
+            "output": r["output"],
+            "fit %": r["fit_percent"],
+            f"RMSE [{r['unit'] or '-'}]": r["rmse"],
+        }
+        for r in records
+    ]
     estimator.preprocessing_ = pipeline
     path = estimator.save(save)
     if pipeline:
@@ -175,35 +192,35 @@ def identify(
     console.print(
         _metrics_table(f"{_describe_model(estimator)} on {where} (free run, training data)", rows)
     )
+    console.print(f"regressor: {_regressor_text(estimator)} ({chosen_by})", markup=False)
     console.print(f"model saved to {path}")
+    if json_out is not None:
+        from neckid.outputs import write_json
+
+        document = _identify_summary(path, method, estimator, chosen_by, options, pipeline, records)
+        write_json(json_out, document)
+        console.print(f"summary written to {json_out}")
 
 
-def _method_settings(method: str, items: Sequence[str]) -> dict[str, Any]:
-    """``--set NAME=VALUE`` items as keyword arguments of the method's class (names checked)."""
-    import json
-
-    from neckid.registry import get_method
-
-    own_option = {"random_state": "--seed", "lags": "--lags"}
-    known = sorted(set(get_method(method).estimator_class()._parameter_constraints) - {"lags"})
-    options: dict[str, Any] = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise ValueError(f"--set takes NAME=VALUE (e.g. lipschitz=local); got {item!r}")
-        if name in own_option:
-            raise ValueError(f"--set {name}: give it with {own_option[name]} instead")
-        if name not in known:
-            raise ValueError(
-                f"--set {name}: method {method!r} has no setting {name!r}; its settings are"
-                f" {', '.join(known)}"
-            )
-        try:
-            options[name] = json.loads(text)
-        except json.JSONDecodeError:
-            options[name] = text
-    return options
+def _identify_summary(
+    path: Path,
+    method: str,
+    estimator: Any,
+    chosen_by: str,
+    options: dict[str, Any],
+    pipeline: Any,
+    records: list[dict[str, Any]],
+) -> dict[str, Any]:
+    """What ``identify --json`` writes: the model, its regressor and settings, the training fit."""
+    return {
+        "model": str(path),
+        "method": method,
+        "lags": _regressor_text(estimator),
+        "regressor_from": chosen_by,
+        "settings": {k: repr(v) for k, v in options.items()},
+        "preprocessing": pipeline.to_list() if pipeline else [],
+        "training": {"kind": "free run", "outputs": records},
+    }
 
 
 def _load_for_model(
@@ -425,6 +442,11 @@ def simulate(
         "--keep-diverged",
         help="Write the run even when it diverges (non-finite values); exit status 3 still.",
     ),
+    json_out: Path = typer.Option(
+        None,
+        "--json",
+        help="Write a summary as JSON: samples, band kind, and the fit against the log's outputs.",
+    ),
 ) -> None:
     """Free-run simulate a saved model with the inputs of a log; write time, inputs and outputs to CSV.
 
@@ -436,6 +458,8 @@ def simulate(
     from neckid.outputs import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
+    if json_out is not None:
+        check_output_file(json_out, force=force, inputs=[log, model_path, out], option="--json")
     model, data = _load_for_model(
         model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
     )
@@ -453,5 +477,39 @@ def simulate(
         result.to_frame().to_csv(temporary, index=False)
     console.print(f"{result.n_samples} samples written to {out}")
     _report_extrapolation(result)
+    if json_out is not None:
+        from neckid.outputs import write_json
+
+        write_json(json_out, _simulation_summary(model_path, log, out, data, result, diverged))
+        console.print(f"summary written to {json_out}")
     if diverged is not None:
         raise typer.Exit(code=3)
+
+
+def _simulation_summary(
+    model_path: Path, log: Path, out: Path, data: Any, result: Any, diverged: Exception | None
+) -> dict[str, Any]:
+    """What ``simulate --json`` writes: the run, its band's meaning, its fit to the log."""
+    from neckid.models.bands import band_meaning
+
+    document: dict[str, Any] = {
+        "model": model_path.name,
+        "log": log.name,
+        "csv": str(out),
+        "kind": "free run",
+        "n_samples": int(result.n_samples),
+        "band": band_meaning(result.extras) if result.lower is not None else None,
+        "diverged": None if diverged is None else str(diverged),
+    }
+    if diverged is None and data.n_outputs:
+        document["outputs"] = [
+            {"output": n, "unit": u, "fit_percent": float(f), "rmse": float(r)}
+            for n, u, f, r in zip(
+                data.output_names,
+                data.output_units,
+                result.fit_percent(data),
+                result.rmse(data),
+                strict=True,
+            )
+        ]
+    return document

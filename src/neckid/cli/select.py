@@ -1,0 +1,258 @@
+"""The select command: choose the regressor on the user's own logs, by the safe rule."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from neckid.cli._app import (
+    CHANNEL_OPTION,
+    CONDITION_OPTION,
+    FORCE_OPTION,
+    INPUTS_HELP,
+    LAYOUT_OPTION,
+    LOG_HELP,
+    LOWPASS_OPTION,
+    MAP_OPTION,
+    OFFSET_OPTION,
+    OUTPUTS_HELP,
+    RELATIVE_OPTION,
+    RESAMPLE_OPTION,
+    RESTAMP_OPTION,
+    SEP_OPTION,
+    TILT_OPTION,
+    TIME_OPTION,
+    TS_OPTION,
+    _method_name,
+    app,
+    console,
+    handled,
+)
+from neckid.cli._training import _method_settings, _training_logs
+from neckid.registry import methods
+
+#: The candidate grid of select when neither --orders nor --lags is given: MATLAB's
+#: ``struc(1:3, 1:3, 0:3)``, 36 candidates.
+DEFAULT_GRID = "1-3,1-3,0-3"
+
+
+def _candidates(orders: str | None, lags: list[str] | None) -> list[Any]:
+    """The candidates: the --orders grid and every --lags; the default grid when neither."""
+    from neckid.workflow import parse_lags, parse_order_grid
+
+    grid = parse_order_grid(orders) if orders is not None else []
+    for text in lags or []:
+        parsed = parse_lags(text)
+        if parsed not in grid:
+            grid.append(parsed)
+    return grid or parse_order_grid(DEFAULT_GRID)
+
+
+def _ranking_rows(selection: Any, data: Any, limit: int) -> list[dict[str, Any]]:
+    """One printed row per candidate (best mean fold fit first), at most ``limit``."""
+    from neckid.workflow import format_lags
+
+    column = selection.column
+    rows = []
+    for _, row in selection.table.head(limit).iterrows():
+        lags = selection.candidates[int(row["candidate"])]
+        try:
+            text = format_lags(lags.resolve(data))
+        except (KeyError, ValueError):
+            text = repr(lags)
+        rows.append(
+            {
+                "lags": text,
+                "terms": row["n_terms"],
+                "mean fit [%]": row[column],
+                "± se [points]": row[f"{column}_se"],
+                "worst fold [%]": row[f"{column}_worst"],
+                "status": row["status"],
+                "reason": str(row["reason"])[:60],
+            }
+        )
+    return rows
+
+
+def _print_ranking(selection: Any, data: Any, limit: int) -> None:
+    from rich.table import Table
+
+    kind = "free run" if selection.criterion == "simulation" else "one step ahead"
+    table = Table(
+        title=f"{selection.scheme}, {selection.table['n_folds'].iloc[0]} folds: fit ({kind})"
+    )
+    rows = _ranking_rows(selection, data, limit)
+    for name in rows[0]:
+        table.add_column(name, justify="left" if name in ("lags", "status", "reason") else "right")
+    for row in rows:
+        cells = []
+        for value in row.values():
+            if isinstance(value, float):
+                cells.append("-" if value != value else f"{value:.2f}")  # NaN: no spread
+            else:
+                cells.append(str(value))
+        table.add_row(*cells, style="bold" if row["status"] == "chosen" else None)
+    console.print(table)
+    if len(selection.table) > limit:
+        console.print(f"({len(selection.table) - limit} more candidates; --json has every one)")
+
+
+def _document(selection: Any, data: Any, method: str, chosen: str | None) -> dict[str, Any]:
+    """What ``--json`` writes: the rule, the folds, every candidate's mean and fold fits."""
+    column = selection.column
+    folds = selection.table.attrs.get("folds", [])
+    candidates = []
+    for row, (_, full) in zip(
+        _ranking_rows(selection, data, len(selection.table)),
+        selection.table.iterrows(),
+        strict=True,
+    ):
+        candidates.append(
+            {
+                "lags": row["lags"],
+                "n_terms": row["terms"],
+                "mean_fit_percent": row["mean fit [%]"],
+                "se_points": row["± se [points]"],
+                "worst_fold_percent": row["worst fold [%]"],
+                "status": row["status"],
+                "reason": str(full["reason"]),
+                "fold_fits_percent": list(full[f"{column}_folds"]),
+            }
+        )
+    return {
+        "method": method,
+        "fit": "free run" if column == "fit_simulation" else "one step ahead",
+        "rule": selection.rule,
+        "scheme": selection.scheme,
+        "folds": folds,
+        "chosen": chosen,
+        "candidates": candidates,
+    }
+
+
+@app.command()
+@handled
+def select(
+    logs: list[Path] = typer.Argument(
+        ...,
+        metavar="LOG...",
+        help=LOG_HELP + " Several logs: each is held out once; one log: 3 time blocks.",
+        exists=True,
+    ),
+    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
+    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
+    method: str = typer.Option("arx", "--method", help=" | ".join(methods()) + "."),
+    orders: str = typer.Option(
+        None,
+        "--orders",
+        metavar="NA,NB,NK",
+        help="The candidate grid, MATLAB's struc(na, nb, nk): each a number or a range, e.g."
+        f" 1-3,1-3,0-3 (the default when no --lags is given: {DEFAULT_GRID}, 36 candidates).",
+    ),
+    lags: list[str] = typer.Option(
+        None,
+        "--lags",
+        help="A candidate in the identify syntax, OUTPUT_LAGS/INPUT_LAGS (1-3/8-10); repeat the"
+        " option, and combine it with --orders.",
+    ),
+    criterion: str = typer.Option(
+        "simulation", "--criterion", help="simulation (free-run fit) or prediction (one step)."
+    ),
+    rule: str = typer.Option(
+        "safe",
+        "--rule",
+        help="safe: out if it fails or diverges in a fold, then the fewest terms within one"
+        " standard error of the best mean fold fit; best: the best mean fold fit.",
+    ),
+    top: int = typer.Option(15, "--top", min=1, help="Candidates to print (best first)."),
+    save: Path = typer.Option(
+        None, "--save", help="Fit the chosen regressor on all the logs and save the model (.npz)."
+    ),
+    json_out: Path = typer.Option(
+        None, "--json", help="Write every candidate's fold fits and the choice as JSON."
+    ),
+    jobs: int = typer.Option(1, "--jobs", help="Parallel fits (-1: every core)."),
+    time: str = TIME_OPTION,
+    ts: float = TS_OPTION,
+    layout: str = LAYOUT_OPTION,
+    sep: str = SEP_OPTION,
+    channels: list[str] = CHANNEL_OPTION,
+    conditions: list[str] = CONDITION_OPTION,
+    tilt: bool = TILT_OPTION,
+    maps: list[str] = MAP_OPTION,
+    relative: list[str] = RELATIVE_OPTION,
+    offsets: list[str] = OFFSET_OPTION,
+    lowpass: list[str] = LOWPASS_OPTION,
+    resample: float = RESAMPLE_OPTION,
+    restamp: bool = RESTAMP_OPTION,
+    settings: list[str] = typer.Option(
+        None, "--set", metavar="NAME=VALUE", help="A setting of the method, as in identify."
+    ),
+    force: bool = FORCE_OPTION,
+) -> None:
+    """Choose the regressor on your logs: every candidate is fitted with logs held out.
+
+    Example: neckid select run1.csv run2.csv --inputs velocity_command --outputs inclination --orders 1-3,1-3,0-3 --save model.npz
+
+    Scores are free-run fits of the held-out logs (or time blocks of one log). A candidate that
+    fails or diverges in a fold is out; the fewest terms within one standard error of the best
+    mean fit is chosen. The test logs you keep for the end are not given here.
+    """
+    from neckid.outputs import check_output_file, output_name, write_json
+    from neckid.selection import select_lags
+    from neckid.workflow import format_lags, make_estimator
+
+    if criterion not in ("simulation", "prediction"):
+        raise ValueError(f"--criterion must be simulation or prediction; got {criterion!r}")
+    if save is not None:
+        save = output_name(save, ".npz", option="--save")
+        check_output_file(save, force=force, inputs=list(logs), option="--save")
+    if json_out is not None:
+        check_output_file(json_out, force=force, inputs=list(logs), option="--json")
+    experiments, pipeline = _training_logs(
+        logs,
+        inputs=inputs,
+        outputs=outputs,
+        time=time,
+        ts=ts,
+        layout=layout,
+        sep=sep,
+        channels=channels,
+        conditions=conditions,
+        maps=maps,
+        tilt=tilt,
+        relative=relative,
+        offsets=offsets,
+        lowpass=lowpass,
+        resample=resample,
+        restamp=restamp,
+    )
+    method = _method_name(method)
+    options = _method_settings(method, settings or ())
+    estimator = make_estimator(method, None, **options)  # type: ignore[arg-type]
+    selection = select_lags(
+        experiments if len(experiments) > 1 else experiments[0],
+        None,
+        _candidates(orders, lags),
+        estimator,
+        criterion=criterion,  # type: ignore[arg-type]
+        rule=rule,  # type: ignore[arg-type]
+        n_jobs=jobs,
+        progress=console.is_terminal,
+    )
+    _print_ranking(selection, experiments[0], top)
+    chosen = None if selection.chosen is None else selection.best_lags
+    text = None if chosen is None else format_lags(chosen.resolve(experiments[0]))
+    if json_out is not None:
+        write_json(json_out, _document(selection, experiments[0], method, text))
+        console.print(f"ranking written to {json_out}")
+    if chosen is None:
+        raise ValueError("every candidate failed or diverged in a fold; see the reason column")
+    console.print(f"chosen: --lags {text} ({selection.rule} rule)", markup=False)
+    if save is not None:
+        model = make_estimator(method, chosen, **options)
+        model.fit(experiments if len(experiments) > 1 else experiments[0])
+        model.preprocessing_ = pipeline
+        console.print(f"model fitted on all {len(experiments)} log(s), saved to {model.save(save)}")

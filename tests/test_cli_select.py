@@ -1,0 +1,117 @@
+"""Choosing the regressor from the command line: select, --orders, and the JSON of identify and simulate."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from _synthetic import arx_system
+from neckid import IOData, load_model
+from neckid.cli import app
+from neckid.workflow import format_lags, parse_order_grid, parse_orders
+
+runner = CliRunner()
+
+
+def _plain(text: str) -> str:
+    return re.sub(r"\s+", " ", text)
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    """Three runs of y(t) = 1.2 y(t-1) - 0.5 y(t-2) + 0.8 u(t-3) + 0.4 u(t-4) + e (orders 2,2,3)."""
+    folder = tmp_path_factory.mktemp("select")
+    paths = []
+    for seed in range(3):
+        run = arx_system(500, 20 + seed)
+        data = IOData(run.u, run.y, ts=0.02, input_names=["cmd"], output_names=["incl"])
+        data.to_csv(folder / f"run{seed}.csv")
+        paths.append(folder / f"run{seed}.csv")
+    return paths
+
+
+def _channels() -> list[str]:
+    return ["--inputs", "cmd", "--outputs", "incl"]
+
+
+def test_orders_read_as_matlab_does() -> None:
+    assert parse_orders("2,2,3").inputs == (3, 4)
+    assert parse_orders("2,2,3").outputs == (1, 2)
+    assert len(parse_order_grid("1-2,1-2,0-1")) == 8
+    for bad, match in [
+        ("2,2", r"--orders must be NA,NB,NK"),
+        ("1-2,2,1", r"--orders takes one NA,NB,NK"),
+        ("0,0,1", r"NA and NB are both 0"),
+        ("a,2,1", r"--orders \(NA\): cannot read 'a'"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            parse_orders(bad)
+
+
+def test_select_finds_the_true_orders_and_saves_the_model(runs: list[Path], tmp_path: Path) -> None:
+    out, model_path = tmp_path / "ranking.json", tmp_path / "chosen.npz"
+    args = ["select", *map(str, runs), *_channels(), "--orders", "1-3,1-3,1-4"]
+    result = runner.invoke(app, [*args, "--json", str(out), "--save", str(model_path)])
+    assert result.exit_code == 0, result.output
+    text = _plain(result.output)
+    assert "leave-one-experiment-out, 3 folds" in text
+    assert "chosen: --lags 1-2/3-4 (safe rule)" in text
+    document = json.loads(out.read_text())
+    assert document["chosen"] == "1-2/3-4" and document["scheme"] == "leave-one-experiment-out"
+    assert len(document["candidates"]) == 36
+    chosen = [c for c in document["candidates"] if c["status"] == "chosen"]
+    assert len(chosen) == 1 and len(chosen[0]["fold_fits_percent"]) == 3
+    assert np.isclose(np.mean(chosen[0]["fold_fits_percent"]), chosen[0]["mean_fit_percent"])
+    model = load_model(model_path)
+    assert format_lags(model.lags_) == "1-2/3-4"
+    # the output exists now: refused without --force
+    again = runner.invoke(app, [*args, "--json", str(out)])
+    assert again.exit_code != 0 and "--force" in _plain(again.output)
+
+
+def test_select_on_one_log_uses_time_blocks(runs: list[Path]) -> None:
+    result = runner.invoke(
+        app, ["select", str(runs[0]), *_channels(), "--lags", "1-2/3-4", "--lags", "1/1"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "time-blocks, 3 folds" in _plain(result.output)
+
+
+def test_identify_orders_json_and_the_lone_lag_note(runs: list[Path], tmp_path: Path) -> None:
+    out, summary = tmp_path / "m.npz", tmp_path / "m.json"
+    args = ["identify", str(runs[0]), *_channels(), "--method", "arx", "--save", str(out)]
+    result = runner.invoke(app, [*args, "--orders", "2,2,3", "--json", str(summary)])
+    assert result.exit_code == 0, result.output
+    assert "regressor: 1-2/3-4 (--orders 2,2,3)" in _plain(result.output)
+    document = json.loads(summary.read_text())
+    assert document["lags"] == "1-2/3-4" and document["method"] == "arx"
+    (row,) = document["training"]["outputs"]
+    assert row["output"] == "incl" and row["fit_percent"] > 95
+    both = runner.invoke(app, [*args, "--force", "--orders", "2,2,3", "--lags", "1/1"])
+    assert both.exit_code != 0 and "not both" in _plain(both.output)
+    lone = runner.invoke(app, [*args, "--force", "--lags", "3/3"])
+    assert lone.exit_code == 0 and "the output lag 3 alone, y(t-3)" in _plain(lone.output)
+    default = runner.invoke(app, [*args, "--force"])
+    assert "regressor: 1-2/1-2 (the default --orders 2,2,1)" in _plain(default.output)
+
+
+def test_simulate_writes_a_json_summary(runs: list[Path], tmp_path: Path) -> None:
+    model_path, csv, summary = tmp_path / "m.npz", tmp_path / "s.csv", tmp_path / "s.json"
+    fitted = runner.invoke(
+        app, ["identify", str(runs[0]), *_channels(), "--method", "arx", "--orders", "2,2,3",
+              "--save", str(model_path)],
+    )  # fmt: skip
+    assert fitted.exit_code == 0, fitted.output
+    result = runner.invoke(
+        app,
+        ["simulate", str(model_path), str(runs[1]), "--out", str(csv), "--json", str(summary)],
+    )
+    assert result.exit_code == 0, result.output
+    document = json.loads(summary.read_text())
+    assert document["kind"] == "free run" and document["diverged"] is None
+    assert document["n_samples"] == 500 and document["outputs"][0]["fit_percent"] > 95
