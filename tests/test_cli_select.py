@@ -115,3 +115,32 @@ def test_simulate_writes_a_json_summary(runs: list[Path], tmp_path: Path) -> Non
     document = json.loads(summary.read_text())
     assert document["kind"] == "free run" and document["diverged"] is None
     assert document["n_samples"] == 500 and document["outputs"][0]["fit_percent"] > 95
+
+
+def test_the_readme_command_line_example_runs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The README's example commands, word for word, on logs of the simulated neck."""
+    import shlex
+
+    from neckid.plant import SoftNeck
+    from neckid.signals import multisine
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    example = readme[readme.index("For example `neckid") : readme.index("Every option, the")]
+    commands = [c for c in re.findall(r"`(neckid [^`]+)`", example.replace("\n", " "))]
+    runnable = [c for c in commands if "..." not in c]
+    assert [c.split()[1] for c in runnable] == ["select", "validate"]
+    neck = SoftNeck(seed=5)
+    for seed, name in ((1, "run1.csv"), (2, "run2.csv"), (3, "other.csv")):
+        position = 2.5 + 2.0 * multisine(500, neck.ts, band=(0.05, 4.0), phases="random", seed=seed)
+        velocity = np.concatenate(
+            [np.full(150, position[0] / 3.0), np.diff(position, prepend=position[0]) / neck.ts]
+        )
+        neck.reset()
+        neck.run(velocity)[150:].to_csv(tmp_path / name)
+    monkeypatch.chdir(tmp_path)
+    for command in runnable:
+        result = runner.invoke(app, shlex.split(command)[1:])
+        assert result.exit_code == 0, f"{command}\n{result.output}"
+    assert (tmp_path / "model.npz").exists()

@@ -97,30 +97,22 @@ def _backend_context(backend: str | None) -> AbstractContextManager[Any]:
 
 
 def _with_progress(results: Iterable[Any], total: int, label: str) -> Iterator[Any]:
-    """Yield ``results`` while a rich progress bar (on standard error) counts them."""
-    from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
+    """Yield ``results`` while :mod:`neckid.progress` counts them.
 
-    with Progress(
-        TextColumn(label),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=Console(stderr=True),
-        transient=True,
-    ) as bar:
-        task = bar.add_task("fits", total=total)
+    Shown by the reporter of the context (the command line's bar, or lines in a log); without
+    one, by a rich bar on standard error.
+    """
+    from contextlib import ExitStack
+
+    from neckid.progress import TerminalReporter, active, reporting, task
+
+    with ExitStack() as stack:
+        if active() is None:
+            stack.enter_context(reporting(TerminalReporter()))
+        advance = stack.enter_context(task(label, total=total))
         for result in results:
             yield result
-            bar.advance(task)
+            advance()
 
 
 def run_jobs(

@@ -197,7 +197,8 @@ def handled(command: Command) -> Command:
     status 2; Ctrl-C, SIGTERM and SIGHUP say that the run was interrupted and that no output was
     half written (status 128 + the signal: 130, 143, 129); anything else prints one line with
     the error's type and the hint to rerun with ``--debug`` (status 1), or the traceback with
-    ``--debug``. A closed standard output (``| head``) is not an error. The outputs the command
+    ``--debug``. A closed standard output (``| head``) is not an error. Long work inside shows
+    its progress (:mod:`neckid.progress`). The outputs the command
     claimed (:func:`neckid.outputs.check_output_file`) are released when it ends.
     """
 
@@ -207,10 +208,12 @@ def handled(command: Command) -> Command:
 
         from neckid.models.base import ExtrapolationWarning
         from neckid.outputs import release_outputs
+        from neckid.progress import default_reporter, reporting
 
         _Stdout.closed = False
         try:
-            with _signals_interrupt(), warnings.catch_warnings():
+            # Long fits and selections report progress: a bar in a terminal, lines otherwise.
+            with _signals_interrupt(), warnings.catch_warnings(), reporting(default_reporter()):
                 # The commands report extrapolation themselves; other warnings get one line each,
                 # once, without the library's file path.
                 warnings.simplefilter("ignore", ExtrapolationWarning)

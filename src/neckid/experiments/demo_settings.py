@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,6 +23,7 @@ __all__ = [
     "SCHEDULED_INPUT",
     "DemoResult",
     "DemoSettings",
+    "quiet_smoke_run",
 ]
 
 #: Columns of the results table: the validation record and the three closed-loop tests.
@@ -133,3 +137,19 @@ class DemoResult:
     lags: Lags
     files: dict[str, Path] = field(default_factory=dict)
     wall_time: float = 0.0
+
+
+@contextmanager
+def quiet_smoke_run(settings: Any) -> Iterator[None]:
+    """Inside a ``--quick`` run: no warning that the networks stopped at their iteration cap.
+
+    The quick settings train small networks for a few iterations on purpose (a smoke run, the
+    warm-up after installing); scikit-learn's ``ConvergenceWarning`` says just that, and is not
+    the user's concern there. Full runs keep it.
+    """
+    with warnings.catch_warnings():
+        if settings is not None and getattr(settings, "quick", False):
+            from sklearn.exceptions import ConvergenceWarning
+
+            warnings.filterwarnings("ignore", category=ConvergenceWarning)
+        yield

@@ -58,6 +58,7 @@ import numpy as np
 import pandas as pd
 
 from neckid.data.iodata import IOData
+from neckid.experiments.demo_settings import quiet_smoke_run
 from neckid.experiments.neck3d_settings import (
     METHODS_3D,
     NARX_INPUTS,
@@ -319,8 +320,9 @@ def run_demo3d(
     """
     from neckid.outputs import output_folder
 
-    with output_folder(out_dir, force=force) as staged:
-        return _run(staged, settings or Demo3DSettings.make(), on_step or (lambda _text: None))
+    settings = settings or Demo3DSettings.make()
+    with output_folder(out_dir, force=force) as staged, quiet_smoke_run(settings):
+        return _run(staged, settings, on_step or (lambda _text: None))
 
 
 def _run(

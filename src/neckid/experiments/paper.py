@@ -46,6 +46,7 @@ from neckid.experiments.demo_settings import (
     SCHEDULED_INPUT,
     DemoResult,
     DemoSettings,
+    quiet_smoke_run,
 )
 from neckid.loops.model_in_loop import model_in_the_loop
 from neckid.models.base import ModelResult
@@ -132,7 +133,7 @@ def run_demo(
     """
     from neckid.outputs import output_folder
 
-    with output_folder(out_dir, force=force) as staged:
+    with output_folder(out_dir, force=force) as staged, quiet_smoke_run(settings):
         return _run_protocol(staged, settings, on_step)
 
 

@@ -28,6 +28,7 @@ from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.progress import task
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval, Options
 
@@ -422,21 +423,10 @@ class NeuralNARX(NarxModel):
         ys = (y - self.y_mean_) / self.y_scale_
         target = ys[:, 0] if ys.shape[1] == 1 else ys
         networks = []
-        for seed in seeds:
-            network = MLPRegressor(
-                hidden_layer_sizes=layers,
-                activation=self.activation,
-                solver="adam",
-                alpha=float(self.alpha),
-                learning_rate_init=float(self.learning_rate_init),
-                max_iter=int(self.max_iter),
-                tol=float(self.tol),
-                n_iter_no_change=int(self.n_iter_no_change),
-                early_stopping=bool(self.early_stopping),
-                validation_fraction=float(self.validation_fraction),
-                random_state=seed,
-            )
-            networks.append(network.fit(xs, target))
+        with task(f"training {len(seeds)} networks", total=len(seeds)) as advance:
+            for seed in seeds:
+                networks.append(self._train_one(xs, target, layers, seed))
+                advance()
         self.networks_ = networks
         n_layers = len(networks[0].coefs_)
         self.coefs_ = [
@@ -448,6 +438,25 @@ class NeuralNARX(NarxModel):
             for k in range(n_layers)
         ]
         self.n_iter_ = np.array([n.n_iter_ for n in networks], dtype=np.int64)
+
+    def _train_one(
+        self, xs: FloatArray, target: FloatArray, layers: tuple[int, ...], seed: Any
+    ) -> MLPRegressor:
+        """One network trained on the standardised rows."""
+        network = MLPRegressor(
+            hidden_layer_sizes=layers,
+            activation=self.activation,
+            solver="adam",
+            alpha=float(self.alpha),
+            learning_rate_init=float(self.learning_rate_init),
+            max_iter=int(self.max_iter),
+            tol=float(self.tol),
+            n_iter_no_change=int(self.n_iter_no_change),
+            early_stopping=bool(self.early_stopping),
+            validation_fraction=float(self.validation_fraction),
+            random_state=seed,
+        )
+        return network.fit(xs, target)
 
     def _free_run_score(
         self, tails: Sequence[IOData], networks: Sequence[int] | None = None

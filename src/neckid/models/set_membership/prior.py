@@ -13,6 +13,7 @@ Automatica 40(6):957-975, 2004.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
@@ -181,30 +182,34 @@ def _epsilon_grid(epsilons: ArrayLike | None, targets: FloatArray) -> FloatArray
 
 
 def _progress_callback(
-    progress: ProgressOption, n_samples: int
+    progress: ProgressOption, n_samples: int, label: str = "γ*(ε) over pairs"
 ) -> tuple[Callable[[int, int], None] | None, Callable[[], None]]:
-    """Turn the ``progress`` option into a callback and a closer."""
+    """Turn the ``progress`` option into a callback and a closer.
+
+    Shown through :mod:`neckid.progress`: the reporter of the context (the command line's bar or
+    lines), else a bar when standard error is a terminal.
+    """
     if callable(progress) and not isinstance(progress, bool):
         return progress, lambda: None
     show = progress if isinstance(progress, bool) else n_samples >= PROGRESS_THRESHOLD
     if not show:
         return None, lambda: None
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+    from contextlib import ExitStack
 
-    bar = Progress(
-        TextColumn("γ*(ε) over pairs"),
-        BarColumn(),
-        TextColumn("{task.percentage:>5.1f}%"),
-        TimeRemainingColumn(),
-        transient=True,
-    )
-    bar.start()
-    task = bar.add_task("pairs", total=1.0)
+    from neckid.progress import TerminalReporter, active, reporting, task
+
+    stack = ExitStack()
+    if active() is None and sys.stderr.isatty():
+        stack.enter_context(reporting(TerminalReporter()))
+    advance = stack.enter_context(task(label, total=1.0))
+    shown = [0.0]
 
     def update(done: int, total: int) -> None:
-        bar.update(task, completed=done / max(total, 1))
+        share = done / max(total, 1)
+        advance(share - shown[0])
+        shown[0] = share
 
-    return update, bar.stop
+    return update, stack.close
 
 
 def _gamma_star(

@@ -1,0 +1,81 @@
+"""Progress of long work: silent without a listener, lines with the time left in a log."""
+
+from __future__ import annotations
+
+import io
+import warnings
+
+import numpy as np
+
+from _synthetic import arx_system
+from neckid import Lags, NeuralNARX
+from neckid.progress import LineReporter, active, reporting, task
+
+
+class Clock:
+    """A clock the test moves by hand [s]."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_a_task_without_a_listener_does_nothing() -> None:
+    assert active() is None
+    with task("nothing", total=2) as advance:
+        advance()
+        advance(1.0)
+
+
+def test_lines_after_the_quiet_time_with_the_time_left() -> None:
+    stream, clock = io.StringIO(), Clock()
+    reporter = LineReporter(stream, quiet=5.0, every=10.0, clock=clock)
+    with reporting(reporter), task("fitting", total=4) as advance:
+        clock.now = 1.0
+        advance()  # 25 % after 1 s: still quiet
+        assert stream.getvalue() == ""
+        clock.now = 6.0
+        advance()  # 50 % after 6 s: 6 s left
+        clock.now = 8.0
+        advance()  # less than 10 s since the last line: silent
+        clock.now = 30.0
+    lines = stream.getvalue().splitlines()
+    assert lines == ["fitting: 50% (2/4), 6 s, about 6 s left", "fitting: done in 30 s"]
+    assert active() is None  # the listener ends with its block
+
+
+def test_a_short_task_says_nothing() -> None:
+    stream, clock = io.StringIO(), Clock()
+    with reporting(LineReporter(stream, clock=clock)), task("quick", total=None) as advance:
+        clock.now = 2.0
+        advance()
+    assert stream.getvalue() == ""
+
+
+def test_the_network_reports_each_member_it_trains() -> None:
+    class Counting:
+        def __init__(self) -> None:
+            self.started: list[tuple[str, float | None]] = []
+            self.steps = 0.0
+
+        def start(self, label: str, total: float | None) -> Counting:
+            self.started.append((label, total))
+            return self
+
+        def advance(self, steps: float = 1.0) -> None:
+            self.steps += steps
+
+        def stop(self) -> None:
+            pass
+
+    counting = Counting()
+    data = arx_system(300, 0)
+    model = NeuralNARX(Lags.arx(2, 2, 3), hidden_layer_sizes=(4,), n_networks=3, max_iter=5)
+    with reporting(counting), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.fit(data)
+    assert counting.started == [("training 3 networks", 3)]
+    assert counting.steps == 3
+    assert np.all(np.isfinite(model.predict(data).y))
