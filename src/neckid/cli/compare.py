@@ -16,27 +16,33 @@ from neckid.cli._app import (
     INPUTS_HELP,
     LAYOUT_OPTION,
     LOG_HELP,
+    LOWPASS_OPTION,
+    MAP_OPTION,
+    OFFSET_OPTION,
     OUTPUTS_HELP,
+    RELATIVE_OPTION,
+    RESAMPLE_OPTION,
+    RESTAMP_OPTION,
     SEP_OPTION,
     TILT_OPTION,
     TIME_OPTION,
     TS_OPTION,
     _method_name,
     _metrics_table,
-    _sep,
     _split,
     app,
     console,
     error_console,
     handled,
 )
+from neckid.cli._training import _training_logs
 from neckid.cli.explain import _save_panels
 
 
 def _read_all(paths: list[Path], options: dict[str, Any]) -> list[Any]:
-    from neckid.workflow import read_log
-
-    return [read_log(path, **options).renamed(path.name) for path in paths]
+    """The logs read as identify reads them (same channels, map and preprocessing), by file name."""
+    experiments, _ = _training_logs(paths, **options)
+    return [data.renamed(path.name) for path, data in zip(paths, experiments, strict=True)]
 
 
 def _number(value: float) -> float | str:
@@ -165,6 +171,12 @@ def compare(
     channels: list[str] = CHANNEL_OPTION,
     conditions: list[str] = CONDITION_OPTION,
     tilt: bool = TILT_OPTION,
+    maps: list[str] = MAP_OPTION,
+    relative: list[str] = RELATIVE_OPTION,
+    offsets: list[str] = OFFSET_OPTION,
+    lowpass: list[str] = LOWPASS_OPTION,
+    resample: float = RESAMPLE_OPTION,
+    restamp: bool = RESTAMP_OPTION,
     force: bool = FORCE_OPTION,
 ) -> None:
     """Choose a model on the training logs, then free-run every method on the test logs.
@@ -174,6 +186,9 @@ def compare(
     and the simplest candidate within one standard error of the best mean fold fit is
     recommended. Example: neckid compare run1.csv run2.csv --test run3.csv --inputs
     motor_position --outputs inclination --methods arx,sm,sm-parallel --json compare.json
+
+    --map and the preprocessing options (--relative, --offset, --lowpass, --resample, --restamp,
+    --tilt) apply to the training and the test logs alike.
     """
     from neckid.comparison import compare as run_compare
     from neckid.outputs import atomic_path, check_output_file
@@ -189,16 +204,23 @@ def compare(
     for text in lags or ["1-2/1-2"]:
         parsed = parse_lags(text)
         regressors.append(Lags(parsed.outputs, parsed.inputs))
+    # the same channels, --map and preprocessing for the training and the test logs
     options = {
-        "inputs": _split(inputs),
-        "outputs": _split(outputs),
+        "inputs": inputs,
+        "outputs": outputs,
         "time": time,
         "ts": ts,
         "layout": layout,
-        "sep": _sep(sep),
-        "channels": channels or (),
-        "conditions": conditions or (),
+        "sep": sep,
+        "channels": channels,
+        "conditions": conditions,
+        "maps": maps,
         "tilt": tilt,
+        "relative": relative,
+        "offsets": offsets,
+        "lowpass": lowpass,
+        "resample": resample,
+        "restamp": restamp,
     }
     training, tests = _read_all(train, options), _read_all(test, options)
     result = run_compare(
