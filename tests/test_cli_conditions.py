@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+import neckid
 from neckid import IOData, load_model
 from neckid.cli import app
 
@@ -80,9 +81,13 @@ def test_conditions_a_log_lacks_and_bad_values_are_named(payload_logs: Path) -> 
     bad = _identify(payload_logs, "--condition", "payload")
     assert bad.exit_code == 2
     assert "--condition takes name=value" in _plain(bad.output)
-    label = _identify(payload_logs, "--use-conditions", "controller")
-    assert label.exit_code == 2
-    assert "is a label" in _plain(label.output)
+    label = _identify(payload_logs, "--use-conditions", "controller")  # a label: one-hot
+    assert label.exit_code == 0, label.output
+    assert neckid.load_model(payload_logs / "model.npz").input_names_ == ("cmd", "controller=pi")
+    other = runner.invoke(app, ["validate", str(payload_logs / "model.npz"),
+                                str(payload_logs / "run300.csv"), "--condition", "controller=ada"])  # fmt: skip
+    assert other.exit_code == 2
+    assert "controller='ada', a label the model was not identified with" in _plain(other.output)
 
 
 def test_a_broken_sidecar_is_named(tmp_path: Path, payload_logs: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import neckid
 from neckid import IOData, Lags, LinearARX
 from neckid.data.conditions import parse_condition
 from neckid.datasets.softneck import conditions_from_name
@@ -116,3 +117,25 @@ def test_softneck_file_names_give_payload_and_controller() -> None:
         "payload": 0.2, "controller": "ada"}  # fmt: skip
     assert conditions_from_name("fra600stepresponse.csv")["conditions"]["payload"] == 0.6
     assert conditions_from_name("id000response.csv") == {}
+
+
+def test_a_label_condition_is_one_hot_encoded_and_an_unseen_label_refused(tmp_path) -> None:
+    rng = np.random.default_rng(2)
+    offsets = {"A": 0.0, "B": 3.0, "C": -2.0}
+
+    def run(neck: str) -> IOData:
+        u = rng.normal(size=400)
+        y = np.zeros(400)
+        for t in range(1, 400):
+            y[t] = 0.5 * y[t - 1] + u[t - 1] + offsets[neck]
+        return IOData(u, y, ts=0.02, conditions={"neck": neck}, name=f"neck {neck}")
+
+    model = LinearARX(Lags(1, 1, conditions=["neck"])).fit([run("A"), run("B")])
+    assert model.lags_.conditions == ("neck=A", "neck=B")
+    assert model.input_names_ == ("u", "neck=A", "neck=B")
+    assert model.fit_percent(run("B"))[0] > 99.0
+    assert LinearARX(Lags(1, 1)).fit([run("A"), run("B")]).fit_percent(run("B"))[0] < 90.0
+    loaded = neckid.load_model(model.save(tmp_path / "neck.npz"))
+    assert loaded.fit_percent(run("A"))[0] > 99.0
+    with pytest.raises(ValueError, match=r"neck='C', a label the model was not identified with"):
+        loaded.simulate(run("C"))

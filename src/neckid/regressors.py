@@ -272,10 +272,20 @@ class Lags:
         """Bind the lags to the channels of ``data`` (names are checked here).
 
         The conditions must be inputs of ``data`` already (``data.conditions_as_inputs``); they
-        get lag 0 and no other.
+        get lag 0 and no other. A label condition (``neck="A"``) is there as its one-hot
+        indicator inputs ``neck=A``, ``neck=B``, ...; the resolved conditions name those.
         """
         first = as_experiments(data)[0]
-        missing = [c for c in self.conditions if c not in first.input_names]
+        conditions: list[str] = []
+        missing = []
+        for condition in self.conditions:
+            indicators = [n for n in first.input_names if n.startswith(f"{condition}=")]
+            if condition in first.input_names:
+                conditions.append(condition)
+            elif indicators:
+                conditions.extend(indicators)
+            else:
+                missing.append(condition)
         if missing:
             raise KeyError(
                 f"Lags uses condition {missing[0]!r}, which is not an input of the data; make it"
@@ -301,7 +311,7 @@ class Lags:
                 per_channel = [spec] * len(channel_names)
             if kind == 1:
                 per_channel = [
-                    (0,) if n in self.conditions else lags
+                    (0,) if n in conditions else lags
                     for n, lags in zip(channel_names, per_channel, strict=True)
                 ]
             for c, (n, lags) in enumerate(zip(channel_names, per_channel, strict=True)):
@@ -323,7 +333,7 @@ class Lags:
             input_names=first.input_names,
             output_names=first.output_names,
             max_lag=max(lag),
-            conditions=self.conditions,
+            conditions=tuple(conditions),
         )
 
     def build(

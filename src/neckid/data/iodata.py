@@ -249,48 +249,98 @@ class IOData:
         return self.replace(conditions={**self.conditions, **values}, condition_units=merged_units)
 
     def conditions_as_inputs(self, names: Sequence[str]) -> IOData:
-        """Append numeric conditions as constant input channels (with their units), in order.
+        """Append conditions as constant input channels (with their units), in order.
 
-        Names that are already input channels are left as they are (a log made by this method,
-        or one that logged the value as a channel), so calling it twice changes nothing.
+        A numeric condition (``payload``) becomes one input of its value. A label condition is
+        one-hot encoded: each name ``"neck=A"`` becomes an input that is 1 when the log's
+        ``neck`` is ``"A"`` and 0 otherwise (:meth:`label_indicators` lists them for a set of
+        logs). Names that are already input channels are left as they are (a log made by this
+        method, or one that logged the value as a channel), so calling it twice changes nothing.
 
         Raises
         ------
         KeyError
             If a name is neither a condition nor an input of this log.
         ValueError
-            If the condition is a label, not a number.
+            If a label condition is asked for as a number, or the log's label is none of the
+            indicators asked for (a neck the model has not seen).
 
         Examples
         --------
-        >>> d = IOData(u=[1.0, 2.0], ts=0.1, conditions={"payload": 0.2})
+        >>> d = IOData(u=[1.0, 2.0], ts=0.1, conditions={"payload": 0.2, "neck": "B"})
         >>> d.conditions_as_inputs(["payload"]).channel("payload")
         array([0.2, 0.2])
+        >>> d.conditions_as_inputs(["neck=A", "neck=B"]).channel("neck=B")
+        array([1., 1.])
         """
         data = self
+        labels: dict[str, list[str]] = {}
         for name in names:
             if name in data.input_names:
+                continue
+            condition, _, label = name.partition("=")
+            if label and isinstance(self.conditions.get(condition), str):
+                labels.setdefault(condition, []).append(label)
+                value: float = 1.0 if self.conditions[condition] == label else 0.0
+                data = data._with_constant_input(name, value, "")
                 continue
             if name not in data.conditions:
                 raise KeyError(
                     f"the model uses condition {name!r}, which {data.name or 'the log'} does not"
                     f" have; its conditions are {dict(data.conditions)} (set it with"
-                    f" data.with_conditions({name}=...) or --condition {name}=...)"
+                    f" data.with_conditions({condition}=...) or --condition {condition}=...)"
                 )
-            value = data.conditions[name]
-            if isinstance(value, str):
+            if isinstance(data.conditions[name], str):
                 raise ValueError(
-                    f"condition {name!r} of {data.name or 'the log'} is a label ({value!r}); only"
-                    " numeric conditions can be regressor inputs"
+                    f"condition {name!r} of {data.name or 'the log'} is a label"
+                    f" ({data.conditions[name]!r}): as an input it is one-hot encoded, one input"
+                    f" per label (Lags(..., conditions=[{name!r}]) does that when it fits)"
                 )
-            data = data.replace(
-                u=np.hstack([data._u, np.full((data.n_samples, 1), value)]),
-                input_names=(*data.input_names, name),
-                input_units=(*data.input_units, data.condition_units.get(name, "")),
-                conditions={k: v for k, v in data.conditions.items() if k != name},
-                condition_units={k: v for k, v in data.condition_units.items() if k != name},
+            data = data._with_constant_input(
+                name, float(data.conditions[name]), data.condition_units.get(name, ""), drop=True
             )
+        for condition, known in labels.items():
+            if self.conditions[condition] not in known:
+                raise ValueError(
+                    f"{self.name or 'the log'} has {condition}={self.conditions[condition]!r}, a"
+                    f" label the model was not identified with (it knows {', '.join(known)}):"
+                    " identify a model with runs of it"
+                )
         return data
+
+    def _with_constant_input(
+        self, name: str, value: float, unit: str, drop: bool = False
+    ) -> IOData:
+        """The log with one more input, constant ``value``; ``drop``: the condition ``name`` too."""
+        keep = {k: v for k, v in self.conditions.items() if not (drop and k == name)}
+        keep_units = {k: v for k, v in self.condition_units.items() if not (drop and k == name)}
+        return self.replace(
+            u=np.hstack([self._u, np.full((self.n_samples, 1), value)]),
+            input_names=(*self.input_names, name),
+            input_units=(*self.input_units, unit),
+            conditions=keep,
+            condition_units=keep_units,
+        )
+
+    @staticmethod
+    def label_indicators(names: Sequence[str], logs: Sequence[IOData]) -> list[str]:
+        """``names`` with each label condition replaced by its one-hot inputs over ``logs``.
+
+        Examples
+        --------
+        >>> runs = [IOData(u=[1.0], ts=0.1, conditions={"neck": n, "payload": 0.2}) for n in "BA"]
+        >>> IOData.label_indicators(["payload", "neck"], runs)
+        ['payload', 'neck=A', 'neck=B']
+        """
+        out: list[str] = []
+        for name in names:
+            values = {d.conditions.get(name) for d in logs}
+            labels = sorted(v for v in values if isinstance(v, str))
+            if labels and name not in logs[0].input_names:
+                out.extend(f"{name}={label}" for label in labels)
+            else:
+                out.append(name)
+        return out
 
     # ------------------------------------------------------------------ channel access
     def channel(self, name: str) -> FloatArray:

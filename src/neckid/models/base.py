@@ -287,6 +287,8 @@ class Estimator(BaseEstimator, ModelFile):
         names = self._condition_names(fitting)
         if not names:
             return data
+        if fitting:  # a label condition: one input per label of the training logs (one-hot)
+            names = tuple(IOData.label_indicators(names, as_experiments(data)))
         if isinstance(data, IOData):
             return data.conditions_as_inputs(names)
         return [d.conditions_as_inputs(names) for d in as_experiments(data)]
