@@ -28,6 +28,19 @@ ORDERS_OPTION = typer.Option(
 )
 
 
+def refuse_repeated_paths(paths: Sequence[Path], what: str = "log") -> None:
+    """The same file given twice (by any spelling of its path) is refused, naming it."""
+    seen: dict[Path, Path] = {}
+    for path in paths:
+        key = Path(path).resolve()
+        if key in seen:
+            raise ValueError(
+                f"{path} is given twice (also as {seen[key]}): the same {what} would count twice;"
+                " give each run once"
+            )
+        seen[key] = Path(path)
+
+
 def _training_logs(logs: Sequence[Path], **options: Any) -> tuple[list[Any], Any]:
     """The training logs read as identify reads them, and the preprocessing they went through.
 
@@ -37,6 +50,7 @@ def _training_logs(logs: Sequence[Path], **options: Any) -> tuple[list[Any], Any
     """
     from neckid.workflow import parse_mapping, pipeline_from_options, read_log
 
+    refuse_repeated_paths(logs)
     pipeline = pipeline_from_options(
         relative=options["relative"] or (),
         offsets=options["offsets"] or (),

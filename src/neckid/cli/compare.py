@@ -35,7 +35,7 @@ from neckid.cli._app import (
     error_console,
     handled,
 )
-from neckid.cli._training import _training_logs
+from neckid.cli._training import _training_logs, refuse_repeated_paths
 from neckid.cli.explain import _save_panels
 
 
@@ -222,6 +222,7 @@ def compare(
         "resample": resample,
         "restamp": restamp,
     }
+    refuse_repeated_paths([*train, *test], "log (a test log must not be a training log)")
     training, tests = _read_all(train, options), _read_all(test, options)
     result = run_compare(
         training, tests, names, regressors, stress=stress, seed=seed, progress=True

@@ -854,4 +854,22 @@ def as_experiments(data: IOData | Sequence[IOData], argument: str = "data") -> l
             raise ValueError(
                 f"{argument}[{i}] has ts={d.ts!r} but {argument}[0] has ts={first.ts!r}"
             )
+        _check_same_units(d, first, f"{argument}[{i}]", f"{argument}[0]")
     return items
+
+
+def _check_same_units(one: IOData, first: IOData, label: str, first_label: str) -> None:
+    """Runs fitted together agree on each channel's unit (an empty unit is unknown, not checked)."""
+    pairs = zip(
+        (*one.input_names, *one.output_names),
+        (*one.input_units, *one.output_units),
+        (*first.input_units, *first.output_units),
+        strict=True,
+    )
+    for name, unit, first_unit in pairs:
+        if unit and first_unit and unit != first_unit:
+            raise ValueError(
+                f"{label} ({one.name or 'unnamed'}) has {name} in {unit}, but {first_label}"
+                f" ({first.name or 'unnamed'}) in {first_unit}: runs fitted together must agree"
+                f" on units; convert one of them"
+            )

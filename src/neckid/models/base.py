@@ -297,6 +297,7 @@ class Estimator(BaseEstimator, ModelFile):
         self.input_names_ = tuple(data.input_names)
         self.output_names_ = tuple(data.output_names)
         self.output_units_ = tuple(data.output_units)
+        self.input_units_ = tuple(data.input_units)
         self.n_inputs_ = data.n_inputs
         self.n_outputs_ = data.n_outputs
         self.ts_ = float(data.ts)
@@ -306,6 +307,7 @@ class Estimator(BaseEstimator, ModelFile):
             "input_names": list(self.input_names_),
             "output_names": list(self.output_names_),
             "output_units": list(self.output_units_),
+            "input_units": list(getattr(self, "input_units_", ())),
             "training_ranges": {
                 k: list(v) for k, v in getattr(self, "training_ranges_", {}).items()
             },
@@ -321,6 +323,9 @@ class Estimator(BaseEstimator, ModelFile):
         self.input_names_ = tuple(inputs if inputs is not None else lags.input_names)  # type: ignore[union-attr]
         units = meta.get("output_units")
         self.output_units_ = tuple(units) if units is not None else ("",) * len(self.output_names_)
+        # Model files written before input units were recorded: unknown ('') units.
+        input_units = meta.get("input_units") or ("",) * len(self.input_names_)
+        self.input_units_ = tuple(str(u) for u in input_units)
         self.n_inputs_ = len(self.input_names_)
         self.n_outputs_ = len(self.output_names_)
         ranges = meta.get("training_ranges") or {}
@@ -347,6 +352,16 @@ class Estimator(BaseEstimator, ModelFile):
                 f"data has outputs {list(data.output_names)}, but the model was fitted on"
                 f" {list(self.output_names_)}; use data.select(outputs=...) to match"
             )
+        model_units = (*getattr(self, "input_units_", ()), *self.output_units_)
+        log_units = (*data.input_units, *(data.output_units if data.n_outputs else ()))
+        names = (*data.input_names, *data.output_names)
+        for name, ours, theirs in zip(names, model_units, log_units, strict=False):
+            if ours and theirs and ours != theirs:
+                raise ValueError(
+                    f"{data.name or 'the log'} has {name} in {theirs}, but the model was"
+                    f" identified with {name} in {ours}: convert the log's {name} to {ours}"
+                    " (or identify a model in these units)"
+                )
 
     def _initial_outputs(self, data: IOData, initial: ArrayLike | None) -> FloatArray:
         """The output array a free run starts from: ``(n_samples, n_outputs)``.
