@@ -613,3 +613,23 @@ def test_the_command_line_identifies_and_validates_on_a_bag(bag: Path, tmp_path:
     done = runner.invoke(app, ["identify", str(bag), "--layout", "rosbag", "--method", "arx",
                                "--lags", "1/1", "--save", str(tmp_path / "m2.npz")])  # fmt: skip
     assert done.exit_code == 2 and "needs --channel" in done.output
+
+
+@needs_rosbags
+def test_info_describes_a_bag(bag: Path) -> None:
+    import json
+
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    runner = CliRunner()
+    channels = ["--channel", "cmd=/motor/cmd:data:input:rad/s",
+                "--channel", "tilt=/imu/tilt:vector.x:output:deg"]  # fmt: skip
+    done = runner.invoke(app, ["info", str(bag), "--layout", "rosbag", *channels, "--json"])
+    assert done.exit_code == 0, done.output
+    described = json.loads(done.output)
+    assert set(described["channels"]) == {"cmd", "tilt"}
+    assert described["channels"]["tilt"]["unit"] == "deg"
+    missing = runner.invoke(app, ["info", str(bag), "--layout", "rosbag"])
+    assert missing.exit_code == 2 and "--channel is required" in missing.output

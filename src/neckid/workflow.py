@@ -516,18 +516,20 @@ def make_estimator(method: str, lags: Lags, *, random_state: int | None = 0, **o
 def describe_log(
     path: str | Path,
     *,
-    layout: Literal["csv", "softneck"] = "csv",
+    layout: Literal["csv", "softneck", "rosbag"] = "csv",
     time: str = "time",
     sep: str = ",",
     maps: Mapping[str, str] | None = None,
     conditions: Sequence[str] = (),
+    channels_spec: Sequence[str] = (),
 ) -> dict[str, Any]:
     """What a log holds, before any identification: channels, units, duration, sampling, gaps.
 
     Parameters
     ----------
     path : path
-        A CSV log with a header row, or a bench log with ``layout="softneck"``.
+        A CSV log with a header row, a Parquet or ``.mat`` file (by extension), or a bench log
+        with ``layout="softneck"``.
     layout, sep : as in :func:`read_log`.
     time : str, default "time"
         The time column of a CSV log [s].
@@ -536,26 +538,40 @@ def describe_log(
         ``"column"``, the log's).
     conditions : sequence of str
         ``name=value`` conditions, over the sidecar's, over those of a soft-neck file name.
+    channels_spec : sequence of str
+        With ``layout="rosbag"``: ``NAME=TOPIC:FIELD:KIND[:UNIT]`` per channel, as for
+        :func:`read_log`.
 
     Returns
     -------
     dict
         ``{"file", "samples", "duration_s", "ts_s", "max_step_s", "gaps", "repeated_stamps",
-        "channels", "conditions", "condition_units"}``; ``channels`` maps each column to
+        "channels", "conditions", "condition_units", "skipped"}``; ``channels`` maps each column to
         ``{"kind", "unit", "min", "max", "mean"}``. A gap is a time step more than 1.5 times
         the median one; a repeated stamp, a step of zero.
     """
     import pandas as pd
 
+    from neckid.data.tables import whole_table
+
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
     channels: dict[str, dict[str, Any]] = {}
+    skipped: list[str] = []
     found: tuple[Mapping[str, Any], Mapping[str, str]] = ({}, {})
-    if layout == "softneck":
-        from neckid.datasets import load_softneck_log
+    if layout in ("softneck", "rosbag"):
+        if layout == "softneck":
+            from neckid.datasets import load_softneck_log
 
-        data = load_softneck_log(path)
+            data = load_softneck_log(path)
+        else:
+            if not channels_spec:
+                raise ValueError(
+                    "--channel is required with --layout rosbag: NAME=TOPIC:FIELD:KIND[:UNIT]"
+                    " for each channel to describe"
+                )
+            data = read_log(path, layout="rosbag", channels=channels_spec)
         found = (data.conditions, data.condition_units)
         t = data.time
         for kind, names, units, values in (
@@ -567,8 +583,10 @@ def describe_log(
     else:
         if path.stat().st_size == 0:
             raise ValueError(f"log file {str(path)!r} is empty")
-        _refuse_headerless(path, sep)
-        frame = pd.read_csv(path, sep=sep)
+        if path.suffix.lower() not in (".parquet", ".mat"):
+            _refuse_headerless(path, sep)
+        table = whole_table(path, sep=sep, time=time)
+        frame, skipped = table["frame"], table["skipped"]
         if time not in frame.columns:
             raise KeyError(
                 f"{path.name} has no time column {time!r}; it has {list(map(str, frame.columns))}"
@@ -614,6 +632,7 @@ def describe_log(
         "channels": summary,
         "conditions": found_values,
         "condition_units": found_units,
+        "skipped": skipped,
     }
 
 

@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from neckid.cli._app import (
+    CHANNEL_OPTION,
     CONDITION_OPTION,
     FORCE_OPTION,
     LAYOUT_OPTION,
@@ -137,6 +138,7 @@ def info(
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of tables."),
     maps: list[str] = MAP_OPTION,
     conditions: list[str] = CONDITION_OPTION,
+    channels: list[str] = CHANNEL_OPTION,
     model_path: Path = typer.Option(
         None,
         "--model",
@@ -170,6 +172,7 @@ def info(
         sep=_sep(sep),
         maps=mapping,
         conditions=conditions or (),
+        channels_spec=channels or (),
     )
     if model_path is not None:
         described["as_model_reads_it"] = _as_model_reads_it(
@@ -184,6 +187,8 @@ def info(
         f" {described['gaps']} gap(s) over 1.5 ts, {described['repeated_stamps']} repeated"
         " time stamp(s))"
     )
+    if described.get("skipped"):
+        console.print(f"not channels: {', '.join(described['skipped'])}", markup=False)
     table = Table(title="channels")
     for column in ("channel", "kind", "unit", "min", "max", "mean", "non-numeric"):
         table.add_column(
@@ -206,12 +211,15 @@ def info(
 
 
 def _info_model(path: Path, as_json: bool) -> None:
-    """``neckid info MODEL``: what the model is, its conditions and its preprocessing."""
+    """``neckid info MODEL``: what the model is, its conditions, its preprocessing, its schedule."""
     from neckid.models.io import load_model
     from neckid.workflow import describe_model
 
     model = load_model(path)
     described = describe_model(model)
+    describe_schedule = getattr(model, "describe_schedule", None)
+    if describe_schedule is not None:  # the scheduled model: its lines and operating points
+        described["schedule"] = describe_schedule()
     if as_json:
         console.print_json(json.dumps(described))
         return
@@ -243,6 +251,51 @@ def _info_model(path: Path, as_json: bool) -> None:
     table.add_row("conditions (inputs)", ", ".join(described["conditions"]) or "none")
     if "preprocessing" in described:
         table.add_row("preprocessing", model.preprocessing_.describe())
+    console.print(table)
+    if "schedule" in described:
+        _print_schedule(described["schedule"])
+
+
+def _print_schedule(schedule: dict[str, Any]) -> None:
+    """The scheduled model's lines ``N(i)``, ``P(i)``, range, form, and its operating points."""
+    from rich.markup import escape
+
+    low, high = ("-inf" if v is None else f"{v:.4g}" for v in schedule["schedule_range_deg"])
+    unit = schedule["gain"]["unit"]
+    lines = Table(title=f"schedule ({schedule['form']} form)", show_header=False)
+    for key, value in (
+        ("model", schedule["equation"]),
+        ("gain", f"{schedule['gain']['text']}  [{unit}], i in deg"),
+        ("pole", f"{schedule['pole']['text']}  [-], held in ±{schedule['pole_bound']:g}"),
+        ("schedule range", f"{low} .. {high} deg (the lines held at their ends outside)"),
+        ("points found by", schedule["segmentation"]),
+    ):
+        lines.add_row(key, escape(value))
+    console.print(lines)
+    points = schedule["points"]
+    if not points:
+        return
+    used = sum(p["used"] for p in points)
+    converged = sum(bool(p["converged"]) for p in points)
+    table = Table(
+        title=escape(
+            f"operating points: {len(points)}, {converged} converged, {used} in the lines"
+            f" (i [deg], N [{unit}], P [-], from/to [s])"
+        )
+    )
+    for column in ("i", "N", "P", "converged", "used", "from", "to", "samples"):
+        table.add_column(column, justify="right")
+    for p in points:
+        table.add_row(
+            f"{p['inclination_deg']:.4g}",
+            f"{p['gain']:.4g}",
+            f"{p['pole']:.4g}",
+            "?" if p["converged"] is None else ("yes" if p["converged"] else "no"),
+            "yes" if p["used"] else "no",
+            "-" if p["start_s"] is None else f"{p['start_s']:.4g}",
+            "-" if p["stop_s"] is None else f"{p['stop_s']:.4g}",
+            str(p["n_samples"]) if p["n_samples"] else "-",
+        )
     console.print(table)
 
 

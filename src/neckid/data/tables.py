@@ -1,0 +1,103 @@
+"""Every column of a log file, whatever its format: what ``neckid info`` describes.
+
+:func:`whole_table` reads a CSV with a header row, a Parquet file or a MATLAB ``.mat`` file
+(v4 to v7.3) into one table of columns, the time column in seconds, without knowing in advance
+which columns are channels. The readers that build an ``IOData``
+(:mod:`neckid.data.readers`) read only the columns named.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from neckid.data.readers import _mat_variables, _time_seconds, _Unreadable
+
+__all__ = ["whole_table"]
+
+
+def _parquet_table(path: Path) -> pd.DataFrame:
+    try:
+        return pd.read_parquet(path)
+    except ImportError as exc:
+        raise ValueError(
+            f"{path.name}: reading Parquet needs pyarrow: pip install neckid[parquet] ({exc})"
+        ) from None
+    except Exception as exc:  # pyarrow raises its own types on a damaged file; keep the reason
+        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise ValueError(f"{path.name} is not a readable Parquet file ({reason})") from None
+
+
+def _mat_table(path: Path) -> tuple[pd.DataFrame, list[str]]:
+    """The numeric vectors of a ``.mat`` file of the most common length; the others, described."""
+    variables = _mat_variables(path, [])
+    vectors: dict[str, np.ndarray] = {}
+    skipped: list[str] = []
+    for name, value in variables.items():
+        if isinstance(value, _Unreadable) and value.what == "not read":
+            value = _mat_variables(path, [name]).get(name, value)
+        array = None if isinstance(value, _Unreadable) else np.asarray(value)
+        if array is None or array.dtype.kind not in "biuf" or np.squeeze(array).ndim != 1:
+            if isinstance(value, _Unreadable):
+                what = value.what
+            elif array is not None and array.dtype.kind in "US":
+                what = "text"
+            else:
+                what = f"shape {np.shape(value)}, {np.asarray(value).dtype}"
+            skipped.append(f"{name} ({what})")
+            continue
+        vectors[name] = np.squeeze(array).astype(np.float64)
+    if not vectors:
+        raise ValueError(
+            f"{path.name} holds no numeric vector to describe (variables: {', '.join(skipped)})"
+        )
+    lengths = [v.size for v in vectors.values()]
+    common = max(set(lengths), key=lengths.count)
+    for name in [n for n, v in vectors.items() if v.size != common]:
+        skipped.append(f"{name} ({vectors.pop(name).size} values, the others {common})")
+    return pd.DataFrame(vectors), skipped
+
+
+def whole_table(path: str | Path, *, sep: str = ",", time: str = "time") -> dict[str, Any]:
+    """Every column of a CSV, Parquet or ``.mat`` log, by the file's extension.
+
+    Parameters
+    ----------
+    path : str or Path
+        The log: ``.parquet``, ``.mat``, or anything else read as CSV with a header row.
+    sep : str, default ","
+        The CSV separator.
+    time : str, default "time"
+        The time column; dates and durations (Parquet ``datetime64`` / ``timedelta64``) become
+        seconds since the first sample.
+
+    Returns
+    -------
+    dict
+        ``{"frame": DataFrame, "format": "csv" | "parquet" | "mat", "skipped": [...]}``:
+        ``skipped`` describes the ``.mat`` variables that are no numeric vector of the common
+        length.
+
+    Raises
+    ------
+    ValueError
+        If the file cannot be read as its format, naming the file and why.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    skipped: list[str] = []
+    if suffix == ".parquet":
+        frame, kind = _parquet_table(path), "parquet"
+    elif suffix == ".mat":
+        (frame, skipped), kind = _mat_table(path), "mat"
+    else:
+        frame, kind = pd.read_csv(path, sep=sep), "csv"
+    if time in frame.columns:
+        try:
+            frame[time] = _time_seconds(frame[time], time)
+        except ValueError as exc:
+            raise ValueError(f"{path.name}: {exc}") from None
+    return {"frame": frame, "format": kind, "skipped": skipped}
