@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from neckid._memory import check_allocation
 from neckid.data.iodata import IOData, as_experiments
 from neckid.validation import check_lag_list
 
@@ -95,6 +96,12 @@ class ResolvedLags:
                 f"{data.name or 'the record'} has {n} samples, too few for lags up to {self.max_lag}:"
                 f" it needs at least {self.max_lag + 1}"
             )
+        check_allocation(
+            16.0 * rows * self.n_terms,  # the matrix and one copy (stacking experiments)
+            f"the regressor of {data.name or 'the record'} ({rows:,} rows x {self.n_terms:,}"
+            " terms)",
+            "use fewer lags, or fewer or shorter logs (or resample them to a longer period)",
+        )
         x = np.empty((rows, self.n_terms))
         start = self.max_lag
         for j in range(self.n_terms):

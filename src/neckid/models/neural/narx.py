@@ -15,6 +15,7 @@ stacked along a first axis, so one batched product per layer serves every networ
 
 from __future__ import annotations
 
+import itertools
 import logging
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, Literal
@@ -24,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
+from neckid._memory import check_allocation
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent
@@ -422,6 +424,14 @@ class NeuralNARX(NarxModel):
         xs = (x - self.x_mean_) / self.x_scale_
         ys = (y - self.y_mean_) / self.y_scale_
         target = ys[:, 0] if ys.shape[1] == 1 else ys
+        sizes = [x.shape[1], *layers, ys.shape[1]]
+        weights = sum(a * b + b for a, b in itertools.pairwise(sizes))
+        check_allocation(
+            8.0 * weights * 4 * len(seeds),  # weights, gradients and Adam's two moments
+            f"{len(seeds)} networks of layers {list(layers)} on {x.shape[1]} regressor terms"
+            f" ({weights:,} weights each)",
+            "use smaller hidden layers (hidden_layer_sizes) or fewer networks",
+        )
         networks = []
         with task(f"training {len(seeds)} networks", total=len(seeds)) as advance:
             for seed in seeds:
