@@ -121,7 +121,12 @@ class _LineHandle:
         share = min(self.done / self.total, 1.0)
         left = elapsed * (1.0 - share) / share if share > 0 else float("nan")
         eta = "" if left != left else f", about {_duration(left)} left"
-        return f"{share:.0%} ({self.done:g}/{self.total:g}), {_duration(elapsed)}{eta}"
+        counted = (
+            f" ({self.done:g}/{self.total:g})"
+            if float(self.total).is_integer() and self.total > 1
+            else ""
+        )
+        return f"{share:.0%}{counted}, {_duration(elapsed)}{eta}"
 
     def stop(self) -> None:
         elapsed = self.owner.clock() - self.started
