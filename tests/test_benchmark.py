@@ -197,6 +197,8 @@ def test_bad_arguments(data_dir, kwargs, error, match):
 def test_missing_data_dir(tmp_path):
     with pytest.raises(FileNotFoundError, match="not a folder"):
         run_benchmark(tmp_path / "nowhere")
+    with pytest.raises(FileNotFoundError, match="nothing to run: none of the data sets"):
+        run_benchmark(tmp_path)  # a folder, but empty
 
 
 # ---------------------------------------------------------------------------- the split

@@ -474,7 +474,7 @@ def run_benchmark(
     ImportError
         If ``backend="dask"`` and the ``distributed`` package is not installed.
     FileNotFoundError
-        If ``data_dir`` is not a folder.
+        If ``data_dir`` is not a folder, or holds none of the data sets asked for.
 
     Notes
     -----
@@ -530,6 +530,11 @@ def _run(
     # Every data set is read before any method runs: a file that cannot be read (a missing
     # optional reader, a damaged file) stops the run at once, not after an hour of fits.
     loaded = {name: load_benchmark(name, root, quick=quick) for name in datasets}
+    if all(bench is None for bench in loaded.values()):
+        raise FileNotFoundError(
+            f"nothing to run: none of the data sets {', '.join(datasets)} is under {root} (it"
+            " should hold softneck/ and benchmarks/NAME/; see docs/benchmarks.md)"
+        )
     for name in datasets:
         bench = loaded[name]
         if bench is None:
