@@ -6,6 +6,7 @@ The public API, re-exported here:
 - the method registry: :func:`methods` (name -> :class:`Method`), :func:`get_method`
 - models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
   :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
+- exports for other tools (MATLAB, JSON): :func:`export_model`, :func:`write_export`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
 - which model, how far to trust it: :func:`compare` (safe selection on the training logs, one
   free run per test log), :func:`select_safely`
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from neckid import datasets, interop, metrics, plant, signals
     from neckid.comparison import Comparison, SafeSelection, compare, select_safely
     from neckid.data.iodata import IOData, as_experiments
+    from neckid.export import export_model, write_export
     from neckid.loops.operating_points import (
         OperatingPointResult,
         identify_operating_points,
@@ -78,6 +80,7 @@ __all__ = [
     "as_experiments",
     "compare",
     "datasets",
+    "export_model",
     "fit_percent",
     "gamma_curve",
     "get_method",
@@ -95,6 +98,7 @@ __all__ = [
     "select_lags",
     "select_safely",
     "signals",
+    "write_export",
 ]
 
 # Public submodules, and the module each other public name lives in (the same imports as above).
@@ -106,6 +110,8 @@ _NAME_TO_MODULE = {
     "select_safely": "neckid.comparison",
     "IOData": "neckid.data.iodata",
     "as_experiments": "neckid.data.iodata",
+    "export_model": "neckid.export",
+    "write_export": "neckid.export",
     "OperatingPointResult": "neckid.loops.operating_points",
     "identify_operating_points": "neckid.loops.operating_points",
     "operating_points_from_logs": "neckid.loops.operating_points",

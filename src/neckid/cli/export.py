@@ -1,0 +1,59 @@
+"""The command that hands a saved model to other tools: export (JSON, MATLAB .mat, MATLAB script)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from neckid.cli._app import FORCE_OPTION, app, console, handled
+
+#: What ``--to`` writes, for the help text and the success line.
+_WRITTEN = {
+    "json": "JSON description",
+    "mat": "MATLAB struct 'model'",
+    "tf": "MATLAB script (tf, idpoly / ss)",
+}
+
+
+@app.command()
+@handled
+def export(
+    model_path: Path = typer.Argument(
+        ..., metavar="MODEL", help="A model file written by identify.", exists=True
+    ),
+    to: str = typer.Option(
+        ...,
+        "--to",
+        metavar="json|mat|tf",
+        help="json: the model's description (coefficients, lags, channels, units); mat: the same"
+        " as the struct 'model' of a MATLAB .mat file; tf: a MATLAB / Octave script building the"
+        " transfer function (linear models: arx, rls, ss).",
+    ),
+    out: Path = typer.Option(
+        None,
+        "--out",
+        help="The file to write, ending in .json, .mat or .m (default: MODEL's name with that"
+        " extension, beside it).",
+        show_default=False,
+    ),
+    force: bool = FORCE_OPTION,
+) -> None:
+    """Export a saved model for MATLAB or other tools: its coefficients, lags, channels and units.
+
+    Example: neckid export model.npz --to mat --out model.mat (in MATLAB: S = load('model.mat'); S.model)
+
+    The keys and what each one means: the documentation page "Exporting models".
+    """
+    from neckid.export import EXPORT_SUFFIXES, write_export
+    from neckid.models.io import load_model
+    from neckid.outputs import check_output_file
+
+    if to not in EXPORT_SUFFIXES:
+        raise ValueError(f"--to must be one of {', '.join(EXPORT_SUFFIXES)}; got {to!r}")
+    suffix = EXPORT_SUFFIXES[to]
+    target = out if out is not None else model_path.with_suffix(suffix)
+    check_output_file(target, force=force, inputs=[model_path], option="--out", suffixes=[suffix])
+    model = load_model(model_path)
+    path = write_export(model, target, to=to)  # type: ignore[arg-type]
+    console.print(f"{type(model).__name__} written to {path} ({_WRITTEN[to]})", markup=False)
