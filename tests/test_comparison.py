@@ -126,3 +126,27 @@ def test_the_compare_command_writes_json_plot_and_report(tmp_path: Path) -> None
               "y", "--json", str(out)],
     )  # fmt: skip
     assert again.exit_code != 0 and "--force" in again.output
+
+
+def test_the_recommended_method_runs_the_chosen_candidate_on_the_tests() -> None:
+    # the first-order system: arx(1, 1) is chosen over arx(2, 2) by the one-standard-error rule
+    result = compare([_run(2)], [_run(100)], methods=["arx"], lags=[Lags.arx(1, 1), Lags.arx(2, 2)])
+    chosen = result.selection.chosen
+    assert result.settings["arx"]["candidate"] == chosen
+    assert result.models["arx"].lags_.n_terms == (2 if "outputs=[1]," in chosen else 4)
+
+
+def test_the_stress_check_reaches_as_far_as_the_test_inputs() -> None:
+    train, test = _run(1), _run(3)
+    wide = test.replace(u=3.0 * test.u)  # the test inputs go well beyond the training range
+    result = compare([train], [wide], methods=["arx"], lags=Lags.arx(1, 1))
+    reach = neckid.comparison.input_reach([train], [wide])
+    assert reach > 1.0
+    assert any(f"stretched {reach:.0%}" in r for r in result.reasons)
+    two = [Lags.arx(1, 1), Lags.arx(2, 2)]
+    names = compare([train], [test], methods=["ss"], lags=two).selection.table["name"]
+    assert sorted(names) == [
+        "arx Lags(outputs=[1, 2], inputs=[1, 2])",
+        "arx Lags(outputs=[1], inputs=[1])",
+        "ss",
+    ]

@@ -55,9 +55,9 @@ def main(argv: list[str] | None = None) -> None:
             f"recommended {result.recommended}: {best:.1f} %, {best - arx:+.1f} points from ARX;"
             f" any test run diverged: {bool(diverged)}"
         )
-        print(
-            f"fold fits of the chosen: {np.round(result.selection.table.iloc[0]['fold_fits'], 1)}"
-        )
+        table = result.selection.table
+        chosen = table[table["name"] == result.selection.chosen].iloc[0]
+        print(f"fold fits of the chosen: {np.round(chosen['fold_fits'], 1)}")
 
 
 if __name__ == "__main__":

@@ -54,6 +54,7 @@ __all__ = [
     "Comparison",
     "SafeSelection",
     "compare",
+    "input_reach",
     "select_safely",
     "stretched",
     "time_blocks",
@@ -65,6 +66,7 @@ COMPLEXITY: Mapping[str, int] = {
     "arx": 0,
     "rls": 1,
     "scheduled": 1,
+    "ss": 2,
     "sm-linear": 2,
     "sm": 3,
     "sm-parallel": 3,
@@ -73,6 +75,36 @@ COMPLEXITY: Mapping[str, int] = {
     "sm-parallel-poly": 5,
     "nn": 6,
 }
+
+#: Methods whose regressor is not their lags (the subspace model: its order comes from the
+#: singular values): one candidate each, not one per lag set.
+LAG_FREE_METHODS = frozenset({"ss"})
+
+
+def input_reach(train: Sequence[IOData], tests: Sequence[IOData]) -> float:
+    """How far the test inputs go beyond the training inputs' range, as a share of its half-width.
+
+    0 when every test input stays inside; 0.5 when one goes half the half-width beyond an end
+    (the ``stress`` of :func:`stretched` that reaches it). A constant training input is left out.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> train = IOData(np.linspace(-1.0, 1.0, 20), np.zeros(20), ts=0.1)
+    >>> input_reach([train], [IOData(np.linspace(-1.5, 0.0, 20), np.zeros(20), ts=0.1)])
+    0.5
+    """
+    u = np.vstack([d.u for d in train])
+    low, high = u.min(axis=0), u.max(axis=0)
+    middle, half = 0.5 * (low + high), 0.5 * (high - low)
+    varied = half > 0
+    reach = 0.0
+    for record in tests:
+        if not record.n_samples or not varied.any():
+            continue
+        extent = np.abs(record.u - middle).max(axis=0)
+        reach = max(reach, float(np.max(extent[varied] / half[varied] - 1.0)))
+    return reach
 
 
 def stretched(data: IOData, stress: float) -> IOData:
@@ -422,6 +454,30 @@ def _test_rows(
     return rows, result
 
 
+def _method_pick(
+    table: pd.DataFrame, method: str, method_of: Mapping[str, str], chosen: str
+) -> pd.Series:
+    """The candidate of ``method`` that is run on the test logs.
+
+    The recommended method runs the chosen candidate; every other method its own choice by the
+    same rule among its accepted candidates (one standard error toward fewer terms); a method
+    whose every candidate was rejected, its best rejected row (not run).
+    """
+    own = table[[method_of[n] == method for n in table["name"]]]
+    if method_of[chosen] == method:
+        return own[own["name"] == chosen].iloc[0]
+    usable = own[own["status"] != "rejected"]
+    if not len(usable):
+        return own.iloc[0]
+    pick, _ = one_standard_error(
+        usable["fit_mean"].tolist(),
+        usable["fit_se"].tolist(),
+        list(zip(usable["complexity"], usable["n_terms"], strict=True)),
+        [True] * len(usable),
+    )
+    return usable.iloc[pick]
+
+
 def _candidates(
     methods: Sequence[str], lags: Sequence[Lags], seed: int
 ) -> tuple[list[tuple[str, Any]], dict[str, str], dict[str, Lags]]:
@@ -430,8 +486,9 @@ def _candidates(
     options, method_of, lags_of = [], {}, {}
     for method in chosen:
         entry = get_method(method)
-        for regressor in lags:
-            name = f"{method} {regressor!r}" if len(lags) > 1 else method
+        for regressor in lags[:1] if method in LAG_FREE_METHODS else lags:
+            several = len(lags) > 1 and method not in LAG_FREE_METHODS
+            name = f"{method} {regressor!r}" if several else method
             estimator = entry.make(regressor)
             if "random_state" in estimator.get_params():
                 estimator.set_params(random_state=seed)
@@ -464,8 +521,13 @@ def compare(
         Registry names (:func:`neckid.methods`); ``"arx"`` is always added (the reference).
     lags : Lags or list of Lags, optional
         The regressors each method is tried with (default ``Lags.arx(2, 2, 1)``).
-    n_blocks, stress, n_jobs, progress
-        As in :func:`select_safely` (``stress`` default 0.1: inputs 10 % beyond the range).
+    n_blocks, n_jobs, progress
+        As in :func:`select_safely`.
+    stress : float, default 0.1
+        The stress check of :func:`select_safely`, reaching at least ``stress`` (10 %) beyond the
+        training inputs' range and as far as the test inputs go beyond it
+        (:func:`input_reach`): a candidate that runs away there is out. Only the test *inputs*
+        are looked at. 0 turns the check off.
     seed : int, default 0
         Seed of the methods that draw random numbers.
 
@@ -496,11 +558,14 @@ def compare(
     tests = as_experiments(test, "test")
     as_experiments([experiments[0], tests[0]], "[train[0], test[0]]")
     options, method_of, lags_of = _candidates(methods, regressors, seed)
+    # The stress check reaches as far as the test inputs go beyond the training range: the
+    # inputs the models will be run on are known (their outputs are not looked at).
+    reach = max(float(stress), input_reach(experiments, tests)) if stress > 0 else 0.0
     selection = select_safely(
         options,
         experiments,
         n_blocks=n_blocks,
-        stress=stress,
+        stress=reach,
         complexity={name: COMPLEXITY.get(method_of[name], 99) for name, _ in options},
         n_jobs=n_jobs,
         progress=progress,
@@ -509,9 +574,7 @@ def compare(
     models, settings, rows = {}, {}, []
     runs: list[dict[str, ModelResult]] = [{} for _ in tests]
     for method in dict.fromkeys(method_of.values()):
-        own = table[[method_of[n] == method for n in table["name"]]]
-        usable = own[own["status"] != "rejected"]
-        pick = usable.iloc[0] if len(usable) else own.iloc[0]
+        pick = _method_pick(table, method, method_of, selection.chosen)
         name = str(pick["name"])
         settings[method] = {"candidate": name, "lags": repr(lags_of[name])}
         if pick["status"] == "rejected":
@@ -533,4 +596,9 @@ def compare(
         f" standard error of the best ({selection.bar:.1f} %)",
         *(f"rejected {n}: {r}" for n, r in selection.rejected.items()),
     ]
+    if reach > 0:
+        reasons.append(
+            f"stress check: every candidate run on the training inputs stretched {reach:.0%}"
+            " beyond their range (at least as far as the test inputs go)"
+        )
     return Comparison(selection, models, settings, pd.DataFrame(rows), recommended, reasons, runs)
