@@ -144,3 +144,17 @@ def test_the_readme_command_line_example_runs(
         result = runner.invoke(app, shlex.split(command)[1:])
         assert result.exit_code == 0, f"{command}\n{result.output}"
     assert (tmp_path / "model.npz").exists()
+
+
+def test_a_long_set_membership_fit_is_announced(
+    runs: list[Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import neckid.cli.models
+
+    monkeypatch.setattr(neckid.cli.models, "LONG_SM_SAMPLES", 400)
+    args = ["identify", str(runs[0]), *_channels(), "--orders", "2,2,3", "--save"]
+    result = runner.invoke(app, [*args, str(tmp_path / "sm.npz"), "--method", "sm-linear"])
+    assert result.exit_code == 0, result.output
+    assert "note: sm-linear on 500 samples takes minutes" in _plain(result.output)
+    quiet = runner.invoke(app, [*args, str(tmp_path / "arx.npz"), "--method", "arx"])
+    assert "takes minutes" not in quiet.output
