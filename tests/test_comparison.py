@@ -150,3 +150,20 @@ def test_the_stress_check_reaches_as_far_as_the_test_inputs() -> None:
         "arx Lags(outputs=[1], inputs=[1])",
         "ss",
     ]
+
+
+def test_a_periodic_record_is_averaged_and_folded_within_one_period() -> None:
+    from neckid.folds import fold_records, input_period
+
+    one = _run(5, 300)
+    u = np.tile(one.u[:, 0], 4)
+    y = np.zeros(u.size)
+    for t in range(1, u.size):
+        y[t] = 0.85 * y[t - 1] + 0.3 * np.tanh(1.5 * u[t - 1])
+    record = IOData(u, y + 0.005 * np.random.default_rng(0).normal(size=u.size), ts=0.02)
+    assert input_period(record) == 300
+    records, scheme = fold_records([record])
+    assert scheme == "time-blocks of one period" and sum(r.n_samples for r in records) == 300
+    found = select_safely([("arx", LinearARX(Lags.arx(1, 1)))], record)
+    assert found.scheme == "time-blocks of one period"
+    assert input_period(_run(6)) is None

@@ -41,7 +41,13 @@ import pandas as pd
 from sklearn.base import clone
 
 from neckid.data.iodata import IOData, as_experiments
-from neckid.folds import MIN_BLOCKS, fold_statistics, one_standard_error, time_blocks
+from neckid.folds import (
+    MIN_BLOCKS,
+    fold_records,
+    fold_statistics,
+    one_standard_error,
+    time_blocks,
+)
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
 from neckid.models.bands import band_meaning
 from neckid.models.base import DivergenceError, ModelResult
@@ -153,9 +159,7 @@ class SafeSelection:
 
 
 def _folds_of(train: list[IOData], n_blocks: int) -> tuple[list[IOData], str]:
-    if len(train) >= 2:
-        return train, "leave-one-experiment-out"
-    return time_blocks(train[0], n_blocks), "time-blocks"
+    return fold_records(train, n_blocks)
 
 
 def _n_terms(estimator: Any, data: IOData) -> int:

@@ -33,7 +33,7 @@ from sklearn.base import clone
 from neckid._parallel import check_backend, run_jobs
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
-from neckid.folds import fold_statistics, one_standard_error, time_blocks
+from neckid.folds import fold_records, fold_statistics, one_standard_error
 from neckid.lipschitz_index import lipschitz_quotients
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
@@ -51,7 +51,13 @@ __all__ = [
 
 Criterion = Literal["prediction", "simulation"]
 #: How candidates were scored: on the validation records given, or on held-out experiments.
-Scheme = Literal["validation", "leave-one-experiment-out", "grouped-k-fold", "time-blocks"]
+Scheme = Literal[
+    "validation",
+    "leave-one-experiment-out",
+    "grouped-k-fold",
+    "time-blocks",
+    "time-blocks of one period",
+]
 #: How :func:`select_lags` picks: the safe rule of :mod:`neckid.folds`, or the top mean fit.
 Rule = Literal["safe", "best"]
 
@@ -737,11 +743,11 @@ def select_lags(
         raise ValueError(f"rule must be 'safe' or 'best'; got {rule!r}")
     train_list = as_experiments(train, "train")
     blocks = validation is None and folds is None and len(train_list) == 1
-    if blocks:  # one record: contiguous time blocks, each held out once
-        train_list = time_blocks(train_list[0])
+    if blocks:  # one record: contiguous time blocks (of one period if periodic), each held out
+        train_list, block_scheme = fold_records(train_list)
     _, fold_names, scheme = _splits(train_list, validation, folds)
     if blocks:
-        scheme = "time-blocks"
+        scheme = block_scheme  # type: ignore[assignment]
     n_folds = len(fold_names)
 
     rows: list[dict[str, Any]] = []
