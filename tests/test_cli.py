@@ -56,7 +56,9 @@ def test_identify_validate_simulate_round_trip(
 ) -> None:
     train, valid = neck_logs
     model_path = tmp_path / f"{method}.npz"
-    lags = {"rls": "1-2/1-2", "scheduled": "1/1"}.get(method, "1-2/1-3")
+    lags = {"rls": "1-2/1-2", "scheduled": "1/1", "scheduled-position": "1/1"}.get(
+        method, "1-2/1-3"
+    )
     inputs = "velocity_command" if method in ("rls", "scheduled") else "motor_position"
     result = runner.invoke(
         app,

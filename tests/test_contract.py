@@ -64,6 +64,7 @@ def test_the_registry_lists_every_method() -> None:
         "poly",
         "rls",
         "scheduled",
+        "scheduled-position",
         "sm",
         "sm-linear",
         "sm-multistep",
@@ -280,7 +281,7 @@ def test_conditions_are_inputs_through_the_lags(name: str, tmp_path) -> None:
     train, held_out, other = _payload_runs()[0], _payload_runs()[2], _payload_runs()[1]
     lags = Lags([1], [1], conditions=["payload"])
     model = neckid.methods()[name].make(lags, quick=True)
-    if name == "scheduled":  # schedules on the inclination only: says so
+    if name.startswith("scheduled"):  # schedules on the inclination only: says so
         with pytest.raises(ValueError, match="no conditions"):
             model.fit([train, held_out])
         return
@@ -324,7 +325,7 @@ def test_several_inputs_and_outputs(name: str, tmp_path) -> None:
 
     train, test = _mimo_data(0), _mimo_data(1)
     model = neckid.methods()[name].make(Lags(outputs=1, inputs=[1]), quick=True)
-    if name == "scheduled":  # a first-order model of one command and one inclination
+    if name.startswith("scheduled"):  # a first-order model of one command and one inclination
         with pytest.raises(ValueError, match="first order in one output"):
             model.fit(train)
         return

@@ -168,3 +168,18 @@ def test_bad_input_refused() -> None:
         operating_points_from_logs([log], input="cmd", output="incl", targets=[1, 2], window=10)
     with pytest.raises(ValueError, match=r"forgetting_factor must be a number in \(0, 1\]"):
         operating_points_from_logs([log], input="cmd", output="incl", forgetting_factor=2.0)
+
+
+def test_the_model_with_its_defaults_finds_the_protocols_points(
+    stand_in_result: OperatingPointResult,
+) -> None:
+    """Each excited hold is one dwell; the model's default window is the protocol's (250)."""
+    logs = [
+        log.select(inputs=["velocity_command"], outputs=[log.output_names[0]])
+        for log in stand_in_result.logs
+    ]
+    model = GainScheduledModel().fit(logs)
+    table = model.operating_points_
+    assert model.segmentation_ == "dwell" and list(table["experiment"]) == list(range(7))
+    for column in ("inclination", "gain", "pole", "converged"):
+        np.testing.assert_array_equal(table[column], stand_in_result.table[column], err_msg=column)

@@ -157,8 +157,8 @@ METHODS = neckid.methods()
 class FirstOrderSystem(NamedTuple):
     """Slow ``y(t) = pole*y(t-1) + gain*u(t-delay) + curvature*tanh(y(t-1)) + e(t)``, white input.
 
-    White input keeps every segment of the record exciting, so the scheduled method's CFF-RLS
-    settles in each of its 8 segments (100 samples each, window 30 with ``quick=True``).
+    White input keeps every stretch of the record exciting, so the scheduled method's CFF-RLS
+    settles at each of its operating points (dwells or inclination bins).
     """
 
     pole: float
@@ -203,7 +203,7 @@ FILE_SETTINGS = settings(
 
 def _fitted(name: str, system: FirstOrderSystem, orders: tuple[int, int]):
     # The scheduled model is first order by construction: Lags.arx(1, 1, d) only.
-    na, nb = (1, 1) if name == "scheduled" else orders
+    na, nb = (1, 1) if name.startswith("scheduled") else orders
     lags = Lags.arx(na, nb, system.delay)
     return METHODS[name].make(lags, quick=True).fit(system.record(800))
 

@@ -1,4 +1,5 @@
-"""Tests of GainScheduledModel: line recovery, simulation, simulator, transfer function, files."""
+"""Tests of GainScheduledModel: line recovery, simulation, simulator, transfer function, files,
+the operating points found with its defaults (dwells, bins), its errors and ``neckid info``."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 
+import functools
 from pathlib import Path
 
 import control
@@ -180,7 +182,13 @@ def test_not_fitted_and_bad_input() -> None:
         GainScheduledModel.from_points([1.0, 2.0], [1.0, 2.0], [1.0, 2.0], ts=-0.1)
     with pytest.raises(ValueError, match="first order in one output"):
         GainScheduledModel(Lags.arx(2, 1)).fit(staircase_log())
-    with pytest.raises(ValueError, match=r"needs lags=Lags\.arx"):
+    # Without lags on two inputs: both names and how to choose, in CLI and Python words.
+    with pytest.raises(
+        ValueError,
+        match=r"2 inputs \['velocity_command', 'unused'\]: on the command line keep one with"
+        r" --inputs \(e\.g\. --inputs velocity_command\) and give --lags 1/D; in Python give"
+        r" lags=Lags\(outputs=\[1\], inputs=\{'velocity_command': \[D\]\}\)",
+    ):
         GainScheduledModel().fit(staircase_log())
     fitted = GainScheduledModel.from_coefficients()
     with pytest.raises(ValueError, match="initial"):
@@ -232,7 +240,7 @@ def test_fit_from_a_staircase_log_recovers_the_schedule() -> None:
         lags, segments=[0.0, 12.0, 24.0, 36.0, 48.0, 60.0, 72.0], skip=100, window=200, form="rate"
     ).fit(log)
     np.testing.assert_allclose(edges.gains_, model.gains_, rtol=0.05)
-    one_per_log = GainScheduledModel(lags, skip=100, window=200, form="rate").fit(
+    one_per_log = GainScheduledModel(lags, segments=1, skip=100, window=200, form="rate").fit(
         [log[k * 600 : (k + 1) * 600] for k in range(6)]
     )
     np.testing.assert_allclose(one_per_log.gains_, model.gains_, rtol=1e-12)
@@ -516,3 +524,302 @@ def test_cross_run_free_run_on_the_real_soft_neck_stays_finite_and_fits() -> Non
             assert np.isfinite(paper.simulate(log).y).all()
     assert np.all(np.isfinite(fits))
     assert np.mean(fits) >= 50.0, fits
+
+
+# ------------------------------------------------------------------ operating points found by default
+@functools.cache
+def closed_loop_staircase(targets: tuple[float, ...] = (10.0, 20.0, 30.0, 20.0)) -> IOData:
+    """A known plant (the rate-form lines TRUE_*) held at each target for 12 s, P control + PRBS.
+
+    Returns the velocity command [rad/s] and the inclination [deg] only.
+    """
+    from neckid.plant import closed_loop
+    from neckid.signals import random_binary
+
+    class Proportional:
+        def reset(self) -> None:
+            pass
+
+        def step(self, reference: float, measurement: np.ndarray) -> np.ndarray:
+            return np.array([1.0 * (reference - float(np.ravel(measurement)[0]))])
+
+    plant = GainScheduledModel.from_coefficients(TRUE_GAIN, TRUE_POLE, ts=0.02).simulator()
+    reference = np.repeat(np.asarray(targets), 600)
+    excitation = random_binary(reference.size, 1.0, 5, seed=np.random.default_rng(0))
+    record = closed_loop(plant, Proportional(), reference, 0.02, excitation=excitation[:, None])
+    return record.select(inputs=["velocity_command"], outputs=[record.output_names[0]])
+
+
+TRUE_GAIN, TRUE_POLE = (-0.02, 1.5), (0.01, 0.3)
+
+
+def test_defaults_find_the_stairs_and_recover_the_lines() -> None:
+    log = closed_loop_staircase()
+    model = GainScheduledModel().fit(log)  # no lags, no segments: one input, its dwells
+    assert model.lags is None and model.lags_.to_lags() == Lags.arx(1, 1, 1).resolve(log).to_lags()
+    assert model.segmentation_ == "dwell" and model.n_samples_ == log.n_samples
+    table = model.operating_points_
+    assert list(table["kind"]) == ["dwell"] * 4 and table["converged"].all()
+    np.testing.assert_allclose(table["inclination"], [10.0, 20.0, 30.0, 20.0], atol=0.5)
+    # each dwell lies inside its 12 s stair, its start after the step
+    starts, stops = table["start_s"].to_numpy(), table["stop_s"].to_numpy()
+    assert np.all(starts > 12.0 * np.arange(4)) and np.all(stops < 12.0 * np.arange(1, 5))
+    np.testing.assert_allclose(model.gains_, np.polyval(TRUE_GAIN, model.inclinations_), atol=0.05)
+    np.testing.assert_allclose(model.poles_, np.polyval(TRUE_POLE, model.inclinations_), atol=0.03)
+    assert abs(model.gain_coefficients_[0] - TRUE_GAIN[0]) < 0.005
+
+
+def test_defaults_give_a_model_on_the_simulated_neck_in_both_forms() -> None:
+    from neckid.plant import InclinationController, SoftNeck, closed_loop
+    from neckid.signals import random_binary
+
+    reference = np.repeat([10.0, 15.0, 20.0, 25.0, 20.0], 500)
+    excitation = random_binary(reference.size, 1.0, 5, seed=np.random.default_rng(0))
+    record = closed_loop(
+        SoftNeck(configuration="planar", ts=0.02, seed=0),
+        InclinationController(ts=0.02),
+        reference,
+        0.02,
+        excitation=excitation[:, None],
+    )
+    for form, command in (("rate", "velocity_command"), ("position", "motor_position")):
+        log = record.select(inputs=[command], outputs=["inclination"])
+        model = GainScheduledModel(form=form).fit(log)
+        assert model.segmentation_ == "dwell" and len(model.operating_points_) >= 5, form
+        # every stair holds a point (the first one may hold two: its start is the rise)
+        levels = np.unique(np.round(model.operating_points_["inclination"] / 5.0) * 5.0)
+        np.testing.assert_array_equal(levels, [10.0, 15.0, 20.0, 25.0])
+        assert np.isfinite(model.simulate(log).y).all()
+    assert model.simulate(log).fit_percent(log)[0] > 90.0  # the position form, free run
+
+
+def stairs_with_ramps(seed: int = 0) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """Stairs of 10 s at 50 Hz (10, 15, 20, 15 deg) with a ±1 deg white dither, 1 s ramps."""
+    rng = np.random.default_rng(seed)
+    pieces, stairs, start = [], [], 0
+    for k, level in enumerate((10.0, 15.0, 20.0, 15.0)):
+        if k:
+            pieces.append(np.linspace(pieces[-1][-1], level, 50))
+            start += 50
+        pieces.append(np.full(500, level))
+        stairs.append((start, start + 500))
+        start += 500
+    clean = np.concatenate(pieces)
+    return clean + rng.uniform(-1.0, 1.0, clean.size), stairs
+
+
+def test_find_dwells_finds_the_stairs_and_leaves_the_ramps_out() -> None:
+    from neckid.models.scheduled.segments import find_dwells, smooth_inclination
+
+    inclination, stairs = stairs_with_ramps()
+    dwells = find_dwells(inclination)
+    assert len(dwells) == 4
+    for (start, stop), (first, last) in zip(dwells, stairs, strict=True):
+        # inside its stair but for the smoothing's reach (a memory, 50 samples), most of it
+        assert first - 50 <= start < stop <= last + 50 and stop - start >= 300
+    levels = [float(np.mean(inclination[a:b])) for a, b in dwells]
+    np.testing.assert_allclose(levels, [10.0, 15.0, 20.0, 15.0], atol=0.3)
+    # the smoothing is the estimator's weighting run both ways: on a sine of ω rad/sample its
+    # gain is |H|² with H = (1 − λ) / (1 − λ e^{−jω}), and it does not shift the phase
+    n = np.arange(4000)
+    smooth = smooth_inclination(np.sin(0.05 * n), 0.98)[1000:3000]
+    gain = abs(0.02 / (1.0 - 0.98 * np.exp(-0.05j))) ** 2
+    np.testing.assert_allclose(smooth, gain * np.sin(0.05 * n[1000:3000]), atol=1e-6)
+    # a dwell must hold min_samples, by default four memories: 200 samples at λ = 0.98, 800 at
+    # λ = 0.995 (longer than these 500-sample stairs)
+    assert find_dwells(inclination, min_samples=501) == []
+    assert find_dwells(inclination, forgetting_factor=0.995) == []
+    # a band narrower than the dithered level's wander finds fewer or none
+    assert len(find_dwells(inclination, band=0.05)) < 4
+    with pytest.raises(ValueError, match="band must be"):
+        find_dwells(inclination, band=0.0)
+
+
+def sweep_log(n: int = 3000, seed: int = 0) -> IOData:
+    """Position form, i(t) = P(i) i(t-1) + N(i) x(t-1), the command two ramps of 0 to 6 rad.
+
+    True N(i) = 1.5 − 0.01 i [deg/rad], P(i) = 0.8 − 0.002 i; the inclination sweeps 0 to 27 deg
+    twice, about 1 deg/s, never dwelling.
+    """
+    rng = np.random.default_rng(seed)
+    x = np.tile(np.linspace(0.0, 6.0, n // 2), 2) + 0.2 * rng.choice([-1.0, 1.0], n)
+    incl = np.empty(n)
+    incl[0] = 0.0
+    for t in range(1, n):
+        p = incl[t - 1]
+        incl[t] = (0.8 - 0.002 * p) * p + (1.5 - 0.01 * p) * x[t - 1]
+    return IOData(x, incl, ts=0.02, input_names=["motor_position"], output_names=["inclination"])
+
+
+def test_a_record_without_dwells_falls_back_to_inclination_bins() -> None:
+    from neckid.models.scheduled.segments import find_dwells
+
+    log = sweep_log()
+    assert find_dwells(log.y[:, 0]) == []
+    model = GainScheduledModel(form="position").fit(log)
+    table = model.operating_points_
+    assert model.segmentation_ == "bins" and set(table["kind"]) == {"bin"}
+    # as many bins as the 2 deg band fits into the range, each holding four memories or more
+    spread = np.ptp(log.y[:, 0])
+    assert int(np.ceil(spread / 2.0)) - 2 <= len(table) <= int(np.ceil(spread / 2.0))
+    assert (table["n_samples"] >= 195).all()
+    assert np.all(np.diff(table["inclination"]) > 0)  # from low to high
+    # a bin gathers both sweeps: its stretches span more than one of them (30 s)
+    middle = table.iloc[len(table) // 2]
+    assert middle["stop_s"] - middle["start_s"] > 30.0
+    # the local models are near the true lines' linearisation
+    assert abs(model.pole_coefficients_[1] - 0.8) < 0.05
+    # asked for by name on a staircase too
+    steps = closed_loop_staircase()
+    assert GainScheduledModel(segments="bins").fit(steps).segmentation_ == "bins"
+    # too short for two bins of four memories (200 samples) each: says so, and what to do
+    with pytest.raises(
+        ValueError,
+        match=r"fewer than 2 dwells and too few samples for 2 inclination bins of four memories"
+        r" of the estimator \(200 samples\) each: 300 samples; .*--set segments=N",
+    ):
+        GainScheduledModel(form="position").fit(log[:300])
+
+
+def test_too_few_converged_points_take_every_point_and_say_how_many_converged() -> None:
+    rng = np.random.default_rng(1)
+    # the inclination dwells at three levels but moves at random: no estimate settles
+    levels = np.repeat([10.0, 20.0, 30.0], 400)
+    log = IOData(
+        rng.normal(size=levels.size),
+        levels + rng.normal(scale=3.0, size=levels.size),
+        ts=0.02,
+        input_names=["velocity_command"],
+        output_names=["inclination"],
+    )
+    with pytest.warns(UserWarning, match=r"0 of 3 operating points converged.* all 3 points"):
+        model = GainScheduledModel(segments=3).fit(log)
+    table = model.operating_points_
+    assert not table["converged"].any() and table["used"].all() and model.inclinations_.size == 3
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        GainScheduledModel(segments=3, converged_only=False).fit(log)
+
+
+def test_lags_errors_say_the_command_line_and_the_python_way() -> None:
+    log = closed_loop_staircase()
+    with pytest.raises(ValueError) as error:
+        GainScheduledModel(Lags.arx(2, 1)).fit(log)
+    message = str(error.value)
+    assert "first order in one output and one command" in message
+    assert "--lags 1/D" in message and "--inputs" in message and "Lags.arx(1, 1, D)" in message
+    assert "got Lags(" in message and "['velocity_command']" in message
+    with pytest.raises(ValueError, match=r"needs a command among the inputs.* --inputs"):
+        GainScheduledModel().fit(IOData(np.zeros((log.n_samples, 0)), log.y, ts=0.02))
+    with pytest.raises(ValueError, match=r"segments must be None or one of 'dwell', 'bins'"):
+        GainScheduledModel(segments="stairs").fit(log)  # type: ignore[arg-type]
+
+
+def test_the_schedule_points_and_counts_survive_the_file(tmp_path: Path) -> None:
+    log = closed_loop_staircase()
+    model = GainScheduledModel().fit(log)
+    loaded = load_model(model.save(tmp_path / "defaults.npz"))
+    assert (loaded.segmentation_, loaded.n_samples_, loaded.command_unit_) == (
+        "dwell",
+        log.n_samples,
+        "rad/s",
+    )
+    assert loaded.segments == "dwell" and loaded.lags_.to_lags() == model.lags_.to_lags()
+    import pandas as pd
+
+    pd.testing.assert_frame_equal(loaded.operating_points_, model.operating_points_)
+    assert loaded.describe_schedule() == model.describe_schedule()
+
+
+def test_describe_schedule_has_the_lines_units_range_and_points() -> None:
+    model = GainScheduledModel(form="position").fit(position_staircase())
+    schedule = model.describe_schedule()
+    assert schedule["form"] == "position" and schedule["command"] == "motor_position"
+    assert schedule["gain"]["unit"] == "deg/rad" and schedule["pole"]["unit"] == "-"
+    slope, intercept = model.gain_coefficients_
+    assert schedule["gain"]["text"] == f"N(i) = {slope:.4g} i + {intercept:.4g}".replace(
+        "+ -", "- "
+    )
+    assert schedule["schedule_range_deg"] == model.schedule_range_.tolist()
+    assert [p["inclination_deg"] for p in schedule["points"]] == model.inclinations_.tolist()
+    assert all(p["converged"] is True and p["kind"] == "dwell" for p in schedule["points"])
+    rate = GainScheduledModel().fit(closed_loop_staircase())
+    assert rate.describe_schedule()["gain"]["unit"] == "(deg/s)/(rad/s)"
+
+
+def test_info_shows_the_schedule_and_the_training_samples(tmp_path: Path) -> None:
+    import json
+    import re
+
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    model = GainScheduledModel(form="position").fit(position_staircase())
+    path = model.save(tmp_path / "position.npz")
+    runner = CliRunner()
+    result = runner.invoke(app, ["info", str(path)], env={"COLUMNS": "120"})
+    assert result.exit_code == 0, result.output
+    text = re.sub(r"\s+", " ", result.output)
+    assert f"training_samples │ {position_staircase().n_samples}" in text
+    assert "schedule (position form)" in text and "points found by │ dwell" in text
+    assert re.search(r"N\(i\) = -0\.0\d+ i \+ 1\.\d+ \[deg/rad\], i in deg", text), text
+    assert re.search(r"P\(i\) = -0\.00\d+ i \+ 0\.\d+ \[-\], held in ±0\.99", text), text
+    assert "operating points: 6, 6 converged, 6 in the lines" in text
+    low, high = model.schedule_range_
+    assert f"{low:.4g} .. {high:.4g} deg" in text
+    result = runner.invoke(app, ["info", str(path), "--json"])
+    described = json.loads(result.output)
+    assert described["training_samples"] == position_staircase().n_samples
+    assert described["schedule"]["gain"]["coefficients"] == model.gain_coefficients_.tolist()
+    assert len(described["schedule"]["points"]) == 6
+    # a file written before the table: the points of the lines, convergence unknown
+    arrays, meta = model._get_state()
+    old = {k: v for k, v in arrays.items() if not k.startswith("points_")}
+    legacy = GainScheduledModel._from_state(old, {**meta, "point_kinds": None})
+    assert legacy.operating_points_["converged"].isna().all()
+    assert legacy.describe_schedule()["points"][0]["converged"] is None
+
+
+SOFTNECK_ID = SHARED_DATA / "softneck" / "id" / "id000response.csv"
+
+
+@pytest.mark.skipif(
+    not (SOFTNECK_STAIRS.is_dir() and SOFTNECK_ID.is_file()),
+    reason=f"the real soft-neck logs are not at {SHARED_DATA / 'softneck'} (the shared data folder)",
+)
+def test_defaults_give_a_model_on_every_real_stair_log_and_the_id_log() -> None:
+    """What ``neckid identify LOG --method scheduled[-position]`` fits with no settings.
+
+    The position form on the motor displacement, the rate form on the velocity command (the
+    3-column ``000response.csv`` has none); the measured table is in the scheduled model's docs.
+    """
+    import warnings
+
+    from neckid.data.preprocess import Relative
+    from neckid.datasets import load_softneck_log
+
+    logs = sorted(SOFTNECK_STAIRS.glob("*response.csv"))
+    assert len(logs) == 13
+    fits = {}
+    for path in [*logs, SOFTNECK_ID]:
+        log = load_softneck_log(path)
+        output = "inclination" if "inclination" in log.output_names else "inclination_filtered"
+        position = Relative("motor_position").apply(
+            log.select(inputs=["motor_position"], outputs=[output])
+        )
+        model = GainScheduledModel(form="position").fit(position)
+        assert model.segmentation_ == "dwell" and model.inclinations_.size >= 2, path.name
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # ExtrapolationWarning: the first seconds lie below
+            fits[path.name] = model.simulate(position).fit_percent(position)[0]
+        if "velocity_command" in log.input_names:
+            rate = log.select(inputs=["velocity_command"], outputs=[output])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # most rate-form points do not converge
+                model = GainScheduledModel().fit(rate)
+            assert model.segmentation_ == "dwell" and model.inclinations_.size >= 2, path.name
+    assert min(fits.values()) > 50.0, fits
+    assert np.median(list(fits.values())) > 80.0, fits

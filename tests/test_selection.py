@@ -13,8 +13,8 @@ from _synthetic import arx_system
 from neckid import IOData, Lags, LinearARX
 from neckid.experiments.benchmark.runner import _select
 from neckid.metrics import fit_percent
-from neckid.models.results import DivergenceError
 from neckid.models.neural.narx import NeuralNARX
+from neckid.models.results import DivergenceError
 from neckid.report.selection_plots import plot_lipschitz_index
 from neckid.selection import (
     LagSelection,
@@ -393,7 +393,7 @@ def test_safe_rule_rejects_a_candidate_that_diverges_in_a_fold() -> None:
     assert row["status"] == "rejected" and "DivergenceError" in row["reason"]
     assert selection.chosen is None
     with pytest.raises(ValueError, match="every candidate was rejected"):
-        selection.best_lags
+        _ = selection.best_lags
 
 
 # ---------------------------------------------------------------------- the benchmark's selection

@@ -10,8 +10,8 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'nn', 'poly', 'rls', 'scheduled', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel',
- 'sm-parallel-poly', 'ss']
+['arx', 'nn', 'poly', 'rls', 'scheduled', 'scheduled-position', 'sm', 'sm-linear', 'sm-multistep',
+ 'sm-parallel', 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -71,8 +71,10 @@ class Method:
         Parameters
         ----------
         lags : Lags, optional
-            The regressor (for ``sm-parallel``: its linear model's; for ``scheduled``:
-            ``Lags.arx(1, 1, d)``). ``None`` leaves it to be set later with ``set_params``.
+            The regressor (for ``sm-parallel``: its linear model's; for ``scheduled`` and
+            ``scheduled-position``: ``Lags.arx(1, 1, d)``, or ``None``: ``d = 1`` on the data's
+            one input). ``None`` leaves it to be set later with ``set_params`` (the scheduled
+            model fits with its default).
         quick : bool, default False
             Apply :attr:`quick` (smoke-run settings) before ``params``.
         **params
@@ -152,7 +154,16 @@ _METHODS: tuple[Method, ...] = (
         "scheduled",
         "Scheduled CFF-RLS",
         "neckid.models.scheduled.model:GainScheduledModel",
-        "first-order model N(i)/(z - P(i)) scheduled on the inclination, from CFF-RLS",
+        "the seed paper's first-order model N(i)/(z - P(i)) from velocity command to inclination"
+        " rate, scheduled on the inclination; operating points by CFF-RLS where it dwells",
+    ),
+    Method(
+        "scheduled-position",
+        "Scheduled CFF-RLS (position form)",
+        "neckid.models.scheduled.model:GainScheduledModel",
+        "the scheduled first-order model from motor position to inclination (no integrator: use"
+        " it for free runs); operating points by CFF-RLS where the inclination dwells",
+        defaults={"form": "position"},
     ),
     Method(
         "sm-multistep",

@@ -550,10 +550,6 @@ def describe_log(
         ``{"kind", "unit", "min", "max", "mean"}``. A gap is a time step more than 1.5 times
         the median one; a repeated stamp, a step of zero.
     """
-    import pandas as pd
-
-    from neckid.data.tables import whole_table
-
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"log file {str(path)!r} does not exist")
@@ -581,23 +577,7 @@ def describe_log(
             for j, name in enumerate(names):
                 channels[name] = {"kind": kind, "unit": units[j], "values": values[:, j]}
     else:
-        if path.stat().st_size == 0:
-            raise ValueError(f"log file {str(path)!r} is empty")
-        if path.suffix.lower() not in (".parquet", ".mat"):
-            _refuse_headerless(path, sep)
-        table = whole_table(path, sep=sep, time=time)
-        frame, skipped = table["frame"], table["skipped"]
-        if time not in frame.columns:
-            raise KeyError(
-                f"{path.name} has no time column {time!r}; it has {list(map(str, frame.columns))}"
-                " (give --time NAME)"
-            )
-        t = pd.to_numeric(frame[time], errors="coerce").to_numpy(dtype=np.float64)
-        for name in frame.columns:
-            if name == time:
-                continue
-            values = pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=np.float64)
-            channels[str(name)] = {"kind": "column", "unit": "", "values": values}
+        t, channels, skipped = _table_channels(path, sep, time)
     steps = np.diff(t)
     median = float(np.median(steps)) if steps.size else float("nan")
     summary = {}
@@ -634,6 +614,34 @@ def describe_log(
         "condition_units": found_units,
         "skipped": skipped,
     }
+
+
+def _table_channels(
+    path: Path, sep: str, time: str
+) -> tuple[Any, dict[str, dict[str, Any]], list[str]]:
+    """A CSV, Parquet or ``.mat`` log's time [s], its columns as channels, what is not a channel."""
+    import pandas as pd
+
+    from neckid.data.tables import whole_table
+
+    if path.stat().st_size == 0:
+        raise ValueError(f"log file {str(path)!r} is empty")
+    if path.suffix.lower() not in (".parquet", ".mat"):
+        _refuse_headerless(path, sep)
+    table = whole_table(path, sep=sep, time=time)
+    frame = table["frame"]
+    if time not in frame.columns:
+        raise KeyError(
+            f"{path.name} has no time column {time!r}; it has {list(map(str, frame.columns))}"
+            " (give --time NAME)"
+        )
+    t = pd.to_numeric(frame[time], errors="coerce").to_numpy(dtype=np.float64)
+    channels: dict[str, dict[str, Any]] = {}
+    for name in frame.columns:
+        if name != time:
+            values = pd.to_numeric(frame[name], errors="coerce").to_numpy(dtype=np.float64)
+            channels[str(name)] = {"kind": "column", "unit": "", "values": values}
+    return t, channels, table["skipped"]
 
 
 def _log_conditions(

@@ -97,7 +97,7 @@ def _regressor(
             error_console.print(f"note: {note}", markup=False, highlight=False)
     elif orders is not None:
         parsed, chosen_by = parse_orders(orders), f"--orders {orders}"
-    elif method == "scheduled" and not conditions:
+    elif method.startswith("scheduled") and not conditions:
         return None, "the scheduled model's first-order default"
     else:
         parsed, chosen_by = parse_orders(DEFAULT_ORDERS), "the default --orders " + DEFAULT_ORDERS

@@ -277,9 +277,11 @@ def _print_schedule(schedule: dict[str, Any]) -> None:
         return
     used = sum(p["used"] for p in points)
     converged = sum(bool(p["converged"]) for p in points)
+    unknown = sum(p["converged"] is None for p in points)
+    flags = f"{converged} converged" if not unknown else f"convergence of {unknown} unknown"
     table = Table(
         title=escape(
-            f"operating points: {len(points)}, {converged} converged, {used} in the lines"
+            f"operating points: {len(points)}, {flags}, {used} in the lines"
             f" (i [deg], N [{unit}], P [-], from/to [s])"
         )
     )

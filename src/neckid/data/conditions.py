@@ -21,12 +21,19 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
-__all__ = ["ConditionValue", "check_conditions", "parse_condition"]
+__all__ = [
+    "ConditionValue",
+    "append_conditions",
+    "check_conditions",
+    "label_indicators",
+    "parse_condition",
+]
 
 ConditionValue = float | str
 
@@ -154,3 +161,58 @@ def parse_condition(text: str) -> tuple[str, ConditionValue, str]:
     if not math.isfinite(number):
         raise ValueError(f"--condition {name} must be finite; got {value!r}")
     return name, number, unit
+
+
+def append_conditions(data_in: Any, names: Sequence[str]) -> Any:
+    """:meth:`neckid.IOData.conditions_as_inputs`: the log with the conditions ``names`` as inputs.
+
+    A number is one constant input; a label ``c`` asked for as ``"c=A"`` is the indicator 1 when
+    the log's ``c`` is ``"A"``, else 0; a log whose label is none of those asked for is refused.
+    """
+    data = data_in
+    labels: dict[str, list[str]] = {}
+    for name in names:
+        if name in data.input_names:
+            continue
+        condition, _, label = name.partition("=")
+        if label and isinstance(data_in.conditions.get(condition), str):
+            labels.setdefault(condition, []).append(label)
+            value: float = 1.0 if data_in.conditions[condition] == label else 0.0
+            data = data._with_constant_input(name, value, "")
+            continue
+        if name not in data.conditions:
+            raise KeyError(
+                f"the model uses condition {name!r}, which {data.name or 'the log'} does not"
+                f" have; its conditions are {dict(data.conditions)} (set it with"
+                f" data.with_conditions({condition}=...) or --condition {condition}=...)"
+            )
+        if isinstance(data.conditions[name], str):
+            raise ValueError(
+                f"condition {name!r} of {data.name or 'the log'} is a label"
+                f" ({data.conditions[name]!r}): as an input it is one-hot encoded, one input"
+                f" per label (Lags(..., conditions=[{name!r}]) does that when it fits)"
+            )
+        data = data._with_constant_input(
+            name, float(data.conditions[name]), data.condition_units.get(name, ""), drop=True
+        )
+    for condition, known in labels.items():
+        if data_in.conditions[condition] not in known:
+            raise ValueError(
+                f"{data_in.name or 'the log'} has {condition}={data_in.conditions[condition]!r}, a"
+                f" label the model was not identified with (it knows {', '.join(known)}):"
+                " identify a model with runs of it"
+            )
+    return data
+
+
+def label_indicators(names: Sequence[str], logs: Sequence[Any]) -> list[str]:
+    """:meth:`neckid.IOData.label_indicators`: each label condition as its one-hot input names."""
+    out: list[str] = []
+    for name in names:
+        values = {d.conditions.get(name) for d in logs}
+        labels = sorted(v for v in values if isinstance(v, str))
+        if labels and name not in logs[0].input_names:
+            out.extend(f"{name}={label}" for label in labels)
+        else:
+            out.append(name)
+    return out

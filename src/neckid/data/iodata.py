@@ -17,7 +17,12 @@ from numpy.typing import ArrayLike
 
 from neckid._typing import FloatArray
 from neckid.data.channels import as_2d, channel_names, channel_units
-from neckid.data.conditions import ConditionValue, check_conditions
+from neckid.data.conditions import (
+    ConditionValue,
+    append_conditions,
+    check_conditions,
+    label_indicators,
+)
 from neckid.validation import check_finite, check_ts
 
 if TYPE_CHECKING:
@@ -273,40 +278,7 @@ class IOData:
         >>> d.conditions_as_inputs(["neck=A", "neck=B"]).channel("neck=B")
         array([1., 1.])
         """
-        data = self
-        labels: dict[str, list[str]] = {}
-        for name in names:
-            if name in data.input_names:
-                continue
-            condition, _, label = name.partition("=")
-            if label and isinstance(self.conditions.get(condition), str):
-                labels.setdefault(condition, []).append(label)
-                value: float = 1.0 if self.conditions[condition] == label else 0.0
-                data = data._with_constant_input(name, value, "")
-                continue
-            if name not in data.conditions:
-                raise KeyError(
-                    f"the model uses condition {name!r}, which {data.name or 'the log'} does not"
-                    f" have; its conditions are {dict(data.conditions)} (set it with"
-                    f" data.with_conditions({condition}=...) or --condition {condition}=...)"
-                )
-            if isinstance(data.conditions[name], str):
-                raise ValueError(
-                    f"condition {name!r} of {data.name or 'the log'} is a label"
-                    f" ({data.conditions[name]!r}): as an input it is one-hot encoded, one input"
-                    f" per label (Lags(..., conditions=[{name!r}]) does that when it fits)"
-                )
-            data = data._with_constant_input(
-                name, float(data.conditions[name]), data.condition_units.get(name, ""), drop=True
-            )
-        for condition, known in labels.items():
-            if self.conditions[condition] not in known:
-                raise ValueError(
-                    f"{self.name or 'the log'} has {condition}={self.conditions[condition]!r}, a"
-                    f" label the model was not identified with (it knows {', '.join(known)}):"
-                    " identify a model with runs of it"
-                )
-        return data
+        return append_conditions(self, names)
 
     def _with_constant_input(
         self, name: str, value: float, unit: str, drop: bool = False
@@ -332,15 +304,7 @@ class IOData:
         >>> IOData.label_indicators(["payload", "neck"], runs)
         ['payload', 'neck=A', 'neck=B']
         """
-        out: list[str] = []
-        for name in names:
-            values = {d.conditions.get(name) for d in logs}
-            labels = sorted(v for v in values if isinstance(v, str))
-            if labels and name not in logs[0].input_names:
-                out.extend(f"{name}={label}" for label in labels)
-            else:
-                out.append(name)
-        return out
+        return label_indicators(names, logs)
 
     # ------------------------------------------------------------------ channel access
     def channel(self, name: str) -> FloatArray:
@@ -711,10 +675,14 @@ class IOData:
         return cls._from_file(path, "parquet", inputs, outputs, time=time, ts=ts, units=units)
 
     def to_parquet(self, path: str | Path) -> None:
-        """Write a Parquet file with a ``time`` column; units go in the file's metadata."""
+        """Write a Parquet file with a ``time`` column; units go in the file's metadata.
+
+        Every page carries a checksum, so a file damaged later is refused when it is read
+        (:func:`neckid.data.parquet.read_parquet_columns`), never read as other numbers.
+        """
         frame = self.to_frame()
         frame.attrs = {"units": frame.attrs["units"]}
-        frame.to_parquet(Path(path), index=False)
+        frame.to_parquet(Path(path), index=False, write_page_checksum=True)
 
     def to_csv(self, path: str | Path) -> None:
         """Write a CSV file with a header row and a ``time`` column (seconds)."""

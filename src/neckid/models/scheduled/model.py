@@ -14,8 +14,8 @@ transfer function at a given inclination.
 
 from __future__ import annotations
 
-import itertools
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -25,23 +25,30 @@ from numpy.typing import ArrayLike, NDArray
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.scheduled.point_table import (
+    given_table,
+    point_table,
+    table_arrays,
+    table_from_arrays,
+)
 from neckid.models.scheduled.points import (
     FORMS,
     OperatingPoint,
     default_window,
     identify_point,
+    identify_segments,
+)
+from neckid.models.scheduled.regressor import default_lags, first_order_terms
+from neckid.models.scheduled.segments import (
+    SEGMENTATIONS,
+    OperatingSegment,
+    operating_segments,
 )
 from neckid.models.scheduled.simulator import GainScheduledSimulator, clipped_polyval
 from neckid.models.scheduled.state_map import ScheduledStateMap
+from neckid.models.scheduled.summary import describe_schedule
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import (
-    Interval,
-    Options,
-    check_number,
-    check_time_vector,
-    check_ts,
-    check_vector,
-)
+from neckid.validation import Interval, Options, check_number, check_ts, check_vector
 
 if TYPE_CHECKING:
     import control
@@ -62,8 +69,9 @@ PAPER_GAIN_COEFFICIENTS = (-0.059, 1.857)
 PAPER_POLE_COEFFICIENTS = (0.01175, -0.4797)
 
 
-#: Operating points a single record is cut into when ``segments`` is not given.
-DEFAULT_SEGMENTS = 8
+#: How records are cut into operating points when ``segments`` is not given: their dwells
+#: (:mod:`neckid.models.scheduled.segments`), or inclination bins when they hold too few.
+DEFAULT_SEGMENTS = "dwell"
 
 #: Default bound on the pole: ``|P(i)| <= 0.99`` wherever the line is evaluated.
 DEFAULT_POLE_BOUND = 0.99
@@ -80,24 +88,6 @@ def _schedule_limits(values: ArrayLike) -> FloatArray:
             f" allowed); got {limits.tolist()}"
         )
     return limits
-
-
-def _first_order_terms(resolved: ResolvedLags) -> tuple[int, int]:
-    """``(input channel, delay)`` of a first-order regressor ``[i(t−1), u_c(t−d)]``."""
-    out_terms = resolved.lag[resolved.source == 0]
-    in_terms = np.flatnonzero(resolved.source == 1)
-    if (
-        len(resolved.output_names) != 1
-        or out_terms.tolist() != [1]
-        or in_terms.size != 1
-        or int(resolved.lag[in_terms[0]]) < 1
-    ):
-        raise ValueError(
-            "GainScheduledModel is first order in one output: lags must be Lags.arx(1, 1, d) with"
-            " d >= 1, or Lags(outputs=[1], inputs={'<command>': [d]}) to pick the command among"
-            f" several inputs; got {resolved.to_lags()!r} on outputs {list(resolved.output_names)}"
-        )
-    return int(resolved.channel[in_terms[0]]), int(resolved.lag[in_terms[0]])
 
 
 class GainScheduledModel(Estimator):
@@ -121,18 +111,21 @@ class GainScheduledModel(Estimator):
     operating points, ``schedule_range_``: outside it the lines are held at their end values
     instead of extrapolated. The pole is clipped to ``[−pole_bound, pole_bound]``.
 
-    ``fit(data)`` finds the operating points itself: each experiment, or each segment of one, is
-    held near one inclination; CFF-RLS (:func:`identify_point`) gives its ``N`` and ``P``. Points
-    identified elsewhere (:func:`neckid.identify_operating_points` on a plant) give a model through
-    :meth:`from_points`.
+    ``fit(data)`` finds the operating points itself: by default where the inclination dwells
+    (:mod:`neckid.models.scheduled.segments`: a 2° band held for four memories of the
+    estimator), else in inclination bins; CFF-RLS (:func:`identify_point`) gives each point's
+    ``N`` and ``P``. Points identified elsewhere (:func:`neckid.identify_operating_points` on a
+    plant) give a model through :meth:`from_points`.
 
     Parameters
     ----------
-    lags : Lags
+    lags : Lags, optional
         ``Lags.arx(1, 1, d)``: the input delay ``d`` >= 1 of ``G(z, i) = N(i) z^{-(d-1)} / (z − P(i))``
         (the seed paper's ``d = 1``; a sensor with a few samples of latency is better described
         with ``d`` = latency + 1). With several inputs, ``Lags(outputs=[1], inputs={name: [d]})``
-        picks the command (velocity command, or motor position in the position form).
+        picks the command (velocity command, or motor position in the position form). Default
+        (``None``): ``d = 1`` on the one input of the data (data with several inputs are
+        refused, with the names to choose from). On the command line: ``--lags 1/D``.
     form : {"rate", "position"}, default "rate"
         ``"rate"``: the seed paper's velocity-to-rate model; ``"position"``: position to
         inclination. The form goes with the command chosen in ``lags``, so the default stays
@@ -143,19 +136,24 @@ class GainScheduledModel(Estimator):
         Degree of the polynomials ``N(i)`` and ``P(i)`` (1: straight lines).
     forgetting_factor : float, default 0.98
         CFF-RLS ``λ`` at each operating point (the seed paper's value).
-    segments : int or array_like of float, optional
-        How records are cut into operating points: an int ``n`` cuts every experiment into ``n``
-        equal parts; an array gives boundaries in seconds from each experiment's start (the
-        stairs of a staircase log). Default: one point per experiment when several are given,
-        :data:`DEFAULT_SEGMENTS` equal parts of a single one.
+    segments : {"dwell", "bins"}, int or array_like of float, default "dwell"
+        Where the operating points lie (:func:`~neckid.models.scheduled.segments.operating_segments`):
+        ``"dwell"``: one point per dwell of every record (where the smoothed inclination stays
+        within 2° for at least ``4 / (1 − λ)`` samples), or inclination bins when fewer than
+        ``degree + 1`` dwells are found; ``"bins"``: bins only; an int ``n``: ``n`` equal
+        parts of every record (``1``: one point per record); an array: boundaries in seconds
+        from each record's start (the stairs of a staircase log). ``None`` reads as
+        ``"dwell"``. ``segmentation_`` says which rule gave the points.
     skip : int, default 0
-        Samples left out at the start of every point (its transient).
+        Samples left out at the start of every dwell or segment (its transient); for a bin, of
+        every stretch that makes it up.
     window : int, optional
         Convergence window of the RLS estimate and samples averaged per point, default
         ``5 / (1 − λ)`` (250 samples at λ = 0.98), at most half of each segment after ``skip``.
     converged_only : bool, default True
-        Fit the lines through the converged points only (all points when fewer than
-        ``degree + 1`` converged would be left, the fit refuses).
+        Fit the lines through the converged points only. When fewer than ``degree + 1``
+        distinct inclinations converged, the lines go through every point and a warning says
+        how many converged (``operating_points_`` keeps the flags).
     pole_bound : float, default 0.99
         ``|P(s)|`` is held at most this, in (0, 1): the frozen model stays stable wherever it is.
 
@@ -169,6 +167,17 @@ class GainScheduledModel(Estimator):
         Coefficients of ``P(i)``, highest power first. ``P`` is dimensionless (a discrete pole).
     inclinations_, gains_, poles_ : ndarray, shape (n_points,)
         The operating points the lines were fitted to (inclination in degrees).
+    operating_points_ : pandas.DataFrame
+        Every point found, used or not: columns ``inclination`` [deg], ``gain``, ``pole``,
+        ``converged``, ``used``, ``start_s``, ``stop_s``, ``n_samples``, ``experiment``,
+        ``kind`` (:data:`~neckid.models.scheduled.point_table.POINT_COLUMNS`).
+    segmentation_ : str
+        The rule that gave the points: ``"dwell"``, ``"bins"``, ``"equal"``, ``"edges"``, or
+        ``"given"`` (:meth:`from_points`, :meth:`from_coefficients`).
+    n_samples_ : int
+        Samples of the training records (0 for a model from given points or coefficients).
+    command_unit_ : str
+        Unit of the command (``""`` when unknown).
     schedule_range_ : ndarray, shape (2,)
         ``[low, high]`` [deg] the scheduling variable is clipped to: the range of
         ``inclinations_`` (``[-inf, inf]`` for a model from :meth:`from_coefficients`).
@@ -228,7 +237,7 @@ class GainScheduledModel(Estimator):
         "lags": [None, Lags],
         "degree": [Interval("int", 0, None)],
         "forgetting_factor": [Interval("real", 0, 1, closed="right")],
-        "segments": [None, Interval("int", 1, None), "array-like"],
+        "segments": [None, Options(SEGMENTATIONS), Interval("int", 1, None), "array-like"],
         "skip": [Interval("int", 0, None)],
         "window": [None, Interval("int", 2, None)],
         "converged_only": ["boolean"],
@@ -242,7 +251,7 @@ class GainScheduledModel(Estimator):
         *,
         degree: int = 1,
         forgetting_factor: float = 0.98,
-        segments: int | ArrayLike | None = None,
+        segments: Literal["dwell", "bins"] | int | ArrayLike | None = DEFAULT_SEGMENTS,
         skip: int = 0,
         window: int | None = None,
         converged_only: bool = True,
@@ -260,36 +269,15 @@ class GainScheduledModel(Estimator):
         self.pole_bound = pole_bound
 
     # ------------------------------------------------------------------ fit
-    def _pieces(self, experiments: Sequence[IOData]) -> list[IOData]:
-        segments = self.segments
-        if segments is None:
-            segments = 1 if len(experiments) > 1 else DEFAULT_SEGMENTS
-        pieces: list[IOData] = []
-        for data in experiments:
-            if isinstance(segments, int | np.integer):
-                bounds = np.linspace(0, data.n_samples, int(segments) + 1).round().astype(int)
-                pieces.extend(data[a:b] for a, b in itertools.pairwise(bounds) if b > a)
-                continue
-            edges = check_time_vector(segments, "segments", increasing=True)
-            for start, stop in itertools.pairwise(edges):
-                if data.t0 + start >= data.time[-1]:
-                    break
-                piece = data.time_slice(data.t0 + start, data.t0 + stop)
-                # a segment cut short by the end of the record counts if half of it is there
-                if piece.n_samples * data.ts >= 0.5 * (stop - start):
-                    pieces.append(piece)
-        return pieces
-
     def fit(self, data: IOData | Sequence[IOData]) -> GainScheduledModel:
-        """Identify one operating point per experiment or segment and fit ``N(i)``, ``P(i)``.
+        """Find the operating points, identify each by CFF-RLS and fit ``N(i)``, ``P(i)``.
 
         Parameters
         ----------
         data : IOData or sequence of IOData
-            The command (the input with a lag in ``lags``: velocity command [rad/s] in the rate
-            form, motor position [rad] in the position form) and the inclination [deg] (the one
-            output). With ``segments`` as boundaries in seconds, a last segment cut short by the
-            end of a record is left out when less than half of it is there.
+            The command (the input with a lag in ``lags``, or the one input: velocity command
+            [rad/s] in the rate form, motor position [rad] in the position form) and the
+            inclination [deg] (the one output). Several records are several experiments.
 
         Returns
         -------
@@ -299,77 +287,93 @@ class GainScheduledModel(Estimator):
         Raises
         ------
         ValueError
-            If ``lags`` is not first order, a segment is shorter than ``skip + window + 3``
-            samples, or fewer than ``degree + 1`` distinct inclinations remain.
+            If ``lags`` is not first order (or not given, with several inputs), a segment is
+            shorter than ``skip + window + 3`` samples, or fewer than ``degree + 1`` distinct
+            inclinations are found.
+
+        Warns
+        -----
+        UserWarning
+            When fewer than ``degree + 1`` distinct inclinations converged and the lines go
+            through every point (``converged_only=True``).
         """
         self._validate_params()
         experiments = as_experiments(data)
-        if self.lags is None:
-            raise ValueError("GainScheduledModel needs lags=Lags.arx(1, 1, d); got None")
-        if self.lags.conditions:
+        lags = default_lags(experiments) if self.lags is None else self.lags
+        if lags.conditions:
             raise ValueError(
                 f"GainScheduledModel schedules its gain and pole on the inclination only; it takes"
-                f" no conditions (got Lags(..., conditions={list(self.lags.conditions)})):"
+                f" no conditions (got Lags(..., conditions={list(lags.conditions)})):"
                 " identify one model per condition, or use another method"
             )
-        resolved = self.lags.resolve(experiments)
+        resolved = lags.resolve(experiments)
         self._check_training(experiments)
-        channel, delay = _first_order_terms(resolved)
+        channel, delay = first_order_terms(resolved)
         first = experiments[0]
-        command, output = first.input_names[channel], first.output_names[0]
-        points = self._identify_points(
-            self._pieces(experiments), channel, delay, command, output, "operating point"
+        segments, rule = operating_segments(
+            experiments,
+            self.segments,
+            forgetting_factor=float(self.forgetting_factor),
+            degree=int(self.degree),
         )
-        keep = [p for p in points if p.converged or not self.converged_only]
+        points = self._identify_points(segments, channel, delay, first, "operating point")
+        used = self._used(points)
         self.points_ = tuple(points)
         self._fit_lines(
-            np.array([p.inclination for p in keep]),
-            np.array([p.gain for p in keep]),
-            np.array([p.pole for p in keep]),
+            np.array([p.inclination for p, keep in zip(points, used, strict=True) if keep]),
+            np.array([p.gain for p, keep in zip(points, used, strict=True) if keep]),
+            np.array([p.pole for p, keep in zip(points, used, strict=True) if keep]),
         )
+        self.operating_points_ = point_table(segments, points, used)
+        self.segmentation_ = rule
+        self.n_samples_ = int(sum(d.n_samples for d in experiments))
+        self.command_unit_ = str(first.input_units[channel])
         self.lags_ = resolved
         self._set_channels(first)
         self.delay_ = delay
         self.max_lag_ = 1
         return self
 
+    def _used(self, points: Sequence[OperatingPoint]) -> list[bool]:
+        """Which points the lines go through: the converged ones, or all (with a warning)."""
+        if not self.converged_only:
+            return [True] * len(points)
+        converged = [p.converged for p in points]
+        distinct = np.unique([p.inclination for p in points if p.converged]).size
+        needed = int(self.degree) + 1
+        if distinct >= needed or not points:
+            return converged
+        warnings.warn(
+            f"GainScheduledModel: {sum(converged)} of {len(points)} operating points converged"
+            f" ({distinct} distinct inclinations, fewer than the {needed} a polynomial of degree"
+            f" {self.degree} needs); the lines go through all {len(points)} points, converged or"
+            " not (operating_points_ flags them). Longer or better excited dwells help; set"
+            " converged_only=False (--set converged_only=false) to take every point silently",
+            UserWarning,
+            stacklevel=3,
+        )
+        return [True] * len(points)
+
     def _identify_points(
         self,
-        pieces: Sequence[IOData],
+        segments: Sequence[OperatingSegment],
         channel: int,
         delay: int,
-        command: str,
-        output: str,
+        template: IOData,
         label: str,
     ) -> list[OperatingPoint]:
-        """One CFF-RLS operating point per piece (:func:`identify_point`), ``skip`` left out.
-
-        ``window`` defaults to five memories of the estimator, at most half the piece.
-        """
-        skip = int(self.skip)
-        points = []
-        for k, piece in enumerate(pieces):
-            window = self.window
-            if window is None:
-                usable = piece.n_samples - skip
-                window = min(default_window(self.forgetting_factor), max(10, usable // 2))
-            points.append(
-                identify_point(
-                    piece.u[skip:, channel],
-                    piece.y[skip:, 0],
-                    piece.ts,
-                    form=self.form,
-                    delay=delay,
-                    forgetting_factor=self.forgetting_factor,
-                    window=window,
-                    input_name=command,
-                    output_name=output,
-                    input_unit=piece.input_units[channel],
-                    output_unit=piece.output_units[0],
-                    label=f"{label} {k} ({piece.name or 'segment'})",
-                )
-            )
-        return points
+        """One CFF-RLS operating point per segment, with the model's settings."""
+        return identify_segments(
+            segments,
+            channel,
+            delay,
+            template,
+            form=self.form,
+            forgetting_factor=float(self.forgetting_factor),
+            skip=int(self.skip),
+            window=self.window,
+            label=label,
+        )
 
     def _fit_lines(self, i_values: FloatArray, n_values: FloatArray, p_values: FloatArray) -> None:
         degree = int(self.degree)
@@ -377,9 +381,9 @@ class GainScheduledModel(Estimator):
         if distinct < degree + 1:
             raise ValueError(
                 f"a polynomial of degree {degree} needs at least {degree + 1} distinct inclinations;"
-                f" got {distinct} (of {i_values.size} points"
-                f"{', converged only' if self.converged_only else ''}); give more operating"
-                " points, converged_only=False or a lower degree"
+                f" got {distinct} (of {i_values.size} points): give records that hold the neck at"
+                " more inclinations (or longer), other segments (--set segments=N: N equal parts"
+                " of every record), or a lower degree"
             )
         self.gain_coefficients_ = np.polyfit(i_values, n_values, degree)
         self.pole_coefficients_ = np.polyfit(i_values, p_values, degree)
@@ -412,6 +416,10 @@ class GainScheduledModel(Estimator):
         self._set_channels(template)
         self.delay_ = delay
         self.max_lag_ = 1
+        self.operating_points_ = given_table(self.inclinations_, self.gains_, self.poles_)
+        self.segmentation_ = "given"
+        self.n_samples_ = 0
+        self.command_unit_ = ""
 
     @classmethod
     def from_points(
@@ -670,7 +678,7 @@ class GainScheduledModel(Estimator):
                 f"a scheduled model needs coefficients, max_lag 1 and delay >= 1; got {size}"
                 f" coefficients, max_lag {self.max_lag_!r}, delay {self.delay_!r}"
             )
-        _first_order_terms(self.lags_)
+        first_order_terms(self.lags_)
 
     # ------------------------------------------------------------------ files
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
@@ -683,8 +691,12 @@ class GainScheduledModel(Estimator):
             "poles": self.poles_,
             "schedule_range": self.schedule_range_,
         }
+        table, kinds = table_arrays(self.operating_points_)
+        arrays.update(table)
         segments = self.segments
-        if segments is not None and not isinstance(segments, int | np.integer):
+        if isinstance(segments, int | np.integer):
+            segments = int(segments)
+        elif segments is not None and not isinstance(segments, str):
             segments = np.asarray(segments, dtype=np.float64).tolist()
         meta = {
             "params": {
@@ -702,6 +714,10 @@ class GainScheduledModel(Estimator):
             "delay": self.delay_,
             "gain_rmse": self.gain_rmse_,
             "pole_rmse": self.pole_rmse_,
+            "point_kinds": kinds,
+            "segmentation": self.segmentation_,
+            "n_samples": int(self.n_samples_),
+            "command_unit": self.command_unit_,
             **self._channels_meta(),
         }
         return arrays, meta
@@ -747,6 +763,13 @@ class GainScheduledModel(Estimator):
             )
         model.gain_rmse_ = float(meta["gain_rmse"])
         model.pole_rmse_ = float(meta["pole_rmse"])
+        # files written before the table, the counts and the unit: the points of the lines
+        model.operating_points_ = table_from_arrays(
+            arrays, meta.get("point_kinds"), (model.inclinations_, model.gains_, model.poles_)
+        )
+        model.segmentation_ = str(meta.get("segmentation", "unknown"))
+        model.n_samples_ = check_number(meta.get("n_samples", 0), "n_samples", low=0, integer=True)
+        model.command_unit_ = str(meta.get("command_unit", ""))
         return model
 
     def partial_fit(self, data: IOData | Sequence[IOData]) -> GainScheduledModel:
@@ -781,23 +804,40 @@ class GainScheduledModel(Estimator):
         from neckid.models.online import extend_training_ranges, update_experiments
 
         experiments = update_experiments(self, data)
-        channel = self._channel
+        segments = [OperatingSegment((e,), -1, "experiment") for e in experiments]
         points = self._identify_points(
-            experiments,
-            channel,
-            self.delay_,
-            self.input_names_[channel],
-            self.output_names_[0],
-            "new operating point",
+            segments, self._channel, self.delay_, experiments[0], "new operating point"
         )
-        keep = [p for p in points if p.converged or not self.converged_only]
+        used = [p.converged or not self.converged_only for p in points]
+        keep = [p for p, k in zip(points, used, strict=True) if k]
         if keep:
             self._fit_lines(
                 np.concatenate([self.inclinations_, [p.inclination for p in keep]]),
                 np.concatenate([self.gains_, [p.gain for p in keep]]),
                 np.concatenate([self.poles_, [p.pole for p in keep]]),
             )
+        import pandas as pd
+
+        added = point_table(segments, points, used)
+        self.operating_points_ = pd.concat([self.operating_points_, added], ignore_index=True)
+        self.n_samples_ += int(sum(d.n_samples for d in experiments))
         self.points_ = (*getattr(self, "points_", ()), *points)
         self.last_points_ = tuple(points)
         extend_training_ranges(self, experiments)
         return self
+
+    def describe_schedule(self) -> dict[str, Any]:
+        """The schedule in numbers and words, as ``neckid info`` shows it (JSON-ready).
+
+        See :func:`~neckid.models.scheduled.summary.describe_schedule`: the lines ``N(i)``,
+        ``P(i)`` with their units, the schedule range, the form and the operating points.
+
+        Examples
+        --------
+        >>> paper = GainScheduledModel.from_coefficients()
+        >>> schedule = paper.describe_schedule()
+        >>> schedule["gain"]["text"], schedule["gain"]["unit"]
+        ('N(i) = -0.059 i + 1.857', '(deg/s)/(command unit)')
+        """
+        check_is_fitted(self)
+        return describe_schedule(self)
