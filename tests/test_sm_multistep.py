@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -271,8 +273,14 @@ def test_free_run_chains_the_predictors_from_its_own_outputs(
         np.testing.assert_allclose(result.y[k], direct.y[k], rtol=0, atol=1e-12)
     # With blocks of one sample it is the one-step Set Membership free run.
     one = MultiStepSetMembership(LAGS, horizon=1).fit(train)
+    chosen = one.settings_[0]
     reference = SetMembership(
-        LAGS, epsilon=one.epsilon_[0].tolist(), gamma=one.gamma_[0].tolist(), linear_part=True
+        LAGS,
+        epsilon=one.epsilon_[0].tolist(),
+        gamma=one.gamma_[0].tolist(),
+        linear_part=True,
+        input_weight=chosen.input_weight,
+        lipschitz=chosen.lipschitz,
     ).fit(train)
     np.testing.assert_allclose(
         one.simulate(test_log).y, reference.simulate(test_log).y, rtol=0, atol=1e-10
@@ -343,7 +351,7 @@ def test_invalidation_per_horizon_and_the_smallest_epsilon_that_holds_everything
         assert refit.invalidation(test_log).excess.max() < 1e-12  # on the edge, to rounding
         below = SetMembership(lags_k, epsilon=needed - 1e-6, gamma=gamma, linear_part=True)
         assert below.fit(train).invalidation(test_log).falsified
-    assert isinstance(model.invalidation([test_log, test_log])[2], list)
+    assert isinstance(model.invalidation([test_log, test_log[100:]])[2], list)
     short = test_log[:2]  # long enough for horizon 1 (regressor of 1 sample), not for 2 and 3
     both = model.invalidation([short, test_log])
     assert sorted(both) == [1] and len(both[1]) == 2  # positions match the list given
@@ -384,3 +392,215 @@ def test_bad_calls_are_refused(model: MultiStepSetMembership, test_log: IOData) 
         unfitted.predict_ahead(test_log, steps=1)
     with pytest.raises(NotFittedError):
         unfitted.predict_receding(test_log)
+
+
+# ---------------------------------------------------------------------------- settings chosen
+def _noisy_linear(n: int, seed: int) -> IOData:
+    """``y(t) = POLE·y(t−1) + 0.9·u(t−1) + e(t)``, Gaussian ``e`` (σ = 0.1): no bound holds.
+
+    The linear part is exact, so ε_k = factor × the noise's scale: small factors leave
+    samples out of the band, and the rule has something to reject.
+    """
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(0.0, 5.0, n // 10 + 1), 10)[:n]
+    e = rng.normal(0.0, 0.1, n)
+    y = np.zeros(n)
+    for t in range(1, n):
+        y[t] = POLE * y[t - 1] + 0.9 * u[t - 1] + e[t]
+    return IOData(
+        u, y, ts=0.025, input_names=["motor"], output_names=["inclination"], name=f"run{seed}"
+    )
+
+
+@pytest.fixture(scope="module")
+def runs() -> list[IOData]:
+    return [_noisy_linear(400, seed) for seed in (11, 12, 13)]
+
+
+@pytest.fixture(scope="module")
+def chosen(runs: list[IOData]) -> MultiStepSetMembership:
+    return MultiStepSetMembership(LAGS, horizon=2).fit(runs)
+
+
+def test_the_rule_picks_the_narrowest_setting_that_holds_the_target_on_held_out_runs(
+    chosen: MultiStepSetMembership,
+) -> None:
+    selection = chosen.selection_
+    assert selection is not None and selection.folds == "experiments"
+    assert selection.fold_names == ("run11", "run12", "run13")
+    table = selection.table()
+    assert len(table) == 2 * 28  # two horizons, the whole grid
+    for i, k in enumerate(chosen.horizons_):
+        rows = table[table.horizon == k]
+        eligible = rows[rows.coverage >= 0.95]
+        assert len(eligible) > 0
+        best = eligible.loc[eligible.width.idxmin()]
+        assert best.status == "chosen"
+        assert chosen.settings_[i].to_json() == {
+            "epsilon_factor": best.epsilon_factor,
+            "input_weight": best.input_weight,
+            "lipschitz": best.lipschitz,
+        }
+        # Gaussian noise: the smallest ε leave too many samples out; the rule rejects settings
+        # narrower than the one it keeps.
+        assert (rows.status == "below target").sum() > 0
+        # ... and the band is narrower than that of the settings before the selection.
+        before = rows[(rows.epsilon_factor == 3) & (rows.input_weight == 1)]
+        assert best.width < before[before.lipschitz == "global"].width.item()
+        fitted = chosen.estimators_[i]
+        assert (fitted.input_weight, fitted.lipschitz) == (best.input_weight, best.lipschitz)
+
+
+def test_the_chosen_band_holds_a_new_run(chosen: MultiStepSetMembership) -> None:
+    new = _noisy_linear(600, 14)
+    for k in chosen.horizons_.tolist():
+        ahead = chosen.predict_ahead(new, steps=k)
+        assert coverage(new.y, ahead.lower, ahead.upper, skip=ahead.n_initial)[0] >= 0.93
+
+
+def test_choose_takes_the_narrowest_above_target_else_the_best_covered() -> None:
+    from neckid.models.set_membership.multistep_selection import _choose
+
+    cover = np.array([[0.99], [0.96], [0.90], [np.nan], [0.97]])
+    width = np.array([[5.0], [3.0], [1.0], [0.5], [3.0]])
+    scale = np.ones(1)
+    assert _choose(cover, width, scale, 0.95) == (1, True)  # tie with row 4: the first
+    assert _choose(cover, width, scale, 0.5) == (2, True)
+    assert _choose(cover, width, scale, 0.999) == (0, False)  # none: the best covered
+    assert _choose(np.full((2, 1), np.nan), width[:2], scale, 0.95) == (None, False)
+
+
+def test_folds_are_runs_with_several_experiments_and_time_blocks_with_one(
+    runs: list[IOData],
+) -> None:
+    one = MultiStepSetMembership(LAGS, horizon=1, input_weight=1.0).fit(runs[0])
+    assert one.selection_.folds == "time blocks"
+    assert one.selection_.fold_names == tuple(f"run11 [block {i}/3]" for i in (1, 2, 3))
+    assert len(one.selection_.rows) == 14 and len(one.selection_.rows[0].fold_coverage) == 3
+    two = MultiStepSetMembership(LAGS, horizon=1, input_weight=1.0).fit(runs[:2])
+    assert two.selection_.folds == "experiments"
+    assert two.selection_.fold_names == ("run11", "run12")
+
+
+def test_fixed_settings_or_a_given_epsilon_choose_nothing(runs: list[IOData]) -> None:
+    fixed = MultiStepSetMembership(
+        LAGS, horizon=2, epsilon_factor=3, input_weight=1, lipschitz="global"
+    ).fit(runs)
+    assert fixed.selection_ is None
+    assert [s.to_json() for s in fixed.settings_] == [
+        {"epsilon_factor": 3.0, "input_weight": 1.0, "lipschitz": "global"}
+    ] * 2
+    given = MultiStepSetMembership(LAGS, horizon=1, epsilon=0.5).fit(runs)
+    assert given.selection_ is None
+    assert given.settings_[0].to_json() == {
+        "epsilon_factor": None,
+        "input_weight": 1.0,
+        "lipschitz": "global",
+    }
+
+
+@pytest.mark.parametrize(
+    ("params", "match"),
+    [
+        ({"epsilon_factor": []}, "^epsilon_factor must be a number > 0 or a non-empty list"),
+        ({"input_weight": [1.0, -0.3]}, "^input_weight must be a number > 0 or a non-empty list"),
+        ({"input_weight": [1.0, 0.3], "epsilon": 0.5}, "^input_weight lists candidates"),
+        ({"target_coverage": 1.5}, "^target_coverage must be"),
+    ],
+)
+def test_bad_candidates_are_refused(runs: list[IOData], params, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        MultiStepSetMembership(LAGS, horizon=1, **params).fit(runs)
+
+
+def test_the_selection_is_saved_and_old_files_still_load(
+    chosen: MultiStepSetMembership, runs: list[IOData], tmp_path
+) -> None:
+    loaded = load_model(chosen.save(tmp_path / "chosen"))
+    saved = json.dumps(chosen.selection_.to_json())  # NaN (failed settings) as NaN
+    assert json.dumps(loaded.selection_.to_json()) == saved
+    assert loaded.settings_ == chosen.settings_
+    assert loaded.epsilon_factor is None and loaded.target_coverage == 0.95
+    np.testing.assert_array_equal(
+        loaded.predict_ahead(runs[0], 2).upper, chosen.predict_ahead(runs[0], 2).upper
+    )
+    # A file of the release before the selection: scalar settings, no "settings"/"selection".
+    old = MultiStepSetMembership(
+        LAGS, horizon=1, epsilon_factor=3.0, input_weight=0.3, lipschitz="local"
+    ).fit(runs)
+    _, arrays, meta = read_model_file(old.save(tmp_path / "old"))
+    del meta["settings"], meta["selection"], meta["params"]["target_coverage"]
+    write_model_file(tmp_path / "before", "MultiStepSetMembership", arrays, meta)
+    before = load_model(tmp_path / "before.npz")
+    assert before.selection_ is None
+    assert before.settings_[0].to_json() == {
+        "epsilon_factor": 3.0,
+        "input_weight": 0.3,
+        "lipschitz": "local",
+    }
+
+
+# ---------------------------------------------------------------------------- shared = independent
+def test_point_constants_and_bounds_of_many_priors_are_the_single_prior_kernels() -> None:
+    from neckid.models.set_membership._kernels import (
+        SMTree,
+        learn_constants,
+        local_bounds,
+        point_gamma,
+    )
+    from neckid.models.set_membership._kernels.priors import point_gamma_grid, prior_bounds
+
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(700, 5))
+    x[50:60] = x[50]  # identical regressors
+    y = np.column_stack([np.sin(x[:, 0]), np.cos(x[:, 1])]) + 0.1 * rng.normal(size=(700, 2))
+    tree = SMTree(x, y)
+    epsilon = np.array([[0.3, 0.2], [0.35, 0.25], [0.5, 0.5], [2.0, 2.0]])
+    slopes = point_gamma_grid(tree, epsilon)
+    gamma = 1.1 * slopes.max(axis=1)
+    constants = []
+    for e in range(len(epsilon)):
+        np.testing.assert_array_equal(slopes[e], point_gamma(tree, epsilon[e]))
+        constants.append(learn_constants(tree, epsilon[e], gamma[e], 1.1))
+    queries = 1.3 * rng.normal(size=(300, 5))
+    local = np.array([-1, 0, -1, 1, 2, -1, 3])
+    which = np.array([0, 0, 1, 1, 2, 3, 3])
+    lower, upper = prior_bounds(
+        tree, queries, epsilon[which], gamma[which], np.stack(constants), local, 7
+    )
+    for s, (m, e) in enumerate(zip(local, which, strict=True)):
+        if m < 0:
+            low, high = tree.bounds(queries, epsilon[e], gamma[e])
+        else:
+            low, high, _ = local_bounds(tree, constants[m], queries, epsilon[e], gamma[e], 7)
+        np.testing.assert_array_equal(lower[:, s], low)
+        np.testing.assert_array_equal(upper[:, s], high)
+
+
+def test_the_shared_fold_gives_the_bands_of_independent_fits(runs: list[IOData]) -> None:
+    """Every setting's band in a fold is, bit for bit, predict_ahead of a fit with it alone."""
+    from neckid.models.set_membership.core import SMSettings
+    from neckid.models.set_membership.horizon_fit import linear_part, stack_rows
+    from neckid.models.set_membership.multistep_selection import SettingGrid, _fold_bands
+
+    steps = 2
+    grid = SettingGrid((1.0, 2.5), (1.0, 0.3), ("global", "local"))
+    lags = horizon_lags(LAGS.resolve(runs), steps).resolve(runs)
+    rows = [lags.build_one(d) for d in runs]
+    train = rows[1:]
+    lower, upper, _, failed = _fold_bands(
+        train, rows[0], lags, linear_part(*stack_rows(train)), grid, SMSettings(linear_part=True)
+    )
+    assert failed == {}
+    for s, setting in enumerate(grid.settings()):
+        alone = MultiStepSetMembership(
+            LAGS,
+            horizon=1,
+            horizons=[steps],
+            epsilon_factor=setting.epsilon_factor,
+            input_weight=setting.input_weight,
+            lipschitz=setting.lipschitz,
+        ).fit(runs[1:])
+        ahead = alone.predict_ahead(runs[0], steps=steps)
+        np.testing.assert_array_equal(ahead.lower[ahead.n_initial :], lower[:, s])
+        np.testing.assert_array_equal(ahead.upper[ahead.n_initial :], upper[:, s])

@@ -5,12 +5,14 @@ Where things live:
 - :mod:`.narx`: :class:`SetMembership`, the NARX estimator (prior ε, γ; optimal bounds and
   central estimate), its step-by-step simulator and :func:`gamma_curve`;
 - :mod:`.multistep`: :class:`MultiStepSetMembership`, one SM model per horizon;
+  :mod:`.horizon_fit`: one horizon's rows, ε and γ rules and fit; :mod:`.multistep_selection`:
+  the settings of each horizon chosen by cross-validation over runs;
 - :mod:`.parallel`: :class:`ParallelSetMembership`, SM bounds around a parallel (free-run) model;
 - :mod:`.prior`: the γ*(ε) curve and the choice of ε; :mod:`.training`: the training tree, the
   prior's checks; :mod:`.update`: how an online update revises the prior; :mod:`.metric`: the
   learnt distance;
-- :mod:`._kernels`: the compiled kd-tree, bounds, free run, γ*(ε) and local constants (private
-  to this family).
+- :mod:`._kernels`: the compiled kd-tree, bounds, free run, γ*(ε), local constants and several
+  priors over one tree (private to this family).
 
 References
 ----------

@@ -7,7 +7,10 @@ measured outputs up to ``t`` and the inputs up to ``t + k``): its Set Membership
 guaranteed bounds of the k-step-ahead output, whenever the prior holds (Lauricella & Fagiano;
 Terzi, Fagiano, Farina & Scattolini). :class:`MultiStepSetMembership` fits one such model per
 horizon, each a :class:`~neckid.SetMembership` (exact kd-tree bounds) on the k-step regressor
-of :func:`horizon_lags`.
+of :func:`horizon_lags`. By default each horizon's ε factor, input weight and Lipschitz form are
+chosen by cross-validation over the training runs
+(:mod:`~neckid.models.set_membership.multistep_selection`); what one horizon's fit does is in
+:mod:`~neckid.models.set_membership.horizon_fit`.
 
 References
 ----------
@@ -25,7 +28,6 @@ Automatica 40(6):957-975, 2004.
 from __future__ import annotations
 
 import logging
-import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, Literal
 
@@ -41,20 +43,31 @@ from neckid.models.base import (
     check_is_fitted,
     stepped_run,
 )
-from neckid.models.linear.arx import least_squares
 from neckid.models.online import extend_training_ranges, update_experiments
-from neckid.models.set_membership.core import SMSettings, fit_core
+from neckid.models.set_membership.core import SMSettings
+from neckid.models.set_membership.horizon_fit import (
+    MAD_TO_STD,
+    HorizonSetting,
+    fit_horizon,
+    horizon_lags,
+    horizon_rows,
+    robust_scale,
+)
+from neckid.models.set_membership.multistep_selection import (
+    MultiStepSelection,
+    candidate_grid,
+    json_candidates,
+    select_settings,
+)
 from neckid.models.set_membership.narx import (
     DEFAULT_GAMMA_MARGIN,
     Invalidation,
     SetMembership,
 )
-from neckid.models.set_membership.prior import ProgressOption, _gamma_star, gamma_from_margin
-from neckid.models.set_membership.scaling import term_weights
+from neckid.models.set_membership.prior import ProgressOption
 from neckid.models.set_membership.state_maps import MultiStepStateMap
-from neckid.models.set_membership.training import duplicate_spread
 from neckid.models.set_membership.update import PriorRule
-from neckid.regressors import Lags, ResolvedLags
+from neckid.regressors import Lags
 from neckid.validation import Interval, Options
 
 __all__ = [
@@ -68,90 +81,8 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: Fractions of ε_k at which γ* is tried, smallest first, where γ*(ε_k) = 0 (see ``_gamma``).
-_FALLBACK_FRACTIONS = (0.5, 0.75, 0.9, 0.99)
-
-
-#: 1.4826 · MAD estimates the standard deviation of Gaussian data (1 / Φ⁻¹(3/4)).
-MAD_TO_STD = 1.482602218505602
 #: Largest horizon accepted, in samples.
 MAX_HORIZON = 1000
-
-
-def _numbers(values: FloatArray) -> str:
-    return ", ".join(f"{v:.4g}" for v in np.ravel(values))
-
-
-def robust_scale(residual: ArrayLike) -> FloatArray:
-    r"""Robust scale of each column: ``1.4826 · median(|r − median(r)|)`` (the normalised MAD).
-
-    Parameters
-    ----------
-    residual : array_like, shape (n_samples, n_outputs)
-
-    Returns
-    -------
-    ndarray, shape (n_outputs,)
-        Equal to the standard deviation for Gaussian data; a few large errors barely move it.
-
-    Examples
-    --------
-    >>> robust_scale([[1.0], [2.0], [3.0], [4.0], [100.0]])
-    array([1.482602...])
-    """
-    r = np.asarray(residual, dtype=np.float64)
-    centre = np.median(r, axis=0)
-    return np.asarray(MAD_TO_STD * np.median(np.abs(r - centre), axis=0), dtype=np.float64)
-
-
-def horizon_lags(lags: ResolvedLags, steps: int) -> Lags:
-    r"""The regressor of the direct ``steps``-ahead predictor built from a one-step regressor.
-
-    With the one-step regressor holding ``y(s − l)`` for the output lags ``l`` and ``u(s − l)``
-    for the input lags ``l``, the ``k``-step predictor of ``y(s)`` made at time ``t = s − k``
-    holds
-
-    - the outputs the one-step regressor of ``y(t + 1)`` holds: lags ``l + k − 1`` (so lag ``k``
-      is ``y(t)``, the last measured output), and
-    - every input that the ``k`` one-step regressors of ``y(t + 1) … y(t + k)`` hold: lags
-      ``l + j`` for ``j = 0 … k − 1`` (the past inputs and the future ones up to ``t + k − min l``).
-
-    Its largest lag is ``max_lag + k − 1``. For ``k = 1`` it is the one-step regressor.
-
-    Parameters
-    ----------
-    lags : ResolvedLags
-        The one-step regressor, bound to channels.
-    steps : int
-        The horizon ``k >= 1``, in samples.
-
-    Returns
-    -------
-    Lags
-        Per channel, by name.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from neckid import IOData, Lags
-    >>> data = IOData(np.zeros(20), np.arange(20.0), ts=0.02)
-    >>> horizon_lags(Lags.arx(2, 2).resolve(data), 3)
-    Lags(outputs={'y': [3, 4]}, inputs={'u': [1, 2, 3, 4]})
-    """
-    outputs: dict[str, list[int]] = {n: [] for n in lags.output_names}
-    inputs: dict[str, set[int]] = {n: set() for n in lags.input_names}
-    for source, channel, lag in zip(lags.source, lags.channel, lags.lag, strict=True):
-        if source == 0:
-            outputs[lags.output_names[channel]].append(int(lag) + steps - 1)
-        elif lags.input_names[channel] in lags.conditions:  # constant: lag 0 says it all
-            inputs[lags.input_names[channel]].add(0)
-        else:
-            inputs[lags.input_names[channel]].update(range(int(lag), int(lag) + steps))
-    return Lags(
-        outputs=outputs,
-        inputs={n: sorted(v) for n, v in inputs.items()},
-        conditions=lags.conditions,
-    )
 
 
 class MultiStepSetMembership(NarxModel):
@@ -165,7 +96,9 @@ class MultiStepSetMembership(NarxModel):
     on the regressor of :func:`horizon_lags` (measured outputs up to ``t``, inputs up to
     ``t + k``), as in the multi-step Set Membership predictors of Terzi, Fagiano, Farina &
     Scattolini. :meth:`predict_ahead` gives the central estimate of ``y(t + k)`` and a band that
-    contains the measurement ``y(t + k)`` whenever the prior (ε_k, γ_k) holds.
+    contains the measurement ``y(t + k)`` whenever the prior (ε_k, γ_k) holds. The ε factor,
+    the input weight and the form of the Lipschitz prior of each horizon are, by default, chosen
+    by cross-validation over the training runs (see Notes, *Settings*).
 
     Parameters
     ----------
@@ -177,10 +110,12 @@ class MultiStepSetMembership(NarxModel):
         of :meth:`simulate` and :meth:`predict_receding` (re-anchoring period).
     horizons : sequence of int, optional
         Further horizons (>= 1) to fit, for :meth:`predict_ahead` only (e.g. ``[40]``).
-    epsilon_factor : float, default 3.0
+    epsilon_factor : float or sequence of float, optional
         ε_k = ``epsilon_factor`` × the robust scale (1.4826 · MAD) of the k-step residual of the
-        linear least-squares predictor on the training data (see Notes). Unused when ``epsilon``
-        is given.
+        linear least-squares predictor on the training data (see Notes). A number fixes it; a
+        sequence lists the candidates of the cross-validation; None (default) tries
+        :data:`~neckid.models.set_membership.multistep_selection.EPSILON_FACTORS`
+        (1, 1.5, 2, 2.5, 3, 4, 5). Unused when ``epsilon`` is given.
     epsilon : float or array_like, optional
         A known bound of the k-step error instead of the rule: one number (every horizon and
         output), shape ``(n_horizons,)`` or ``(n_horizons, n_outputs)``, in the order of
@@ -190,21 +125,27 @@ class MultiStepSetMembership(NarxModel):
     scaling : {"std", "none"}, default "std"
         Weights of the k-step regressor components in the distance (1 / std over the training
         regressors, or ones).
-    input_weight : float, default 1.0
+    input_weight : float or sequence of float, optional
         Factor (> 0) on the weight of every input term (as in :class:`~neckid.SetMembership`);
         the k-step regressor holds about ``k`` input terms per input channel, so values below 1
-        keep the distance from being dominated by them.
+        keep the distance from being dominated by them. A number fixes it; a sequence lists the
+        candidates; None (default) tries 1 and 0.3 (1 when ``epsilon`` is given).
     linear_part : bool, default True
         Each ``f_k`` is a least-squares linear predictor on the k-step regressor plus a Set
         Membership model of its residual.
     progress : bool or callable, optional
-        Progress of the γ*(ε) passes (see :class:`~neckid.SetMembership`).
-    lipschitz : {"global", "local"}, default "global"
+        Progress of the cross-validation (``callback(done, total)`` over horizons × folds) and
+        of the final fit's γ*(ε) passes (see :class:`~neckid.SetMembership`); a bar when True,
+        or when None above 20,000 training rows.
+    lipschitz : {"global", "local"}, optional
         One Lipschitz constant per horizon, or one per training point and horizon (see Notes,
-        *Local constants*).
+        *Local constants*). None (default) tries both (``"global"`` when ``epsilon`` is given).
     local_neighbours : int, default 10
         With ``lipschitz="local"``, the number of nearest training points whose largest
         constant is the constant at a query.
+    target_coverage : float, default 0.95
+        The mean held-out coverage of the guaranteed band a setting must reach in the
+        cross-validation to be chosen, in (0, 1].
 
     Attributes
     ----------
@@ -216,6 +157,14 @@ class MultiStepSetMembership(NarxModel):
         ε_k, γ_k and γ*(ε_k) per horizon and output.
     residual_scale_ : ndarray, shape (n_horizons, n_outputs)
         Robust scale (1.4826 · MAD) of the k-step least-squares residual on the training data.
+    settings_ : tuple of HorizonSetting
+        Per horizon, the ε factor (None when ``epsilon`` was given), input weight and Lipschitz
+        form the predictor was fitted with: the chosen ones, or the given ones.
+    selection_ : MultiStepSelection or None
+        The cross-validation (:mod:`~neckid.models.set_membership.multistep_selection`): the
+        folds, the chosen settings and every setting's held-out coverage and width per fold
+        (``selection_.table()``); None when nothing was chosen (every setting given, or
+        ``epsilon`` given).
     lags_ : ResolvedLags
         The one-step regressor; ``max_lag_`` is its largest lag.
     n_inputs_, n_outputs_, n_samples_ : int
@@ -225,7 +174,8 @@ class MultiStepSetMembership(NarxModel):
     ------
     ValueError
         In ``fit``: a horizon < 1 or above :data:`MAX_HORIZON`, an ``epsilon`` of the wrong shape
-        or negative, a training experiment shorter than the longest k-step regressor, and
+        or negative, a list of candidates with ``epsilon`` given, a training experiment shorter
+        than the longest k-step regressor, and
         everything :meth:`SetMembership.fit <neckid.SetMembership.fit>` refuses.
 
     Notes
@@ -270,6 +220,20 @@ class MultiStepSetMembership(NarxModel):
     smaller ε_k no longer blows the band up everywhere; ``gamma_`` stays the global constant (the
     largest one; every point's constant where γ*(ε_k) = 0).
 
+    *Settings.* ``epsilon_factor``, ``input_weight`` and ``lipschitz`` left at None (or given
+    as lists) are chosen per horizon by
+    :func:`~neckid.models.set_membership.multistep_selection.select_settings`: folds over the
+    training experiments (leave one out; with one experiment, three contiguous time blocks),
+    every setting of the grid fitted on each fold's training part by the rules above and scored
+    on the held-out part; the narrowest mean guaranteed band among the settings whose mean
+    held-out coverage reaches ``target_coverage``, else the highest coverage (with a warning).
+    The model is then fitted on all the training data with each horizon's chosen setting
+    (``settings_``; the fold table is ``selection_``). The grid's regressor, kd-tree, γ*(ε) pass
+    and distances are shared by its settings, so choosing costs a few fits, not one per setting.
+    With ``epsilon`` given (a known bound) nothing is chosen: None means 1 and ``"global"``. To
+    fit fixed settings give all three, e.g. ``epsilon_factor=3, input_weight=1,
+    lipschitz="global"`` (the defaults before the selection).
+
     *Free run.* :meth:`simulate` cannot re-anchor on measurements (a free run does not look at
     measured outputs after the initial ones): it chains the predictors in blocks of ``horizon``
     samples, each block anchored on the model's own last outputs. The bands of the first block
@@ -302,6 +266,8 @@ class MultiStepSetMembership(NarxModel):
     >>> model = MultiStepSetMembership(Lags.arx(1, 1), horizon=3).fit(data[:400])
     >>> model.horizons_
     array([1, 2, 3])
+    >>> model.selection_.folds, len(model.settings_)  # one record: three time blocks
+    ('time blocks', 3)
     >>> ahead = model.predict_ahead(data[400:], steps=3)
     >>> ahead.n_initial, ahead.extras["band"]
     (3, 'guaranteed')
@@ -313,15 +279,16 @@ class MultiStepSetMembership(NarxModel):
         "lags": [None, Lags],
         "horizon": [Interval("int", 1, MAX_HORIZON)],
         "horizons": [None, "lag-list"],
-        "epsilon_factor": [Interval("real", 0, None, closed="neither")],
+        "epsilon_factor": [None, Interval("real", 0, None, closed="neither"), "array-like"],
         "epsilon": [None, Interval("real", 0, None), "array-like"],
         "gamma_margin": [Interval("real", 1, None)],
         "scaling": [Options(("std", "none"))],
-        "input_weight": [Interval("real", 0, None, closed="neither")],
+        "input_weight": [None, Interval("real", 0, None, closed="neither"), "array-like"],
         "linear_part": ["boolean"],
         "progress": [None, "boolean", "callable"],
-        "lipschitz": [Options(("global", "local"))],
+        "lipschitz": [None, Options(("global", "local"))],
         "local_neighbours": [Interval("int", 1, None)],
+        "target_coverage": [Interval("real", 0, 1, closed="right")],
     }
 
     def __init__(
@@ -330,15 +297,16 @@ class MultiStepSetMembership(NarxModel):
         *,
         horizon: int = 10,
         horizons: Sequence[int] | None = None,
-        epsilon_factor: float = 3.0,
+        epsilon_factor: float | Sequence[float] | None = None,
         epsilon: float | ArrayLike | None = None,
         gamma_margin: float = DEFAULT_GAMMA_MARGIN,
         scaling: Literal["std", "none"] = "std",
-        input_weight: float = 1.0,
+        input_weight: float | Sequence[float] | None = None,
         linear_part: bool = True,
         progress: ProgressOption = None,
-        lipschitz: Literal["global", "local"] = "global",
+        lipschitz: Literal["global", "local"] | None = None,
         local_neighbours: int = 10,
+        target_coverage: float = 0.95,
     ) -> None:
         self.lags = lags
         self.horizon = horizon
@@ -352,6 +320,7 @@ class MultiStepSetMembership(NarxModel):
         self.progress = progress
         self.lipschitz = lipschitz
         self.local_neighbours = local_neighbours
+        self.target_coverage = target_coverage
 
     # ------------------------------------------------------------------ fit
     def _horizon_set(self) -> NDArray[np.int64]:
@@ -384,15 +353,16 @@ class MultiStepSetMembership(NarxModel):
     def fit(self, data: IOData | Sequence[IOData]) -> MultiStepSetMembership:
         """Fit one Set Membership predictor per horizon on one experiment or a list of them.
 
-        Regressors never straddle two experiments; every experiment must be longer than the
-        longest k-step regressor (``max_lag + max(horizons_) − 1`` samples).
+        Settings left to choose (None or lists) are chosen first, per horizon, by
+        cross-validation over the experiments (see Notes, *Settings*). Regressors never
+        straddle two experiments; every experiment must be longer than the longest k-step
+        regressor (``max_lag + max(horizons_) − 1`` samples).
         """
         data = self._with_conditions(data, fitting=True)
         self._prepare_fit(data)
         experiments = as_experiments(data)
         horizons = self._horizon_set()
-        n_out = self.n_outputs_
-        given = self._given_epsilon(horizons.size, n_out)
+        given = self._given_epsilon(horizons.size, self.n_outputs_)
         shortest = min(d.n_samples for d in experiments)
         longest_lag = self.lags_.max_lag + int(horizons[-1]) - 1
         if shortest <= longest_lag + 1:
@@ -401,107 +371,65 @@ class MultiStepSetMembership(NarxModel):
                 f" {int(horizons[-1])}: its regressor reaches {longest_lag} samples back; use"
                 " longer experiments or a shorter horizon"
             )
+        grid = candidate_grid(
+            self.epsilon_factor, self.input_weight, self.lipschitz, given=given is not None
+        )
+        options = SMSettings(
+            gamma_margin=float(self.gamma_margin),
+            scaling=self.scaling,
+            linear_part=bool(self.linear_part),
+            progress=self.progress,
+            local_neighbours=int(self.local_neighbours),
+        )
+        # Rows and linear parts first, before any compiled kernel (see horizon_rows).
+        rows = [
+            horizon_rows(experiments, horizon_lags(self.lags_, int(k)), options) for k in horizons
+        ]
+        selection = None
+        if len(grid.settings()) > 1:
+            selection = select_settings(
+                experiments,
+                self.lags_,
+                horizons.tolist(),
+                grid,
+                options,
+                target_coverage=float(self.target_coverage),
+                progress=self.progress,
+            )
+            settings = selection.chosen
+        else:
+            (setting,) = grid.settings()
+            if given is not None:
+                setting = HorizonSetting(None, setting.input_weight, setting.lipschitz)
+            settings = (setting,) * horizons.size
         estimators = []
-        scale = np.empty((horizons.size, n_out))
-        epsilon = np.empty((horizons.size, n_out))
-        gamma_star_at = np.empty((horizons.size, n_out))
+        scale = np.empty((horizons.size, self.n_outputs_))
+        gamma_star_at = np.empty((horizons.size, self.n_outputs_))
         for i, k in enumerate(horizons):
-            model = SetMembership(
-                horizon_lags(self.lags_, int(k)),
-                scaling=self.scaling,
-                linear_part=bool(self.linear_part),
-                input_weight=float(self.input_weight),
-                lipschitz=self.lipschitz,
-                local_neighbours=int(self.local_neighbours),
+            model, scale[i], gamma_star_at[i] = fit_horizon(
+                rows[i],
+                settings[i],
+                epsilon=None if given is None else given[i],
+                options=options,
+                steps=int(k),
             )
-            # The k-step regressor, built once: the residual scale, ε and γ below and the
-            # horizon's SM core all come from these rows.
-            with warnings.catch_warnings():
-                # Reported once, by this estimator's own checks below.
-                warnings.simplefilter("ignore", UserWarning)
-                x, y = model._prepare_fit(experiments)
-            coef, intercept = least_squares(x, y, fit_intercept=True)
-            residual = y - (x @ coef + intercept)
-            scale[i] = robust_scale(residual)
-            target = np.ascontiguousarray(residual if self.linear_part else y)
-            # The estimator's own distance (it warns about constant terms here, once).
-            weights = term_weights(self.scaling, self.input_weight, x, model.lags_)
-            points = np.ascontiguousarray(x * weights)
-            epsilon[i] = (
-                given[i]
-                if given is not None
-                else self._rule_epsilon(points, target, scale[i], int(k))
-            )
-            gamma, gamma_star_at[i] = self._gamma(points, target, epsilon[i], int(k))
-            model.set_params(epsilon=epsilon[i].tolist(), gamma=gamma.tolist())
-            with warnings.catch_warnings():
-                # Constant regressor terms were reported once, above.
-                warnings.simplefilter("ignore", UserWarning)
-                core = fit_core(
-                    x,
-                    y,
-                    model.lags_,
-                    SMSettings.of(model),
-                    linear=(coef, intercept),
-                    base_weights=weights,
-                )
-            model._set_core(*core)
-            model._mark_fitted()
             estimators.append(model)
-            logger.info("horizon %d: epsilon=%s gamma=%s", k, epsilon[i].tolist(), gamma.tolist())
+            logger.info(
+                "horizon %d: %s epsilon=%s gamma=%s",
+                k,
+                settings[i].to_json(),
+                model.epsilon_.tolist(),
+                model.gamma_.tolist(),
+            )
         self.horizons_ = horizons
         self.estimators_ = tuple(estimators)
         self.residual_scale_ = scale
         self.gamma_star_ = gamma_star_at
+        self.settings_ = tuple(settings)
+        self.selection_ = selection
         self._set_horizon_arrays()
         self._mark_fitted()
         return self
-
-    def _rule_epsilon(
-        self, points: FloatArray, target: FloatArray, scale: FloatArray, k: int
-    ) -> FloatArray:
-        """``epsilon_factor`` × the robust scale, raised where identical regressors need more.
-
-        ``points`` are the scaled k-step regressors, ``target`` what the SM map fits.
-        """
-        rule = float(self.epsilon_factor) * scale
-        # A relative 1e-9 above half the spread: the estimator recomputes the targets from the
-        # scaled points, which can move them by an ulp.
-        floor = 0.5 * duplicate_spread(points, target) * (1.0 + 1e-9)
-        if np.any(floor > rule):
-            warnings.warn(
-                f"horizon {k}: epsilon_factor x the residual scale = {_numbers(rule)} is below"
-                f" half the spread of the outputs at identical regressors, {_numbers(floor)};"
-                " epsilon is raised to it (no Lipschitz function fits a smaller one)",
-                UserWarning,
-                stacklevel=3,
-            )
-        return np.maximum(rule, floor)
-
-    def _gamma(
-        self, points: FloatArray, target: FloatArray, epsilon: FloatArray, k: int
-    ) -> tuple[FloatArray, FloatArray]:
-        """γ_k = margin · γ*(ε_k) (or at a smaller ε where γ*(ε_k) = 0), and γ*(ε_k).
-
-        Where γ*(ε_k) = 0 the fallback is γ*(f ε_k) at the smallest f of ``_FALLBACK_FRACTIONS``
-        for which it is finite and positive (identical regressors can make it infinite below ε_k).
-        """
-        grid = np.vstack([f * epsilon for f in (*_FALLBACK_FRACTIONS, 1.0)])
-        star = _gamma_star(points, target, grid, self.progress)
-        usable = np.where(np.isfinite(star[:-1]) & (star[:-1] > 0), star[:-1], np.nan)
-        first = np.argmax(~np.isnan(usable), axis=0)
-        fallback = usable[first, np.arange(usable.shape[1])]
-        gamma = gamma_from_margin(np.where(star[-1] > 0, star[-1], fallback), self.gamma_margin)
-        flat = np.flatnonzero(~(gamma > 0))
-        if flat.size:
-            c = int(flat[0])
-            raise ValueError(
-                f"output {self.output_names_[c]!r}, horizon {k}: γ*(ε) = 0 at epsilon ="
-                f" {epsilon[c]:.6g} (a constant fits every training target to within ±ε) and no"
-                " ε between ε/2 and ε gives a finite positive γ*, so no Lipschitz constant can"
-                " be learned; give a smaller epsilon"
-            )
-        return gamma, star[-1].copy()
 
     def invalidation(
         self, data: IOData | Sequence[IOData]
@@ -814,6 +742,12 @@ class MultiStepSetMembership(NarxModel):
         shape = (horizons.size, self.n_outputs_)
         self._check_shape("residual_scale", self.residual_scale_, shape)
         self._check_shape("gamma_star", self.gamma_star_, shape)
+        fitted = [(float(m.input_weight), str(m.lipschitz)) for m in self.estimators_]
+        if [(float(s.input_weight), s.lipschitz) for s in self.settings_] != fitted:
+            raise ValueError(
+                f"settings {[s.to_json() for s in self.settings_]} must hold each horizon's"
+                f" input_weight and lipschitz; its predictors have {fitted}"
+            )
 
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
         check_is_fitted(self)
@@ -833,16 +767,19 @@ class MultiStepSetMembership(NarxModel):
             "params": {
                 "horizon": int(self.horizon),
                 "horizons": None if self.horizons is None else [int(k) for k in self.horizons],
-                "epsilon_factor": float(self.epsilon_factor),
+                "epsilon_factor": json_candidates(self.epsilon_factor),
                 "epsilon": None if epsilon is None else np.asarray(epsilon, float).tolist(),
                 "gamma_margin": float(self.gamma_margin),
                 "scaling": str(self.scaling),
-                "input_weight": float(self.input_weight),
+                "input_weight": json_candidates(self.input_weight),
                 "linear_part": bool(self.linear_part),
-                "lipschitz": str(self.lipschitz),
+                "lipschitz": None if self.lipschitz is None else str(self.lipschitz),
                 "local_neighbours": int(self.local_neighbours),
+                "target_coverage": float(self.target_coverage),
             },
             "submodels": submodels,
+            "settings": [s.to_json() for s in self.settings_],
+            "selection": None if self.selection_ is None else self.selection_.to_json(),
             **self._narx_meta(),
         }
         return arrays, meta
@@ -867,6 +804,20 @@ class MultiStepSetMembership(NarxModel):
         model.estimators_ = tuple(estimators)
         model.residual_scale_ = np.asarray(arrays["residual_scale"], dtype=np.float64)
         model.gamma_star_ = np.asarray(arrays["gamma_star"], dtype=np.float64)
+        if "settings" in meta:
+            model.settings_ = tuple(HorizonSetting.from_json(s) for s in meta["settings"])
+        else:  # a file of the release before the selection: one fixed setting
+            factor = meta["params"].get("epsilon_factor")
+            model.settings_ = tuple(
+                HorizonSetting(
+                    None if model.epsilon is not None or factor is None else float(factor),
+                    float(m.input_weight),
+                    str(m.lipschitz),
+                )
+                for m in estimators
+            )
+        selection = meta.get("selection")
+        model.selection_ = None if selection is None else MultiStepSelection.from_json(selection)
         model._set_horizon_arrays()
         return model
 

@@ -4,7 +4,9 @@
   bounds and the compiled free run;
 - :mod:`.gamma`: γ*(ε) over a grid of ε (:func:`gamma_star`), by branch and bound over the tree
   or over all pairs;
-- :mod:`.local`: local Lipschitz constants and the bounds that use them.
+- :mod:`.local`: local Lipschitz constants and the bounds that use them;
+- :mod:`.priors`: the point constants and bounds of several priors in one walk of the tree
+  (the cross-validation of the multi-step model).
 
 Private to :mod:`neckid.models.set_membership`: the estimators import from here, nothing else in
 the package does. The plain NumPy references the kernels are tested against live in the tests.

@@ -1,0 +1,423 @@
+r"""Several Set Membership priors evaluated over one kd-tree in one traversal.
+
+Choosing the prior of a Set Membership model (Milanese & Novara, 2004) by cross-validation
+evaluates many priors on the same training points: several noise bounds ε, each with its
+Lipschitz constant γ(ε), in the global form and with local constants
+(:mod:`neckid.models.set_membership._kernels.local`). Each prior's bounds at a query, and each
+point's local constant, are a minimum or maximum over the training points of an expression in
+the *same* distance ``‖w − w̃_j‖``. These kernels walk the tree once for all the priors:
+
+- :func:`point_gamma_grid`: each training point's steepest slope
+  ``max_{j≠i} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖`` for every ε of a grid (one traversal per
+  point instead of one per ε);
+- :func:`prior_bounds`: the bounds ``[f_l − ε, f_u + ε]`` of every prior at every query, the
+  distance to each visited point computed once, and the ``K`` nearest neighbours (which do not
+  depend on the prior) found once per query.
+
+Both are *bit for bit* the single-prior kernels (:func:`~.local.point_gamma`,
+:meth:`~.tree.SMTree.bounds`, :func:`~.local.local_bounds`), which stay the references: a node
+is opened when any prior could use it, and a node a prior would have skipped holds no point
+that changes that prior's running maximum or minimum (the argument of the single-prior kernels,
+which holds at any later moment of the walk since the running values only tighten); the visits
+that matter happen in the same order (the nearer child first does not depend on the prior), and
+each value is computed by the same floating-point operations. ``tests/test_sm_multistep.py``
+checks the equality.
+
+References
+----------
+M. Milanese and C. Novara, "Set membership identification of nonlinear systems", Automatica
+40(6), 957-975, 2004.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numba import njit, prange
+from numpy.typing import NDArray
+
+from neckid._typing import FloatArray, IntArray
+from neckid.models.set_membership._kernels.tree import (
+    STACK_DEPTH,
+    box_distance,
+    box_distance2,
+    push_children,
+    query_one,
+    squared_distance,
+)
+
+if TYPE_CHECKING:
+    from neckid.models.set_membership._kernels.tree import SMTree
+
+__all__ = ["PROGRESS_BLOCKS", "point_gamma_grid", "prior_bounds"]
+
+
+# ---------------------------------------------------------------------------------- constants
+@njit(cache=True)
+def _steepest_grid(
+    i: int,
+    c: int,
+    twice_eps: FloatArray,
+    tree: tuple[NDArray, ...],
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    best: FloatArray,
+) -> None:  # pragma: no cover - compiled; tested against point_gamma
+    """``best[e]`` = max_{j≠i} (|t_i − t_j| − 2ε_e)⁺ / d_ij; ``twice_eps`` ascending."""
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    w = points[i]
+    t = targets[i, c]
+    n_eps = twice_eps.shape[0]
+    best[:] = 0.0
+    node_stack[0] = 0
+    dist_stack[0] = box_distance(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        spread = max(t - ymin[node, c], ymax[node, c] - t)
+        wanted = False
+        for e in range(n_eps):
+            gap = spread - twice_eps[e]
+            if gap <= 0.0:
+                break  # and for every larger ε
+            if not gap <= best[e] * dist_stack[top]:
+                wanted = True
+                break
+        if not wanted:
+            continue
+        child = left[node]
+        if child < 0:
+            for p in range(start[node], end[node]):
+                if p == i:
+                    continue
+                diff = abs(t - targets[p, c])
+                d = -1.0
+                for e in range(n_eps):
+                    rise = diff - twice_eps[e]
+                    if rise <= 0.0:
+                        break
+                    if d < 0.0:
+                        d = math.sqrt(squared_distance(w, points, p))
+                    if rise > best[e] * d:
+                        best[e] = np.inf if d == 0.0 else rise / d
+        else:
+            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+
+
+@njit(cache=True, parallel=True)
+def _point_gamma_grid_kernel(
+    first: int, stop: int, twice_eps: FloatArray, tree: tuple[NDArray, ...], out: FloatArray
+) -> None:  # pragma: no cover - compiled; tested against point_gamma
+    n_eps, _, n_out = out.shape
+    for i in prange(first, stop):
+        node_stack = np.empty(STACK_DEPTH, np.int64)
+        dist_stack = np.empty(STACK_DEPTH)
+        best = np.empty(n_eps)
+        for c in range(n_out):
+            _steepest_grid(i, c, twice_eps[:, c], tree, node_stack, dist_stack, best)
+            for e in range(n_eps):
+                out[e, i, c] = best[e]
+
+
+#: Blocks of points between two calls of :func:`point_gamma_grid`'s callback.
+PROGRESS_BLOCKS = 32
+
+
+def point_gamma_grid(
+    tree: SMTree,
+    epsilons: FloatArray,
+    callback: Callable[[int, int], None] | None = None,
+) -> FloatArray:
+    """:func:`~.local.point_gamma` at every ε of a grid, in one traversal per point.
+
+    Parameters
+    ----------
+    tree : SMTree
+        The training points (scaled) and targets.
+    epsilons : ndarray, shape (n_eps, n_outputs)
+        Noise bounds, ascending along the first axis in every column (>= 0).
+    callback : callable, optional
+        ``callback(points_done, points_total)``, called from Python between
+        :data:`PROGRESS_BLOCKS` blocks of points.
+
+    Returns
+    -------
+    ndarray, shape (n_eps, n_points, n_outputs)
+        ``out[e]`` is ``point_gamma(tree, epsilons[e])``, bit for bit; its largest value over
+        the points is γ*(ε) (both ends of every pair carry the pair's slope).
+
+    Raises
+    ------
+    ValueError
+        If ``epsilons`` is not ascending in some column.
+    """
+    epsilons = np.ascontiguousarray(epsilons, dtype=np.float64)
+    if epsilons.shape[0] > 1 and np.any(np.diff(epsilons, axis=0) < 0):
+        raise ValueError("epsilons must be ascending along the grid in every output column")
+    twice = np.ascontiguousarray(2.0 * epsilons)
+    n_points = tree.points.shape[0]
+    out = np.empty((epsilons.shape[0], n_points, tree.targets.shape[1]))
+    arrays = tree.kernel_arrays()
+    if callback is None:
+        _point_gamma_grid_kernel(0, n_points, twice, arrays, out)
+        return out
+    edges = np.linspace(0, n_points, PROGRESS_BLOCKS + 1).astype(np.int64)
+    for first, stop in itertools.pairwise(edges):
+        _point_gamma_grid_kernel(int(first), int(stop), twice, arrays, out)
+        callback(int(stop), n_points)
+    return out
+
+
+# ---------------------------------------------------------------------------------- bounds
+@njit(cache=True)
+def _kth_radius2(
+    w: FloatArray,
+    k_near: int,
+    tree: tuple[NDArray, ...],
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    near_d: FloatArray,
+) -> float:  # pragma: no cover - compiled; the first half of local._neighbour_gamma
+    """The ``k_near``-th smallest squared distance from ``w`` to a training point."""
+    points, _, start, end, left, right, lo, hi, _, _ = tree
+    k_near = min(k_near, points.shape[0])
+    for k in range(k_near):
+        near_d[k] = np.inf
+    node_stack[0] = 0
+    dist_stack[0] = box_distance2(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        if dist_stack[top] > near_d[k_near - 1]:
+            continue
+        if left[node] < 0:
+            for p in range(start[node], end[node]):
+                acc = squared_distance(w, points, p)
+                if acc < near_d[k_near - 1]:
+                    slot = k_near - 1
+                    while slot > 0 and near_d[slot - 1] > acc:
+                        near_d[slot] = near_d[slot - 1]
+                        slot -= 1
+                    near_d[slot] = acc
+        else:
+            d_left = box_distance2(w, lo, hi, left[node])
+            d_right = box_distance2(w, lo, hi, right[node])
+            near, far = (
+                (left[node], right[node]) if d_left <= d_right else (right[node], left[node])
+            )
+            node_stack[top], dist_stack[top] = far, max(d_left, d_right)
+            node_stack[top + 1], dist_stack[top + 1] = near, min(d_left, d_right)
+            top += 2
+    return near_d[k_near - 1]
+
+
+@njit(cache=True)
+def _neighbour_gammas(
+    w: FloatArray,
+    radius2: float,
+    gammas: FloatArray,
+    tree: tuple[NDArray, ...],
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled; the second half of local._neighbour_gamma
+    """``out[l, c]``: the largest ``gammas[p, l, c]`` within the squared radius, ties included."""
+    points, _, start, end, left, right, lo, hi, _, _ = tree
+    if not radius2 < np.inf:
+        out[:, :] = np.inf
+        return
+    out[:, :] = 0.0
+    node_stack[0] = 0
+    dist_stack[0] = box_distance2(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        if dist_stack[top] > radius2:
+            continue
+        if left[node] < 0:
+            for p in range(start[node], end[node]):
+                if squared_distance(w, points, p) <= radius2:
+                    for m in range(out.shape[0]):
+                        for c in range(out.shape[1]):
+                            out[m, c] = max(out[m, c], gammas[p, m, c])
+        else:
+            for child in (left[node], right[node]):
+                node_stack[top] = child
+                dist_stack[top] = box_distance2(w, lo, hi, child)
+                top += 1
+
+
+@njit(cache=True)
+def _walk_priors(
+    w: FloatArray,
+    c: int,
+    floor: FloatArray,
+    local: IntArray,
+    gammas: FloatArray,
+    tree: tuple[NDArray, ...],
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    best_lower: FloatArray,
+    best_upper: FloatArray,
+) -> None:  # pragma: no cover - compiled; query_one for every prior at once
+    """``query_one`` of every prior ``s`` (slope ``max(floor[s], γ_j)`` or ``floor[s]``) at once."""
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    n_priors = floor.shape[0]
+    best_upper[:] = np.inf
+    best_lower[:] = -np.inf
+    node_stack[0] = 0
+    dist_stack[0] = box_distance(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        wanted = False
+        for s in range(n_priors):
+            reach = floor[s] * dist_stack[top]
+            if not (
+                ymin[node, c] + reach >= best_upper[s] and ymax[node, c] - reach <= best_lower[s]
+            ):
+                wanted = True
+                break
+        if not wanted:
+            continue
+        child = left[node]
+        if child < 0:
+            for p in range(start[node], end[node]):
+                d = math.sqrt(squared_distance(w, points, p))
+                v = targets[p, c]
+                for s in range(n_priors):
+                    m = local[s]
+                    slope = max(floor[s], gammas[p, m, c]) if m >= 0 else floor[s]
+                    gd = slope * d
+                    if v + gd < best_upper[s]:
+                        best_upper[s] = v + gd
+                    if v - gd > best_lower[s]:
+                        best_lower[s] = v - gd
+        else:
+            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+
+
+@njit(cache=True, parallel=True)
+def _prior_bounds_kernel(
+    queries: FloatArray,
+    k_near: int,
+    gamma: FloatArray,
+    epsilon: FloatArray,
+    local: IntArray,
+    gammas: FloatArray,
+    tree: tuple[NDArray, ...],
+    lower: FloatArray,
+    upper: FloatArray,
+) -> None:  # pragma: no cover - compiled; tested against tree.bounds and local_bounds
+    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    n_priors, n_out = gamma.shape
+    any_local = gammas.shape[1] > 0
+    for i in prange(queries.shape[0]):
+        w = queries[i]
+        node_stack = np.empty(STACK_DEPTH, np.int64)
+        dist_stack = np.empty(STACK_DEPTH)
+        near_d = np.empty(max(k_near, 1))
+        near_g = np.zeros((gammas.shape[1], n_out))
+        floor = np.empty(n_priors)
+        best_lower = np.empty(n_priors)
+        best_upper = np.empty(n_priors)
+        if any_local:
+            radius2 = _kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
+            _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, near_g)
+        for c in range(n_out):
+            for s in range(n_priors):
+                floor[s] = near_g[local[s], c] if local[s] >= 0 else gamma[s, c]
+            _walk_priors(
+                w, c, floor, local, gammas, tree, node_stack, dist_stack, best_lower, best_upper
+            )
+            for s in range(n_priors):
+                low, high = best_lower[s], best_upper[s]
+                m = local[s]
+                if m >= 0 and low - high > 2.0 * epsilon[s, c] and gamma[s, c] > floor[s]:
+                    # The rounding fallback of local._local_one: the global constant.
+                    low, high = query_one(
+                        w,
+                        points,
+                        targets,
+                        c,
+                        gamma[s, c],
+                        start,
+                        end,
+                        left,
+                        right,
+                        lo,
+                        hi,
+                        ymin,
+                        ymax,
+                        node_stack,
+                        dist_stack,
+                        np.ascontiguousarray(gammas[:, m, :]),
+                    )
+                lower[i, s, c] = low - epsilon[s, c]
+                upper[i, s, c] = high + epsilon[s, c]
+
+
+def prior_bounds(
+    tree: SMTree,
+    queries: FloatArray,
+    epsilon: FloatArray,
+    gamma: FloatArray,
+    point_gammas: FloatArray,
+    local: IntArray,
+    neighbours: int,
+) -> tuple[FloatArray, FloatArray]:
+    """The bounds ``[f_l − ε, f_u + ε]`` of several priors at every query, in one walk per query.
+
+    Parameters
+    ----------
+    tree : SMTree
+        Training points (scaled) and targets.
+    queries : ndarray, shape (n_queries, n_dims)
+        Scaled regressors.
+    epsilon, gamma : ndarray, shape (n_priors, n_outputs)
+        Each prior's noise bound and global Lipschitz constant (the fallback of a local prior).
+    point_gammas : ndarray, shape (n_local, n_points, n_outputs)
+        Per-point constants (tree order) of the local priors, as ``learn_constants`` gives them.
+    local : ndarray of int, shape (n_priors,)
+        ``-1`` for a global prior, else its index in ``point_gammas``.
+    neighbours : int
+        ``K`` of the local priors (their ``local_neighbours``).
+
+    Returns
+    -------
+    lower, upper : ndarray, each (n_queries, n_priors, n_outputs)
+        Prior ``s`` global: ``SMTree.bounds(queries, epsilon[s], gamma[s])``; local:
+        ``local_bounds(tree, point_gammas[local[s]], queries, epsilon[s], gamma[s], K)[:2]``,
+        bit for bit.
+    """
+    queries = np.ascontiguousarray(queries, dtype=np.float64)
+    gamma = np.ascontiguousarray(gamma, dtype=np.float64)
+    shape = (queries.shape[0], *gamma.shape)
+    lower, upper = np.empty(shape), np.empty(shape)
+    n_out = tree.targets.shape[1]
+    # Point-major, so that the walk reads one point's constants of every prior together.
+    gammas = np.ascontiguousarray(
+        np.asarray(point_gammas, dtype=np.float64)
+        .reshape(-1, tree.points.shape[0], n_out)
+        .transpose(1, 0, 2)
+    )
+    _prior_bounds_kernel(
+        queries,
+        int(neighbours),
+        gamma,
+        np.ascontiguousarray(epsilon, dtype=np.float64),
+        np.ascontiguousarray(local, dtype=np.int64),
+        gammas,
+        tree.kernel_arrays(),
+        lower,
+        upper,
+    )
+    return lower, upper
