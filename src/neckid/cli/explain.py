@@ -96,6 +96,29 @@ def _print_horizons(model: Any, data: Any) -> None:
         console.print(
             _metrics_table("guaranteed k-step bands (predicted k samples ahead from the log)", rows)
         )
+    _print_horizon_settings(model, named)
+
+
+def _print_horizon_settings(model: Any, named: list[int]) -> None:
+    """Each named horizon's ε factor, input weight and constants, and whether they were chosen."""
+    settings = getattr(model, "settings_", None)
+    if not settings:
+        return
+    how = (
+        f"chosen by held-out coverage ≥ {float(model.target_coverage):.0%} on the training logs"
+        if getattr(model, "selection_", None) is not None
+        else "as given"
+    )
+    for k in named:
+        setting = settings[model.horizons_.tolist().index(k)]
+        factor = (
+            "ε given" if setting.epsilon_factor is None else f"ε factor {setting.epsilon_factor:g}"
+        )
+        console.print(
+            f"k = {k}: {factor}, input weight {setting.input_weight:g}, {setting.lipschitz}"
+            f" Lipschitz constants ({how})",
+            markup=False,
+        )
 
 
 def _print_prior_check(model: Any, data: Any) -> None:
