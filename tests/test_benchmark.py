@@ -426,8 +426,9 @@ def test_the_default_methods_leave_out_only_the_opt_in_ones():
         PEER_METHODS,
     )
 
-    assert set(DEFAULT_METHODS) == (set(BENCHMARK_METHODS) - OPT_IN_METHODS) | set(PEER_METHODS)
-    assert {"sm-parallel-poly", "poly", "sysidentpy-frols"} <= set(_method_names(None))
+    assert set(DEFAULT_METHODS) == set(BENCHMARK_METHODS) - OPT_IN_METHODS
+    assert {"sm-parallel-poly", "poly"} <= set(_method_names(None))
+    assert not set(PEER_METHODS) & set(_method_names(None))  # the peer only when asked
     assert _method_names(["sm-parallel-poly"]) == ["sm-parallel-poly"]
 
 

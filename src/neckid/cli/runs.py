@@ -211,7 +211,8 @@ def benchmark(
         help=(
             "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel,"
             " sm-parallel-poly, nn, scheduled, and the peer sysidentpy-frols (SysIdentPy's"
-            " FROLS; pip install 'neckid[peers]'). Default: all."
+            " FROLS; pip install 'neckid[peers]'). Default: every neckid method; the peer runs"
+            " when named."
         ),
     ),
     only: str = typer.Option(
@@ -233,6 +234,12 @@ def benchmark(
         False, "--force", help="Replace the files of an existing --out folder."
     ),
     scheduler: str = SCHEDULER_OPTION,
+    jobs: int = typer.Option(
+        -1,
+        "--jobs",
+        help="Parallel candidate fits on this machine (-1: every core; 1: one at a time). The"
+        " table is the same either way.",
+    ),
 ) -> None:
     """Run the models on real logs and public benchmarks with their official protocols.
 
@@ -257,6 +264,7 @@ def benchmark(
             seed=seed,
             output_dir=out,
             force=force,
+            n_jobs=None if scheduler else jobs,
         )
     console.print(report.rich_table())
     if len(report.published):

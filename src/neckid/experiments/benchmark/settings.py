@@ -432,12 +432,9 @@ OPT_IN_METHODS: frozenset[str] = frozenset()
 #: selection rule (:mod:`neckid.experiments.benchmark.peers`; ``pip install "neckid[peers]"``).
 PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols",)
 
-#: What a benchmark runs when no methods are named (a peer that is not installed gives a row
-#: that says so).
-DEFAULT_METHODS: tuple[str, ...] = (
-    *(m for m in BENCHMARK_METHODS if m not in OPT_IN_METHODS),
-    *PEER_METHODS,
-)
+#: What a benchmark runs when no methods are named: neckid's own. A peer runs when named
+#: (``--methods ...,sysidentpy-frols``; one that is not installed gives a row that says so).
+DEFAULT_METHODS: tuple[str, ...] = tuple(m for m in BENCHMARK_METHODS if m not in OPT_IN_METHODS)
 
 
 def candidates(
