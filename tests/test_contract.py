@@ -60,6 +60,7 @@ def fitted(request: pytest.FixtureRequest):
 def test_the_registry_lists_every_method() -> None:
     assert METHODS == [
         "arx",
+        "greybox-neck",
         "nn",
         "poly",
         "rls",

@@ -73,6 +73,7 @@ COMPLEXITY: Mapping[str, int] = {
     "rls": 1,
     "scheduled": 1,
     "ss": 2,
+    "greybox-neck": 2,
     "sm-linear": 2,
     "sm": 3,
     "sm-parallel": 3,
@@ -84,7 +85,7 @@ COMPLEXITY: Mapping[str, int] = {
 
 #: Methods whose regressor is not their lags (the subspace model: its order comes from the
 #: singular values): one candidate each, not one per lag set.
-LAG_FREE_METHODS = frozenset({"ss"})
+LAG_FREE_METHODS = frozenset({"ss", "greybox-neck"})
 
 
 def input_reach(train: Sequence[IOData], tests: Sequence[IOData]) -> float:

@@ -10,8 +10,8 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'nn', 'poly', 'rls', 'scheduled', 'scheduled-position', 'sm', 'sm-linear', 'sm-multistep',
- 'sm-parallel', 'sm-parallel-poly', 'ss']
+['arx', 'greybox-neck', 'nn', 'poly', 'rls', 'scheduled', 'scheduled-position', 'sm', 'sm-linear',
+ 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -164,6 +164,14 @@ _METHODS: tuple[Method, ...] = (
         "the scheduled first-order model from motor position to inclination (no integrator: use"
         " it for free runs); operating points by CFF-RLS where the inclination dwells",
         defaults={"form": "position"},
+    ),
+    Method(
+        "greybox-neck",
+        "Grey-box neck (slack + hysteresis)",
+        "neckid.models.greybox.model:GreyBoxNeck",
+        "tendon slack and a Prandtl-Ishlinskii hysteresis in series with stable second-order"
+        " dynamics, fitted on the free-run error",
+        quick={"max_iter": 8, "n_play": 2},
     ),
     Method(
         "sm-multistep",

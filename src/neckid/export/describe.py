@@ -469,6 +469,24 @@ def _scheduled(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
+# ============================================================================ grey box
+def _greybox(model: Any) -> tuple[str, dict[str, Any]]:
+    return "greybox_neck", {
+        "equation": "s_j = play(x_j, slack_j / 2); v_o(t) = sum_jk (W{o}(jk) + sum_c W_c{o}(jk)"
+        " p_c) play(s_j, radii(j, k))(t) + sum_c q{o}(c) p_c + offset{o}; y_o(t) = -sum_i"
+        " A{o}(i+1) y_o(t-i) + sum(A{o}) v_o(t-delay); play(x, r)(t) = max(x(t) - r, min(x(t) + r,"
+        " z(t-1))), z(-1) = x(0); weights columns: plays (j major), plays times each condition,"
+        " conditions, 1 (see neckid.models.greybox)",
+        "slack": _array(model.slack_),
+        "radii": _array(model.radii_),
+        "A": _array(model.denominators_),
+        "reflection": _array(model.reflection_),
+        "weights": _array(model.weights_),
+        "delay": int(model.delay),
+        "n_conditions": int(model.n_conditions_),
+    }
+
+
 Describer = Callable[[Any], tuple[str, dict[str, Any]]]
 
 #: Class name -> the function describing its fitted parameters (``(structure, parameters)``).
@@ -482,4 +500,5 @@ _DESCRIBERS: dict[str, Describer] = {
     "ParallelSetMembership": _parallel,
     "MultiStepSetMembership": _multistep,
     "GainScheduledModel": _scheduled,
+    "GreyBoxNeck": _greybox,
 }

@@ -7,6 +7,7 @@
 - :mod:`neckid.models.polynomial`: :class:`PolynomialNARX`;
 - :mod:`neckid.models.neural`: :class:`NeuralNARX`;
 - :mod:`neckid.models.scheduled`: :class:`GainScheduledModel`;
+- :mod:`neckid.models.greybox`: :class:`GreyBoxNeck`;
 - shared: :mod:`~neckid.models.base` (the contract and simulators), :mod:`~neckid.models.results`,
   :mod:`~neckid.models.kstep`, :mod:`~neckid.models.bands`, :mod:`~neckid.models.domain`,
   :mod:`~neckid.models.cache`, :mod:`~neckid.models.io`, :mod:`~neckid.models.online`,
@@ -21,6 +22,7 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from neckid.models.greybox import GreyBoxNeck
     from neckid.models.linear import LinearARX, RecursiveARX, SubspaceStateSpace
     from neckid.models.neural import NeuralNARX
     from neckid.models.polynomial import PolynomialNARX
@@ -33,6 +35,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "GainScheduledModel",
+    "GreyBoxNeck",
     "LinearARX",
     "MultiStepSetMembership",
     "NeuralNARX",
@@ -53,6 +56,7 @@ _FAMILY = {
     "PolynomialNARX": "neckid.models.polynomial",
     "NeuralNARX": "neckid.models.neural",
     "GainScheduledModel": "neckid.models.scheduled",
+    "GreyBoxNeck": "neckid.models.greybox",
 }
 
 if not TYPE_CHECKING:
