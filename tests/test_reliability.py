@@ -760,6 +760,239 @@ def _rls_more_unknowns(tmp: Path) -> None:
     assert not (tmp / "m.npz").exists()
 
 
+# ------------------------------------------------------------- model files and logs from anywhere
+def _model_file_damaged(kind: str) -> Callable[[Path], None]:
+    """A model file crafted or damaged: refused by ``info`` and ``validate`` before allocating."""
+
+    def check(tmp: Path) -> None:
+        import tracemalloc
+
+        from test_model_files import declared_shape, zip_bomb
+
+        log = _log(tmp)
+        model = _model(tmp, log)
+        path = tmp / f"{kind}.npz"
+        if kind == "shape":
+            declared_shape(path, model, (10**12,))
+            match = (
+                r"shape\.npz is damaged: entry 'coef' declares shape \(1000000000000,\) of"
+                r" float64 \(7\.3 TB\) but holds 16 B of values; refused before reading it"
+            )
+        else:
+            zip_bomb(path, model)
+            match = (
+                r"bomb\.npz is damaged: its 1\.6 MB inflate to 1\.6 GB of arrays \(\d+"
+                r" times; entry 'coef' alone 1\.6 GB\).*zip bomb"
+            )
+        tracemalloc.start()
+        try:
+            refused(tmp, "info", path, match=match)
+            refused(tmp, "validate", path, log, match=match)
+        finally:
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
+        assert peak < 64 * 2**20, f"{peak / 2**20:.0f} MB allocated"
+
+    return check
+
+
+def _model_file_dtypes(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    coef = np.array([[0.9], [0.5]])
+    for value, match in (
+        (coef + 1j, "entry 'coef' holds complex numbers, dtype complex128"),
+        (coef.astype(str), "entry 'coef' holds text, dtype <U32"),
+        (coef.astype("datetime64[s]"), "entry 'coef' holds dates"),
+        (
+            coef > 0.6,
+            r"entry 'coef' holds booleans \(dtype bool\); a LinearARX file holds real"
+            r" numbers there \(dtype float64\)",
+        ),
+    ):
+        _edit_model(model, arrays={"coef": value})
+        refused(tmp, "validate", model, log, match=match)
+    content = dict(np.load(model, allow_pickle=False))
+    content["coef"] = np.array([None, 1.0], dtype=object)
+    np.savez(model, **content)
+    refused(
+        tmp,
+        "info",
+        model,
+        match="entry 'coef' holds Python objects, dtype object, which would need pickle to read",
+    )
+
+
+def _model_file_numbers(tmp: Path) -> None:
+    log = _log(tmp)
+    for key, value, match in (
+        (
+            "ts",
+            float("nan"),
+            r"header key 'meta\.ts': ts must be a positive number of seconds; got nan",
+        ),
+        ("ts", float("inf"), r"header key 'meta\.ts': .*got inf"),
+        (
+            "training_ranges",
+            {"command": [1.0, -1.0], "inclination": [0.0, 1.0]},
+            r"header key 'meta\.training_ranges\.command' must be \[low, high\], two finite numbers"
+            r" with low <= high; got \[1\.0, -1\.0\]",
+        ),
+        (
+            "training_ranges",
+            {"command": [float("nan"), 1.0], "inclination": [0.0, 1.0]},
+            r"'meta\.training_ranges\.command' .*got \[nan, 1\.0\]",
+        ),
+        ("n_samples", -5, r"header key 'meta\.n_samples' must be a whole number >= 0; got -5"),
+    ):
+        model = _model(tmp, log, f"{key}.npz")
+        _edit_model(model, meta=lambda m, key=key, value=value: m.update({key: value}))
+        refused(tmp, "validate", model, log, match=match)
+
+
+def _model_file_newer(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    with np.load(model, allow_pickle=False) as archive:
+        header = json.loads(str(archive["__neckid__"]))
+    _edit_model(model, header={**header, "version": 2, "neckid_version": "9.1.0"})
+    refused(
+        tmp,
+        "info",
+        model,
+        match="has model-file version 2, written by neckid 9.1.0, newer than this neckid reads"
+        f" \\(neckid {re.escape(neckid.__version__)} reads versions up to 1\\); upgrade neckid to"
+        " load it",
+    )
+
+
+def _model_file_structure(tmp: Path) -> None:
+    model = _model(tmp, _log(tmp))
+    with np.load(model, allow_pickle=False) as archive:
+        content = {k: archive[k] for k in archive.files}
+    content["__neckid__"] = np.array("[" * 100_000 + "]" * 100_000)
+    np.savez(model, **content)
+    with pytest.raises(ValueError, match="header is nested too deeply"):
+        neckid.load_model(model)
+    content["__neckid__"] = np.array('{"version": ' + "9" * 5000 + "}")
+    np.savez(model, **content)
+    with pytest.raises(ValueError, match="header is not valid JSON"):
+        neckid.load_model(model)
+    single = tmp / "single.npz"
+    np.save(tmp / "single.npy", np.ones(3))
+    (tmp / "single.npy").rename(single)
+    with pytest.raises(ValueError, match=r"a single \.npy array, not an \.npz archive"):
+        neckid.load_model(single)
+
+
+def _model_file_memory(tmp: Path) -> None:
+    import neckid._memory
+
+    model = _model(tmp, _log(tmp))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(neckid._memory, "available_bytes", lambda: 4096)
+        with pytest.raises(
+            ValueError,
+            match=r"reading its arrays \(entry .* alone .*\) needs about"
+            r" .* of memory, and this machine has 4\.0 KB available: refused",
+        ):
+            neckid.load_model(model)
+
+
+def _model_files_of_every_kind(tmp: Path) -> None:
+    data = IOData.from_csv(_log(tmp), ["command"], ["inclination"])
+    for name in ("arx", "poly", "sm"):  # real, integer and boolean arrays
+        model = neckid.methods()[name].make(Lags.arx(1, 1), quick=True).fit(data)
+        loaded = neckid.load_model(model.save(tmp / f"{name}.npz"))
+        np.testing.assert_array_equal(loaded.simulate(data).y, model.simulate(data).y)
+
+
+def _parquet_damaged(tmp: Path) -> None:
+    log = _log(tmp)
+    model = _model(tmp, log)
+    data = IOData.from_csv(log, ["command"], ["inclination"])
+    path = tmp / "log.parquet"
+    data.to_parquet(path)
+    raw = path.read_bytes()
+    for damage, match in (
+        (raw[: len(raw) // 2], r"log\.parquet is not a readable Parquet file \("),
+        (raw[:100] + b"\x00" * 40 + raw[140:], r"log\.parquet is not a readable Parquet file \("),
+    ):
+        path.write_bytes(damage)
+        refused(tmp, "validate", model, path, match=match)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    values = pa.array(np.arange(400) * 0.02)
+    pq.write_table(
+        pa.Table.from_arrays(
+            [values, values, values, values], names=["time", "command", "command", "inclination"]
+        ),
+        path,
+    )
+    refused(
+        tmp, "validate", model, path, match=r"log\.parquet: column name 'command' appears 2 times"
+    )
+
+
+def _parquet_page_checksum(tmp: Path) -> None:
+    import pyarrow.parquet as pq
+
+    log = _log(tmp)
+    model = _model(tmp, log)
+    path = tmp / "log.parquet"
+    IOData.from_csv(log, ["command"], ["inclination"]).to_parquet(path)
+    chunk = pq.ParquetFile(path).metadata.row_group(0).column(1)
+    raw = bytearray(path.read_bytes())
+    raw[chunk.data_page_offset + chunk.total_compressed_size - 1] ^= 0x01
+    path.write_bytes(bytes(raw))
+    refused(
+        tmp, "validate", model, path, match=r"log\.parquet is not a readable Parquet file .*CRC"
+    )
+
+
+def _logs_beyond_memory(tmp: Path) -> None:
+    from scipy.io import savemat
+
+    import neckid._memory
+
+    data = IOData.from_csv(_log(tmp), ["command"], ["inclination"])
+    data.to_parquet(tmp / "log.parquet")
+    savemat(tmp / "log.mat", {"command": data.u[:, 0], "inclination": data.y[:, 0]})
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(neckid._memory, "available_bytes", lambda: 10_000)
+        with pytest.raises(
+            ValueError,
+            match=r"^log\.parquet: reading 3 column\(s\) of 400 rows"
+            r" needs about 28\.1 KB of memory, and this machine has 9\.8 KB",
+        ):
+            IOData.from_parquet(tmp / "log.parquet", ["command"], ["inclination"])
+        with pytest.raises(
+            ValueError,
+            match=r"^log\.mat: reading the variables \['command',"
+            r" 'inclination'\] \(800 values\) needs about 6\.2 KB",
+        ):
+            IOData.from_mat(tmp / "log.mat", ["command"], ["inclination"], ts=0.02)
+
+
+def _time_stamps_beyond_floats(tmp: Path) -> None:
+    import pandas as pd
+
+    n = 50
+    stamps = 1_700_000_000 * 10**9 + np.arange(n) * 20_000_000  # ns since 1970, as integers
+    frame = pd.DataFrame({"time": stamps, "command": np.ones(n), "inclination": np.arange(n)})
+    frame.to_parquet(tmp / "stamps.parquet")
+    model = _model(tmp, _log(tmp))
+    refused(
+        tmp,
+        "validate",
+        model,
+        tmp / "stamps.parquet",
+        match="time column 'time' holds the whole number 1700000000000000000 at row 0, beyond"
+        " 2\\*\\*53",
+    )
+
+
 CASES = [
     Case("C1", "CLI", "`simulate --out` names the measured log", "refused: is an input of this command (even with --force); the log is unchanged", "clear", _simulate_onto_the_log),
     Case("C2", "CLI", "`simulate --out` names the model file", "refused: is an input; the model is unchanged", "clear", _simulate_onto_the_model),
@@ -810,6 +1043,18 @@ CASES = [
     Case("C47", "CLI", "a MATLAB v7.3 (HDF5) file", "read with h5py; without h5py refused: is a MATLAB v7.3 file (HDF5), which needs h5py: pip install h5py", "correct", _mat_v73),
     Case("C48", "CLI", "a CSV whose last line is cut short (fewer fields than the header)", "refused: the last line (row N, ...) has 2 field(s) where the header has 3: the file seems cut short", "clear", _cut_last_line),
     Case("C49", "CLI", "`--method rls --lags 1-1500/1` on 2,000 rows", "refused: 1501 unknowns per output but the training logs give only 500 equations", "clear", _rls_more_unknowns),
+    Case("M1", "CLI", "a model file whose entry declares 10**12 values in 16 bytes", "refused by `info` and `validate`: is damaged: entry 'coef' declares shape (1000000000000,) of float64 (7.3 TB) but holds 16 B of values; refused before reading it (nothing allocated)", "clear", _model_file_damaged("shape")),
+    Case("M2", "CLI", "a zip bomb as a model file: 1.6 MB that inflates to 1.6 GB", "refused in a fraction of a second, under 64 MB allocated: is damaged: its 1.6 MB inflate to 1.6 GB of arrays (1027 times; ...): a zip bomb or a damaged archive", "clear", _model_file_damaged("bomb")),
+    Case("M3", "CLI", "a model file whose array holds complex numbers, text, dates, Python objects, or booleans where real numbers belong", "refused: entry 'coef' holds complex numbers, dtype complex128 ... / holds booleans (dtype bool); a LinearARX file holds real numbers there (dtype float64); never unpickled", "clear", _model_file_dtypes),
+    Case("M4", "CLI", "a model file with `ts` NaN or infinite, a training range reversed or NaN, `n_samples` < 0", "refused: header key 'meta.ts': ts must be a positive number of seconds; got nan / header key 'meta.training_ranges.command' must be [low, high], two finite numbers with low <= high; got [1.0, -1.0]", "clear", _model_file_numbers),
+    Case("M5", "CLI", "a model file from a newer neckid (format version 2)", "refused: has model-file version 2, written by neckid 9.1.0, newer than this neckid reads (neckid 0.1.0 reads versions up to 1); upgrade neckid to load it", "clear", _model_file_newer),
+    Case("M6", "API", "a model header nested 100,000 deep, a 5,000-digit number in it, a lone `.npy` file", "ValueError: the header is nested too deeply / is not valid JSON / a single .npy array, not an .npz archive", "clear", _model_file_structure),
+    Case("M7", "API", "a model file whose arrays need more than half the memory available", "ValueError before reading: reading its arrays (entry 'x_train' alone ...) needs about ... of memory, and this machine has ... available", "clear", _model_file_memory),
+    Case("M8", "API", "model files with real, integer and boolean arrays (arx, poly, sm)", "loaded after every check, and simulate exactly as the models saved", "correct", _model_files_of_every_kind),
+    Case("L1", "CLI", "a Parquet log cut short or with bytes zeroed; one repeating the column read", "refused: log.parquet is not a readable Parquet file (ArrowInvalid: ...) / column name 'command' appears 2 times in the file", "clear", _parquet_damaged),
+    Case("L2", "CLI", "a byte changed in a page of values of a Parquet log neckid wrote", "refused by the page's checksum (... CRC ...), never read as another number", "clear", _parquet_page_checksum),
+    Case("L3", "API", "a Parquet or `.mat` log whose columns need more than half the memory available", "ValueError before reading: reading 3 column(s) of N rows needs about ... of memory / reading the variables [...] (N values) needs ...", "clear", _logs_beyond_memory),
+    Case("L4", "CLI", "integer time stamps beyond 2**53 (nanoseconds since 1970)", "refused: time column 'time' holds the whole number ... beyond 2**53, not rounded", "clear", _time_stamps_beyond_floats),
     Case("A1", "API", "a complex array given to IOData", "TypeError: u holds complex numbers", "clear", _complex_array),
     Case("A2", "API", "a free run that diverges", "DivergenceError naming sample and time; the run in .result", "clear", _diverging_api),
     Case("A3", "API", "an SM model file with gamma < 0", "ValueError on load: gamma must be > 0", "clear", _sm_negative_gamma),
@@ -847,7 +1092,33 @@ def render() -> str:
     ]
     for c in CASES:
         lines.append(f"| {c.id} | {c.surface} | {c.given} | {c.sees} | {c.outcome} |")
+    lines += _fuzzing()
     return "\n".join(lines) + "\n"
+
+
+def _fuzzing() -> list[str]:
+    """The section on fuzzing: what ``tests/test_fuzz_files.py`` feeds each reader."""
+    from test_fuzz_files import COVERAGE
+
+    lines = [
+        "",
+        "## Fuzzing",
+        "",
+        "Beyond these cases, `tests/test_fuzz_files.py` feeds every reader generated files (Hypothesis,",
+        "derandomized: the same examples on every run). Each one is read into a log whose values are",
+        "finite and whose lengths agree (for the typed Parquet and `.mat` logs: exactly the values",
+        "written, and every valid log is read), loaded into a model that runs and whose header numbers",
+        "are possible, or refused with `ValueError`, `KeyError`, `TypeError` or `FileNotFoundError`",
+        "(exactly those types) in one line naming the file; never a traceback, a `MemoryError`, a raw",
+        "NumPy, pyarrow or SciPy exception, nor a silent wrong result.",
+        "",
+        f"Examples per run: {sum(n for _, _, n in COVERAGE)}.",
+        "",
+        "| files | what is fuzzed | examples |",
+        "|---|---|---|",
+    ]
+    lines += [f"| {files} | {what} | {n} |" for files, what, n in COVERAGE]
+    return lines
 
 
 def test_the_reliability_table_is_up_to_date() -> None:

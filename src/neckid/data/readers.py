@@ -22,6 +22,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from neckid._memory import check_allocation
 from neckid._typing import FloatArray
 from neckid.validation import check_uniform_time
 
@@ -91,6 +92,7 @@ def frame_fields(
         raise ValueError("give exactly one of time= (a time column) and ts= (the sampling period)")
     t0 = 0.0
     if time is not None:
+        _check_exact_integers(frame[time], f"time column {time!r}")
         times = _time_seconds(frame[time], time)
         bad = np.flatnonzero(times.isna().to_numpy())
         if bad.size:
@@ -168,6 +170,8 @@ def _time_seconds(column: pd.Series, name: str) -> pd.Series:
         raise ValueError(
             f"time column {name!r} holds {kind}s that cannot be read ({exc}); store seconds"
         ) from None
+    if not len(stamps):
+        return pd.Series(np.zeros(0), index=column.index)
     missing = np.flatnonzero(stamps.isna().to_numpy())
     if missing.size:
         raise ValueError(
@@ -189,6 +193,13 @@ def _check_values(column: pd.Series, name: str) -> None:
             " channel must be numeric: convert it to seconds or a number first, or name it as"
             " the time column"
         )
+    _check_exact_integers(column, f"column {name!r}")
+
+
+def _check_exact_integers(column: pd.Series, what: str) -> None:
+    """Refuse whole numbers beyond 2**53 in a column (``what`` names it): a float rounds them."""
+    if isinstance(column, pd.DataFrame):
+        return  # a repeated name: refused elsewhere
     if column.dtype == object:
         numbers = [
             (row, value)
@@ -196,18 +207,21 @@ def _check_values(column: pd.Series, name: str) -> None:
             if isinstance(value, int | np.integer) and not isinstance(value, bool)
         ]
     elif pd.api.types.is_integer_dtype(column.dtype):
-        values = column.to_numpy()
+        rows = np.flatnonzero(column.notna().to_numpy())  # pandas' nullable integers: no NA
+        values = column.iloc[rows].to_numpy(
+            dtype=np.uint64 if column.dtype.kind == "u" else np.int64
+        )
         big = np.flatnonzero(
             (values > LARGEST_EXACT_INTEGER)
             | ((values < -LARGEST_EXACT_INTEGER) if values.dtype.kind == "i" else False)
         )
-        numbers = [(int(big[0]), values[big[0]])] if big.size else []
+        numbers = [(int(rows[big[0]]), values[big[0]])] if big.size else []
     else:
         return
     for row, value in numbers:
         if abs(int(value)) > LARGEST_EXACT_INTEGER:
             raise ValueError(
-                f"column {name!r} holds the whole number {int(value)} at row {row}, beyond 2**53"
+                f"{what} holds the whole number {int(value)} at row {row}, beyond 2**53"
                 f" ({LARGEST_EXACT_INTEGER}): a float cannot hold it exactly; store it in a"
                 " coarser unit or as a float"
             )
@@ -263,6 +277,8 @@ def file_fields(
         or a header that repeats a name. Every message starts with the file name.
     """
     path = Path(path)
+    inputs = [inputs] if isinstance(inputs, str) else list(inputs)
+    outputs = [outputs] if isinstance(outputs, str) else list(outputs)
     if path.is_dir():
         raise ValueError(f"{path} is a folder, not a {kind} file")
     if not path.exists():
@@ -272,13 +288,19 @@ def file_fields(
     else:
         if path.stat().st_size == 0:
             raise ValueError(f"log file {str(path)!r} is empty")
-        frame = _read_csv(path, read_csv) if kind == "csv" else pd.read_parquet(path)
         if isinstance(ts, str):
             raise TypeError(f"ts must be a number of seconds for a {kind} file; got {ts!r}")
         period = ts
         if period is not None and time == "time":
             time = None
-        _check_cells(path, frame, [*inputs, *outputs, *([time] if time is not None else [])])
+        wanted = [*inputs, *outputs, *([time] if time is not None else [])]
+        if kind == "csv":
+            frame = _read_csv(path, read_csv)
+        else:
+            from neckid.data.parquet import read_parquet_columns
+
+            frame = read_parquet_columns(path, wanted)
+        _check_cells(path, frame, wanted)
     try:
         fields = frame_fields(frame, inputs, outputs, time=time, ts=period, units=units)
     except KeyError as exc:
@@ -490,22 +512,39 @@ def _mat_variables_here(path: Path, names: Sequence[str]) -> dict[str, Any]:
         raise ValueError(f"{path.name}: the MATLAB file is empty")
     if _is_hdf5(path):
         return _mat73_variables(path, names)
-    from scipy.io import loadmat
+    from scipy.io import loadmat, whosmat
 
     try:
-        content = loadmat(path, squeeze_me=True)
+        listed = whosmat(path)  # names, shapes and classes, from the headers: nothing read yet
     except NotImplementedError:  # scipy says so for v7.3 files it did not recognise above
         return _mat73_variables(path, names)
+    except Exception as exc:  # scipy raises many types on a damaged file; the reason is kept
+        raise _not_a_mat_file(path, exc) from None
+    wanted = [(n, shape) for n, shape, _ in listed if n in names]
+    n_values = sum(int(np.prod(shape, dtype=object)) for _, shape in wanted)
+    check_allocation(
+        8 * n_values,
+        f"{path.name}: reading the variables {[n for n, _ in wanted]} ({n_values} values)",
+        "the file is damaged, or save a part of it in MATLAB and read that",
+    )
+    try:
+        content = loadmat(path, squeeze_me=True, variable_names=[n for n, _ in wanted])
     except MemoryError:
         raise ValueError(
             f"{path.name} is not a readable MATLAB file: it declares more data than fits in memory"
         ) from None
-    except Exception as exc:  # scipy raises many types on a damaged file; the reason is kept
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise ValueError(
-            f"{path.name} is not a readable MATLAB .mat file ({type(exc).__name__}: {reason[:200]})"
-        ) from None
-    return {k: v for k, v in content.items() if not k.startswith("__")}
+    except Exception as exc:  # as above
+        raise _not_a_mat_file(path, exc) from None
+    variables: dict[str, Any] = {n: _Unreadable("not read") for n, _, _ in listed}
+    variables.update({k: v for k, v in content.items() if not k.startswith("__")})
+    return variables
+
+
+def _not_a_mat_file(path: Path, error: Exception) -> ValueError:
+    reason = " ".join(str(error).split()) or type(error).__name__
+    return ValueError(
+        f"{path.name} is not a readable MATLAB .mat file ({type(error).__name__}: {reason[:200]})"
+    )
 
 
 def _mat73_variables(path: Path, names: Sequence[str]) -> dict[str, Any]:
@@ -574,7 +613,9 @@ def _mat_vector(path: Path, name: str, value: Any) -> np.ndarray:
                          " real numeric vector")  # fmt: skip
     array = np.asarray(value)
     kind = array.dtype.kind
-    if kind in "USa" or (kind == "O" and any(isinstance(v, str) for v in array.ravel()[:1])):
+    if hasattr(value, "tocsc"):  # scipy.sparse: a 0-d array of one object for NumPy
+        what = "a sparse matrix"
+    elif kind in "USa" or (kind == "O" and any(isinstance(v, str) for v in array.ravel()[:1])):
         what = "text"
     elif kind == "c":
         what = "complex numbers"

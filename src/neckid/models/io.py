@@ -14,9 +14,10 @@ An uncompressed or compressed ``.npz`` (a zip of ``.npy`` files) holding
 written from the model's ``preprocessing_`` and restored into it by :func:`load_model`; files
 without the key load as they always did.
 
-It is read with ``numpy.load(path, allow_pickle=False)``, so opening a file from someone else cannot
-run code. Any tool that reads ``.npz`` and JSON (NumPy, MATLAB via a zip reader, Julia's NPZ) can
-read it.
+It is read entry by entry with NumPy's ``.npy`` reader and ``allow_pickle=False``, so opening a file
+from someone else cannot run code; every entry's declared shape, dtype and size, and the header's
+numbers, are checked before anything is allocated (:mod:`neckid.models.io_checks`). Any tool that
+reads ``.npz`` and JSON (NumPy, MATLAB via a zip reader, Julia's NPZ) can read it.
 """
 
 from __future__ import annotations
@@ -25,8 +26,6 @@ import importlib
 import json
 import math
 import warnings
-import zipfile
-import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Protocol
@@ -35,6 +34,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from neckid._version import __version__
+from neckid.models.io_checks import (
+    HEADER_ENTRY,
+    check_array_kinds,
+    check_header_numbers,
+    read_arrays,
+)
 from neckid.regressors import ResolvedLags
 
 __all__ = [
@@ -46,7 +51,7 @@ __all__ = [
 ]
 
 FORMAT_VERSION = 1
-_META_KEY = "__neckid__"
+_META_KEY = HEADER_ENTRY
 
 
 class SavableModel(Protocol):
@@ -102,8 +107,12 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
         If ``path`` does not exist.
     ValueError
         If the file is not a neckid model file (not a readable ``.npz`` archive, an array that would
-        need pickle, no or a malformed ``__neckid__`` header), or its format version is newer than
-        this neckid. The message starts with the path.
+        need pickle, no or a malformed ``__neckid__`` header), is damaged (an entry whose declared
+        shape does not fill its bytes, arrays larger than a model may take, an archive that
+        inflates like a zip bomb, complex numbers, records, dates or text in an entry), its header
+        holds a ``ts``, ``n_samples`` or training range that no fitted model has, or its format
+        version is newer than this neckid. The message starts with the path and names the entry
+        or header key (:mod:`neckid.models.io_checks`).
     """
     path = Path(path)
     if path.is_dir():
@@ -112,7 +121,7 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
         raise FileNotFoundError(f"model file {str(path)!r} does not exist")
     if path.stat().st_size == 0:
         raise ValueError(f"{path} is not a neckid model file (it is empty)")
-    arrays = _read_arrays(path)
+    arrays = read_arrays(path)
     if _META_KEY not in arrays:
         raise ValueError(
             f"{path} is an .npz file but not a neckid model file (no {_META_KEY!r} entry)"
@@ -125,8 +134,13 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
         )
     try:
         header = json.loads(str(header_array))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: the {_META_KEY!r} header is not valid JSON: {exc}") from None
+    except ValueError as exc:  # not JSON, or an integer of more digits than Python converts
+        reason = " ".join(str(exc).split())[:200]
+        raise ValueError(f"{path}: the {_META_KEY!r} header is not valid JSON: {reason}") from None
+    except RecursionError:
+        raise ValueError(
+            f"{path}: the {_META_KEY!r} header is nested too deeply to be a neckid header"
+        ) from None
     if not isinstance(header, dict):
         raise ValueError(
             f"{path}: the {_META_KEY!r} header must be a JSON object; got a JSON"
@@ -140,9 +154,11 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
             f"{path}: the model-file version must be a whole number >= 1; got {version!r}"
         )
     if version > FORMAT_VERSION:
+        writer = header.get("neckid_version")
+        by = f", written by neckid {writer[:40]}" if isinstance(writer, str) else ""
         raise ValueError(
-            f"{path} has model-file version {version}, newer than this neckid reads"
-            f" ({FORMAT_VERSION}); upgrade neckid"
+            f"{path} has model-file version {version}{by}, newer than this neckid reads (neckid"
+            f" {__version__} reads versions up to {FORMAT_VERSION}); upgrade neckid to load it"
         )
     class_name = header.get("class")
     if not isinstance(class_name, str) or not class_name:
@@ -156,38 +172,8 @@ def read_model_file(path: str | Path) -> tuple[str, dict[str, NDArray[Any]], dic
             f"{path}: 'meta' in the {_META_KEY!r} header must be a JSON object; got a JSON"
             f" {type(meta).__name__}"
         )
+    check_header_numbers(path, meta)
     return class_name, arrays, meta
-
-
-def _read_arrays(path: Path) -> dict[str, NDArray[Any]]:
-    """Every array of the archive, read with ``allow_pickle=False``; a ValueError naming the path.
-
-    A damaged archive fails in many ways inside ``zipfile`` and ``zlib`` (a bad CRC, a broken
-    deflate stream, an unsupported compression method or zip version, an encrypted member); each
-    is reported as the file not being a model file, with the reason.
-    """
-    try:
-        with np.load(path, allow_pickle=False) as archive:
-            if not isinstance(archive, np.lib.npyio.NpzFile):
-                raise ValueError("a single .npy array, not an .npz archive")
-            return {k: archive[k] for k in archive.files}
-    except ValueError as exc:
-        if "allow_pickle" in str(exc):
-            reason = "it holds an array of Python objects, which would need pickle; refused"
-        else:
-            reason = str(exc).split(";")[0]
-    except (
-        OSError,
-        EOFError,
-        zipfile.BadZipFile,
-        zlib.error,
-        NotImplementedError,  # zipfile: compression method or zip version not supported
-        RuntimeError,  # zipfile: an encrypted member
-        KeyError,  # zipfile: a member listed in the directory but missing
-    ) as exc:
-        reason = str(exc) or type(exc).__name__
-    reason = " ".join(reason.split())  # one line
-    raise ValueError(f"{path} is not a neckid model file ({reason})")
 
 
 def load_model(path: str | Path) -> Any:
@@ -203,9 +189,10 @@ def load_model(path: str | Path) -> Any:
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If the file is not a neckid model file, names a model class this neckid does not know, or
-        holds values that do not make a working model (the message starts with the path and says
-        which entry is wrong).
+        If the file is not a neckid model file (see :func:`read_model_file`), names a model class
+        this neckid does not know, holds values that do not make a working model, or holds in an
+        entry another kind of values (booleans, integers, real numbers) than its class writes
+        there (the message starts with the path and says which entry is wrong).
     """
     from neckid.registry import model_classes
 
@@ -222,6 +209,7 @@ def load_model(path: str | Path) -> Any:
             model._check_state()
             _check_runs(model)
             _restore_preprocessing(model, meta)
+            written = model._get_state()[0]
     except KeyError as exc:
         raise ValueError(
             f"{path}: this {class_name} file has no {exc.args[0]!r} entry; it is damaged or was"
@@ -241,6 +229,7 @@ def load_model(path: str | Path) -> Any:
     ) as exc:
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise ValueError(f"{path}: invalid {class_name} file: {reason}") from exc
+    check_array_kinds(Path(path), class_name, arrays, written)
     return model
 
 
