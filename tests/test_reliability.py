@@ -993,6 +993,148 @@ def _time_stamps_beyond_floats(tmp: Path) -> None:
     )
 
 
+# ---------------------------------------------------------------------------- units, repeats, info
+def _log_in(folder: Path, name: str, output_unit: str, input_unit: str = "rad/s") -> Path:
+    data = IOData.from_csv(_log(folder, name), ["command"], ["inclination"])
+    data = data.replace(input_units=[input_unit], output_units=[output_unit])
+    path = folder / f"u_{name}"
+    data.to_csv(path)
+    return path
+
+
+def _units_across_runs(tmp: Path) -> None:
+    deg = IOData.from_csv(_log(tmp, "a.csv"), ["command"], ["inclination"]).replace(
+        output_units=["deg"], name="a"
+    )
+    rad = deg.replace(output_units=["rad"], name="b")
+    with pytest.raises(ValueError, match=r"data\[1\] \(b\) has inclination in rad, but data\[0\]"):
+        neckid.LinearARX(Lags.arx(1, 1)).fit([deg, rad])
+
+
+def _model_on_other_units(tmp: Path) -> None:
+    model = neckid.LinearARX(Lags.arx(1, 1)).fit(
+        deg_log := IOData.from_csv(_log(tmp), ["command"], ["inclination"]).replace(
+            output_units=["deg"], name="run"
+        )
+    )
+    path = model.save(tmp / "deg.npz")
+    with pytest.raises(
+        ValueError,
+        match="has inclination in rad, but the model was identified with inclination in deg",
+    ):
+        neckid.load_model(path).simulate(deg_log.replace(output_units=["rad"]))
+
+
+def _same_log_twice(tmp: Path) -> None:
+    log = _log(tmp)
+    refused(
+        tmp,
+        "identify",
+        log,
+        tmp / "." / log.name,
+        "--inputs",
+        "command",
+        "--outputs",
+        "inclination",
+        "--method",
+        "arx",
+        "--save",
+        tmp / "m.npz",
+        match="is given twice",
+    )
+    refused(
+        tmp,
+        "compare",
+        log,
+        "--test",
+        log,
+        "--inputs",
+        "command",
+        "--outputs",
+        "inclination",
+        match="a test log must not be a training log",
+    )
+    assert not (tmp / "m.npz").exists()
+
+
+def _info_other_formats(tmp: Path) -> None:
+    import scipy.io
+
+    data = IOData.from_csv(_log(tmp), ["command"], ["inclination"])
+    t = data.time.copy()
+    t[10] = t[9]
+    scipy.io.savemat(tmp / "run.mat", {"time": t, "command": data.u[:, 0], "label": "bench"})
+    code, output = cli("info", tmp / "run.mat")
+    assert (
+        code == 0
+        and "1 repeated time stamp(s)" in output
+        and "not channels: label (text)" in output
+    )
+
+
+def _too_much_memory(tmp: Path) -> None:
+    import neckid._memory
+
+    data = IOData.from_csv(_log(tmp, n=4000), ["command"], ["inclination"])
+    original = neckid._memory.available_bytes
+    neckid._memory.available_bytes = lambda: 1024**2  # type: ignore[assignment]
+    try:
+        with pytest.raises(
+            ValueError, match=r"needs about .* of memory, and this machine has 1.0 MB"
+        ):
+            neckid.LinearARX(Lags.arx(40, 40)).fit(data)
+    finally:
+        neckid._memory.available_bytes = original  # type: ignore[assignment]
+
+
+def _label_not_seen(tmp: Path) -> None:
+    data = IOData.from_csv(_log(tmp), ["command"], ["inclination"])
+    runs = [data.replace(conditions={"neck": n}, name=n) for n in ("A", "B")]
+    runs[1] = runs[1].replace(y=runs[1].y + 1.0)
+    model = neckid.LinearARX(Lags(1, 1, conditions=["neck"])).fit(runs)
+    with pytest.raises(ValueError, match="neck='C', a label the model was not identified with"):
+        model.simulate(data.replace(conditions={"neck": "C"}))
+
+
+def _empty_benchmark_folder(tmp: Path) -> None:
+    refused(tmp, "benchmark", "--data-dir", tmp, "--out", tmp / "out", match="nothing to run")
+    assert not (tmp / "out").exists()
+
+
+def _lone_output_lag(tmp: Path) -> None:
+    code, output = cli(
+        "identify",
+        _log(tmp),
+        "--inputs",
+        "command",
+        "--outputs",
+        "inclination",
+        "--method",
+        "arx",
+        "--lags",
+        "3/1",
+        "--save",
+        tmp / "m.npz",
+    )
+    assert code == 0 and "the output lag 3 alone, y(t-3)" in output
+    refused(
+        tmp,
+        "identify",
+        _log(tmp),
+        "--inputs",
+        "command",
+        "--outputs",
+        "inclination",
+        "--lags",
+        "1/1",
+        "--orders",
+        "1,1,1",
+        "--save",
+        tmp / "m2.npz",
+        match="not both",
+    )
+
+
 CASES = [
     Case("C1", "CLI", "`simulate --out` names the measured log", "refused: is an input of this command (even with --force); the log is unchanged", "clear", _simulate_onto_the_log),
     Case("C2", "CLI", "`simulate --out` names the model file", "refused: is an input; the model is unchanged", "clear", _simulate_onto_the_model),
@@ -1055,6 +1197,14 @@ CASES = [
     Case("L2", "CLI", "a byte changed in a page of values of a Parquet log neckid wrote", "refused by the page's checksum (... CRC ...), never read as another number", "clear", _parquet_page_checksum),
     Case("L3", "API", "a Parquet or `.mat` log whose columns need more than half the memory available", "ValueError before reading: reading 3 column(s) of N rows needs about ... of memory / reading the variables [...] (N values) needs ...", "clear", _logs_beyond_memory),
     Case("L4", "CLI", "integer time stamps beyond 2**53 (nanoseconds since 1970)", "refused: time column 'time' holds the whole number ... beyond 2**53, not rounded", "clear", _time_stamps_beyond_floats),
+    Case("U1", "API", "runs fitted together, one's inclination in deg, the other's in rad", "ValueError: data[1] (b) has inclination in rad, but data[0] (a) in deg: runs fitted together must agree on units", "clear", _units_across_runs),
+    Case("U2", "API", "a model identified in deg run on a log in rad", "ValueError: run has inclination in rad, but the model was identified with inclination in deg: convert the log's inclination to deg", "clear", _model_on_other_units),
+    Case("U3", "CLI", "the same log twice to `identify` (another spelling of its path); a test log that is a training log in `compare`", "refused: ... is given twice (also as ...) / a test log must not be a training log; no model written", "clear", _same_log_twice),
+    Case("U4", "CLI", "`info` on a `.mat` log with a repeated time stamp and a text variable", "the description, 1 repeated time stamp(s), not channels: label (text)", "correct", _info_other_formats),
+    Case("U5", "API", "lags that need more memory than the machine has (40 + 40 terms, 1 MB available)", "ValueError before allocating: the regressor of ... needs about ... of memory, and this machine has 1.0 MB available: use fewer lags, ...", "clear", _too_much_memory),
+    Case("U6", "API", "a label condition the model was not identified with", "ValueError: ... has neck='C', a label the model was not identified with (it knows A, B)", "clear", _label_not_seen),
+    Case("U7", "CLI", "`benchmark --data-dir` of a folder with none of the data sets", "refused: nothing to run: none of the data sets ... is under ...; no output folder", "clear", _empty_benchmark_folder),
+    Case("U8", "CLI", "`--lags 3/1` (meant as na = 3); `--lags` with `--orders`", "a note: the output lag 3 alone, y(t-3); for the lags 1 to 3 write --lags 1-3/... or --orders 3,NB,NK / refused: give the regressor once", "clear", _lone_output_lag),
     Case("A1", "API", "a complex array given to IOData", "TypeError: u holds complex numbers", "clear", _complex_array),
     Case("A2", "API", "a free run that diverges", "DivergenceError naming sample and time; the run in .result", "clear", _diverging_api),
     Case("A3", "API", "an SM model file with gamma < 0", "ValueError on load: gamma must be > 0", "clear", _sm_negative_gamma),

@@ -407,6 +407,7 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
     """Lock ``folder`` for one run and stage its files; move them in when the block ends normally.
 
     Staging folders (``.staging-*``) that a killed run left are removed once the lock is held.
+    A folder this run created is removed again when the run fails (it is empty then).
 
     Raises
     ------
@@ -421,6 +422,7 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
     target = Path(folder)
     if target.exists() and not target.is_dir():
         raise OutputError(f"--out {str(target)!r} is a file; give a folder")
+    created = not target.exists()
     target.mkdir(parents=True, exist_ok=True)
     lock = FileLock(lock_path(target))
     try:
@@ -440,10 +442,15 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
             " another folder"
         )
     staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=target))
+    finished = False
     try:
         yield StagedFolder(target, staging)
         for item in sorted(staging.iterdir()):
             os.replace(item, target / item.name)
+        finished = True
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+        if created and not finished:  # a run that failed leaves no empty folder of its own
+            with contextlib.suppress(OSError):
+                target.rmdir()
         lock.release()  # the empty lock file stays in the temporary directory: removing it races
