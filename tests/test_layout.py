@@ -46,6 +46,7 @@ FORBIDDEN = {
         "neckid.models",
     ),
     "neckid.loops": ("neckid.experiments", "neckid.report", "neckid.cli"),
+    "neckid.design": ("neckid.experiments", "neckid.report", "neckid.cli"),
     "neckid.report": ("neckid.experiments", "neckid.cli"),
     "neckid.experiments": ("neckid.cli",),
 }

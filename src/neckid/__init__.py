@@ -7,6 +7,7 @@ The public API, re-exported here:
 - models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
   :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
 - exports for other tools (MATLAB, JSON): :func:`export_model`, :func:`write_export`
+- controllers designed from models: :mod:`neckid.design`, :func:`load_controller`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
 - which model, how far to trust it: :func:`compare` (safe selection on the training logs, one
   free run per test log), :func:`select_safely`
@@ -35,9 +36,10 @@ from neckid._version import __version__
 _numba_setup.configure_numba_cache()
 
 if TYPE_CHECKING:
-    from neckid import datasets, interop, metrics, plant, signals
+    from neckid import datasets, design, interop, metrics, plant, signals
     from neckid.comparison import Comparison, SafeSelection, compare, select_safely
     from neckid.data.iodata import IOData, as_experiments
+    from neckid.design.files import load_controller
     from neckid.export import export_model, write_export
     from neckid.loops.operating_points import (
         OperatingPointResult,
@@ -80,6 +82,7 @@ __all__ = [
     "as_experiments",
     "compare",
     "datasets",
+    "design",
     "export_model",
     "fit_percent",
     "gamma_curve",
@@ -88,6 +91,7 @@ __all__ = [
     "interop",
     "lag_grid",
     "lipschitz_quotients",
+    "load_controller",
     "load_model",
     "mae",
     "methods",
@@ -102,7 +106,7 @@ __all__ = [
 ]
 
 # Public submodules, and the module each other public name lives in (the same imports as above).
-_SUBMODULES = frozenset({"datasets", "interop", "metrics", "plant", "signals"})
+_SUBMODULES = frozenset({"datasets", "design", "interop", "metrics", "plant", "signals"})
 _NAME_TO_MODULE = {
     "Comparison": "neckid.comparison",
     "SafeSelection": "neckid.comparison",
@@ -110,6 +114,7 @@ _NAME_TO_MODULE = {
     "select_safely": "neckid.comparison",
     "IOData": "neckid.data.iodata",
     "as_experiments": "neckid.data.iodata",
+    "load_controller": "neckid.design.files",
     "export_model": "neckid.export",
     "write_export": "neckid.export",
     "OperatingPointResult": "neckid.loops.operating_points",

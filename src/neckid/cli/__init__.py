@@ -7,7 +7,7 @@ them registers them on ``app``. Every command runs under one error policy
 (:func:`neckid.cli._app.handled`).
 """
 
-from neckid.cli import compare, export, logs, models, runs, select
+from neckid.cli import compare, design, export, logs, models, runs, select
 from neckid.cli._app import app
 
-__all__ = ["app", "compare", "export", "logs", "models", "runs", "select"]
+__all__ = ["app", "compare", "design", "export", "logs", "models", "runs", "select"]
