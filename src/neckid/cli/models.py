@@ -54,6 +54,7 @@ from neckid.cli.explain import (
     _report_extrapolation,
     _save_panels,
 )
+from neckid.cli.in_loop import CONTROLLER_HELP, validate_in_loop
 from neckid.registry import methods
 
 
@@ -403,11 +404,16 @@ def validate(
         None, "--json", help="Write per log and the mean: fit %, RMSE, MAE, domain, band."
     ),
     force: bool = FORCE_OPTION,
+    in_loop: bool = typer.Option(
+        False, "--in-loop", help="Run the model in the lab's loop of each log (docs/in_loop.md)."
+    ),
+    controller: str = typer.Option(None, "--controller", help=CONTROLLER_HELP),
 ) -> None:
     """Free-run simulate a saved model on one log or several; print fit (%), RMSE and MAE per output.
 
     Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), skipping the initial samples.
     A free run that diverges is reported as such (exit status 3, after the other logs).
+    With --in-loop: the model in the loop of each closed-loop log instead (docs/in_loop.md).
     """
     import json
 
@@ -417,6 +423,9 @@ def validate(
     for path, option in ((plot, "--plot"), (json_out, "--json")):
         if path is not None:
             check_output_file(path, force=force, inputs=given, option=option)
+    if in_loop:
+        options = {"time": time, "ts": ts, "layout": layout, "sep": sep, "conditions": conditions}
+        return validate_in_loop(model_path, logs, controller, json_out, options)
     records, runs = [], []
     for log in logs:
         model, data = _load_for_model(

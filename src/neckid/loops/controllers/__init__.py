@@ -6,7 +6,8 @@
   (:class:`AdaptiveFractionalReplay`, :func:`load_adaptive_parameters`);
 - :mod:`.tuner`: a re-implementation of the adaptive controller's online identifier and
   iso-damping tuner (:func:`~.tuner.iso_damping_tuning`, :func:`~.tuner.retune_log`),
-  approximate by nature;
+  approximate by nature; :mod:`.tuned`: the adaptive controller that runs them online
+  (:class:`AdaptiveFractionalTuner`, for a loop whose plant is a model);
 - :mod:`.references`: the staircase, step, identification and adaptive references with their
   dither (:func:`reference_for_log`); :mod:`.glibc`: glibc's ``rand()`` that draws it;
 - :mod:`.drive`: the drive's smallest velocity (:func:`executed_velocity`);
@@ -64,6 +65,7 @@ from neckid.loops.controllers.references import (
     staircase_reference,
     step_reference,
 )
+from neckid.loops.controllers.tuned import AdaptiveFractionalTuner
 
 __all__ = [
     "ADAPTIVE_START_GAINS",
@@ -75,6 +77,7 @@ __all__ = [
     "LAB_TS",
     "PI_GAINS",
     "AdaptiveFractionalReplay",
+    "AdaptiveFractionalTuner",
     "AdaptiveParameters",
     "CommandCheck",
     "GlibcRandom",
