@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import neckid
 import neckid._memory
 from _synthetic import arx_system
 from neckid import Lags, LinearARX, NeuralNARX
@@ -39,3 +40,11 @@ def test_the_available_memory_is_read() -> None:
     assert available is None or available > 0
     assert neckid._memory.describe_bytes(512) == "512 B"
     assert np.isclose(float(neckid._memory.describe_bytes(1.5 * 1024**2).split()[0]), 1.5)
+
+
+def test_set_membership_refuses_more_terms_than_rows() -> None:
+    data = arx_system(300, 1)
+    with pytest.raises(
+        ValueError, match=r"more training rows than regressor terms: 150 rows for 300"
+    ):
+        neckid.methods()["sm"].make(Lags.arx(150, 150, 1)).fit(data)

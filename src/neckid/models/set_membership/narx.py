@@ -292,7 +292,14 @@ class SetMembership(NarxModel):
 
         ``x`` becomes the kd-tree's points, scaled and reordered in place (the one copy of the
         training regressors the model keeps); ``NarxModel.fit`` does not use it afterwards.
+        A regressor of as many terms as training rows or more is refused: its Lipschitz bound
+        would rest on fewer points than dimensions.
         """
+        if 2 <= x.shape[0] <= x.shape[1]:  # (fewer than 2 rows: fit_core says so)
+            raise ValueError(
+                f"Set Membership needs more training rows than regressor terms: {x.shape[0]} rows"
+                f" for {x.shape[1]} terms; use a longer record or fewer lags"
+            )
         self._set_core(*fit_core(x, y, self.lags_, SMSettings.of(self)))
 
     def _set_core(self, core: SMCore, report: FitReport, *, new_curve: bool = True) -> None:
