@@ -246,6 +246,25 @@ class GreyBoxNeck(Estimator):
         check_is_fitted(self)
         return GreyBoxSimulator(self)
 
+    def state_map(self, bounds: bool = False) -> Any:
+        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+
+        Parameters
+        ----------
+        bounds : bool, default False
+            Ignored (the model has no band).
+
+        Returns
+        -------
+        GreyBoxStateMap
+            State: the last ``max_lag_`` outputs and operator outputs, and the plays' memory;
+            the same floats as :meth:`simulator`.
+        """
+        from neckid.models.greybox.state_map import GreyBoxStateMap
+
+        check_is_fitted(self)
+        return GreyBoxStateMap(self)
+
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:
         super()._check_state()
