@@ -62,6 +62,7 @@ def test_the_registry_lists_every_method() -> None:
         "arx",
         "greybox-neck",
         "nn",
+        "pnlss",
         "poly",
         "rls",
         "scheduled",

@@ -79,13 +79,14 @@ COMPLEXITY: Mapping[str, int] = {
     "sm-parallel": 3,
     "sm-multistep": 4,
     "poly": 4,
+    "pnlss": 4,
     "sm-parallel-poly": 5,
     "nn": 6,
 }
 
 #: Methods whose regressor is not their lags (the subspace model: its order comes from the
 #: singular values): one candidate each, not one per lag set.
-LAG_FREE_METHODS = frozenset({"ss", "greybox-neck"})
+LAG_FREE_METHODS = frozenset({"ss", "pnlss", "greybox-neck"})
 
 
 def input_reach(train: Sequence[IOData], tests: Sequence[IOData]) -> float:

@@ -10,8 +10,8 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'greybox-neck', 'nn', 'poly', 'rls', 'scheduled', 'scheduled-position', 'sm', 'sm-linear',
- 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
+['arx', 'greybox-neck', 'nn', 'pnlss', 'poly', 'rls', 'scheduled', 'scheduled-position', 'sm',
+ 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -106,6 +106,14 @@ _METHODS: tuple[Method, ...] = (
         "linear state-space model by subspace identification (PO-MOESP), order from the singular"
         " values, refined on the free-run error, stable",
         quick={"max_iter": 20},
+    ),
+    Method(
+        "pnlss",
+        "Polynomial state space (PNLSS)",
+        "neckid.models.pnlss.model:PolynomialStateSpace",
+        "polynomial nonlinear state-space model of degree 3 (Paduart et al. 2010): the ss model"
+        " plus monomials of states and inputs, fitted on the free-run error",
+        quick={"degree": 2, "max_iter": 10},
     ),
     Method(
         "sm",

@@ -487,6 +487,30 @@ def _greybox(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
+def _pnlss(model: Any) -> tuple[str, dict[str, Any]]:
+    names = [f"x{k + 1}" for k in range(int(model.order_))] + list(model.input_names_)
+    return "polynomial_state_space", {
+        "equation": "x(t+1) = A x + B v + E zeta(x, v); w(t) = C x + D v + intercept + F zeta(x,"
+        " v), v = (u - u_center) ./ u_scale, y = y_center + y_scale .* w; zeta: the monomials"
+        " (powers rows, over [x; v]) of z = ([x; v] - center) ./ scale held in [low, high]; the"
+        " free run starts from the state start_A ... start_intercept fit to the first max_lag"
+        " samples",
+        **{key: _array(getattr(model, f"{key}_")) for key in ("A", "B", "C", "D", "E", "F")},
+        "intercept": _array(model.intercept_),
+        "monomials": _monomial_names(model.powers_, names),
+        "powers": np.asarray(model.powers_, dtype=np.int64),
+        **{
+            key: _array(getattr(model, f"{key}_"))
+            for key in ("u_center", "u_scale", "y_center", "y_scale", "center", "scale")
+        },
+        "low": _array(model.low_),
+        "high": _array(model.high_),
+        **{f"start_{k}": _array(getattr(model, f"start_{k}_")) for k in ("A", "B", "C", "D")},
+        "start_intercept": _array(model.start_intercept_),
+        "order": int(model.order_),
+    }
+
+
 Describer = Callable[[Any], tuple[str, dict[str, Any]]]
 
 #: Class name -> the function describing its fitted parameters (``(structure, parameters)``).
@@ -494,6 +518,7 @@ _DESCRIBERS: dict[str, Describer] = {
     "LinearARX": _arx,
     "RecursiveARX": _rls,
     "SubspaceStateSpace": _subspace,
+    "PolynomialStateSpace": _pnlss,
     "PolynomialNARX": _polynomial,
     "NeuralNARX": _neural,
     "SetMembership": _set_membership,

@@ -5,6 +5,7 @@
 - :mod:`neckid.models.set_membership`: :class:`SetMembership`, :class:`MultiStepSetMembership`,
   :class:`ParallelSetMembership`;
 - :mod:`neckid.models.polynomial`: :class:`PolynomialNARX`;
+- :mod:`neckid.models.pnlss`: :class:`PolynomialStateSpace` (PNLSS);
 - :mod:`neckid.models.neural`: :class:`NeuralNARX`;
 - :mod:`neckid.models.scheduled`: :class:`GainScheduledModel`;
 - :mod:`neckid.models.greybox`: :class:`GreyBoxNeck`;
@@ -25,6 +26,7 @@ if TYPE_CHECKING:
     from neckid.models.greybox import GreyBoxNeck
     from neckid.models.linear import LinearARX, RecursiveARX, SubspaceStateSpace
     from neckid.models.neural import NeuralNARX
+    from neckid.models.pnlss import PolynomialStateSpace
     from neckid.models.polynomial import PolynomialNARX
     from neckid.models.scheduled import GainScheduledModel
     from neckid.models.set_membership import (
@@ -41,6 +43,7 @@ __all__ = [
     "NeuralNARX",
     "ParallelSetMembership",
     "PolynomialNARX",
+    "PolynomialStateSpace",
     "RecursiveARX",
     "SetMembership",
     "SubspaceStateSpace",
@@ -54,6 +57,7 @@ _FAMILY = {
     "MultiStepSetMembership": "neckid.models.set_membership",
     "ParallelSetMembership": "neckid.models.set_membership",
     "PolynomialNARX": "neckid.models.polynomial",
+    "PolynomialStateSpace": "neckid.models.pnlss",
     "NeuralNARX": "neckid.models.neural",
     "GainScheduledModel": "neckid.models.scheduled",
     "GreyBoxNeck": "neckid.models.greybox",
