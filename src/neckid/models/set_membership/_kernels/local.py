@@ -157,6 +157,49 @@ def point_gamma(tree: SMTree, epsilon: FloatArray, rows: IntArray | None = None)
 
 # ---------------------------------------------------------------------------------- bounds
 @njit(cache=True)
+def kth_radius2(
+    w: FloatArray,
+    k_near: int,
+    tree: tuple[NDArray, ...],
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    near_d: FloatArray,
+) -> float:  # pragma: no cover - compiled
+    """The ``k_near``-th smallest squared distance from ``w`` to a training point."""
+    points, _, start, end, left, right, lo, hi, _, _ = tree
+    k_near = min(k_near, points.shape[0])
+    for k in range(k_near):
+        near_d[k] = np.inf
+    node_stack[0] = 0
+    dist_stack[0] = box_distance2(w, lo, hi, 0)
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        if dist_stack[top] > near_d[k_near - 1]:
+            continue
+        if left[node] < 0:
+            for p in range(start[node], end[node]):
+                acc = squared_distance(w, points, p)
+                if acc < near_d[k_near - 1]:
+                    slot = k_near - 1
+                    while slot > 0 and near_d[slot - 1] > acc:
+                        near_d[slot] = near_d[slot - 1]
+                        slot -= 1
+                    near_d[slot] = acc
+        else:
+            d_left = box_distance2(w, lo, hi, left[node])
+            d_right = box_distance2(w, lo, hi, right[node])
+            near, far = (
+                (left[node], right[node]) if d_left <= d_right else (right[node], left[node])
+            )
+            node_stack[top], dist_stack[top] = far, max(d_left, d_right)
+            node_stack[top + 1], dist_stack[top + 1] = near, min(d_left, d_right)
+            top += 2
+    return near_d[k_near - 1]
+
+
+@njit(cache=True)
 def _neighbour_gamma(
     w: FloatArray,
     k_near: int,
@@ -175,37 +218,8 @@ def _neighbour_gamma(
     gets ``inf``.
     """
     points, _, start, end, left, right, lo, hi, _, _ = tree
-    k_near = min(k_near, points.shape[0])
-    for k in range(k_near):
-        near_d[k] = np.inf
     # 1. the k_near-th smallest squared distance
-    node_stack[0] = 0
-    dist_stack[0] = box_distance2(w, lo, hi, 0)
-    top = 1
-    while top > 0:
-        top -= 1
-        node = node_stack[top]
-        if dist_stack[top] > near_d[k_near - 1]:
-            continue
-        if left[node] < 0:
-            for p in range(start[node], end[node]):
-                acc = squared_distance(w, points, p)
-                if acc < near_d[k_near - 1]:
-                    slot = k_near - 1
-                    while slot > 0 and near_d[slot - 1] > acc:
-                        near_d[slot] = near_d[slot - 1]
-                        slot -= 1
-                    near_d[slot] = acc
-        else:  # the nearer child on top
-            d_left = box_distance2(w, lo, hi, left[node])
-            d_right = box_distance2(w, lo, hi, right[node])
-            near, far = (
-                (left[node], right[node]) if d_left <= d_right else (right[node], left[node])
-            )
-            node_stack[top], dist_stack[top] = far, max(d_left, d_right)
-            node_stack[top + 1], dist_stack[top + 1] = near, min(d_left, d_right)
-            top += 2
-    radius2 = near_d[k_near - 1]
+    radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
     if not radius2 < np.inf:
         out[:] = np.inf
         return

@@ -41,6 +41,7 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 from neckid._typing import FloatArray, IntArray
+from neckid.models.set_membership._kernels.local import kth_radius2
 from neckid.models.set_membership._kernels.tree import (
     STACK_DEPTH,
     box_distance,
@@ -175,49 +176,6 @@ def point_gamma_grid(
 
 # ---------------------------------------------------------------------------------- bounds
 @njit(cache=True)
-def _kth_radius2(
-    w: FloatArray,
-    k_near: int,
-    tree: tuple[NDArray, ...],
-    node_stack: IntArray,
-    dist_stack: FloatArray,
-    near_d: FloatArray,
-) -> float:  # pragma: no cover - compiled; the first half of local._neighbour_gamma
-    """The ``k_near``-th smallest squared distance from ``w`` to a training point."""
-    points, _, start, end, left, right, lo, hi, _, _ = tree
-    k_near = min(k_near, points.shape[0])
-    for k in range(k_near):
-        near_d[k] = np.inf
-    node_stack[0] = 0
-    dist_stack[0] = box_distance2(w, lo, hi, 0)
-    top = 1
-    while top > 0:
-        top -= 1
-        node = node_stack[top]
-        if dist_stack[top] > near_d[k_near - 1]:
-            continue
-        if left[node] < 0:
-            for p in range(start[node], end[node]):
-                acc = squared_distance(w, points, p)
-                if acc < near_d[k_near - 1]:
-                    slot = k_near - 1
-                    while slot > 0 and near_d[slot - 1] > acc:
-                        near_d[slot] = near_d[slot - 1]
-                        slot -= 1
-                    near_d[slot] = acc
-        else:
-            d_left = box_distance2(w, lo, hi, left[node])
-            d_right = box_distance2(w, lo, hi, right[node])
-            near, far = (
-                (left[node], right[node]) if d_left <= d_right else (right[node], left[node])
-            )
-            node_stack[top], dist_stack[top] = far, max(d_left, d_right)
-            node_stack[top + 1], dist_stack[top + 1] = near, min(d_left, d_right)
-            top += 2
-    return near_d[k_near - 1]
-
-
-@njit(cache=True)
 def _neighbour_gammas(
     w: FloatArray,
     radius2: float,
@@ -330,7 +288,7 @@ def _prior_bounds_kernel(
         best_lower = np.empty(n_priors)
         best_upper = np.empty(n_priors)
         if any_local:
-            radius2 = _kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
+            radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
             _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, near_g)
         for c in range(n_out):
             for s in range(n_priors):
