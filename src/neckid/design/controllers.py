@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike
 
 from neckid._typing import FloatArray
 from neckid.design.operators import DiscreteOperator
-from neckid.systems import StateMap
+from neckid.loops.controllers.lab import LabControllerStateMap
 from neckid.validation import check_number
 
 __all__ = ["DesignedController", "DesignedStateMap", "GainSchedule"]
@@ -317,8 +317,8 @@ class DesignedController:
         )
 
 
-class DesignedStateMap(StateMap):
-    """State functions of a :class:`DesignedController` (as the lab's controllers' map).
+class DesignedStateMap(LabControllerStateMap):
+    """State functions of a :class:`DesignedController`: the lab's controllers' map.
 
     Inputs ``reference`` and ``inclination`` [deg]; output ``velocity_command`` [rad/s]; state
     ``[operator..., velocity_command[t-1], inclination[t-1]]``. The command of sample ``k`` reads
@@ -330,20 +330,6 @@ class DesignedStateMap(StateMap):
     controller : DesignedController
         Its :meth:`~DesignedController.control_law` is the map (its own state is not touched).
     """
-
-    def __init__(self, controller: DesignedController) -> None:
-        super().__init__()
-        self._controller = controller
-        self.inputs = ["reference", "inclination"]
-        self.outputs = ["velocity_command"]
-        self.states = [*controller.states, "inclination[t-1]"]
-        self.ts = controller.ts
-
-    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        return self._controller.control_law(x[:-1], u[0], x[-1])[0]
-
-    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        return np.append(self._controller.control_law(x[:-1], u[0], x[-1])[1], u[1])
 
     def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
         """Zeros, as after :meth:`DesignedController.reset`, and a zero first inclination.

@@ -23,6 +23,7 @@ References
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -217,6 +218,24 @@ class LabController:
         return LabControllerStateMap(self)
 
 
+class ControlLaw(Protocol):
+    """A controller written as a pure function of a packed state (what the map below needs)."""
+
+    ts: float
+
+    @property
+    def states(self) -> list[str]:
+        """Names of the packed state."""
+
+    def initial_state(self) -> FloatArray:
+        """The packed state after ``reset``."""
+
+    def control_law(
+        self, state: ArrayLike, reference: ArrayLike, measurement: ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """Command and next state from a given state."""
+
+
 class LabControllerStateMap(StateMap):
     """State functions of a :class:`LabController`, as :class:`~neckid.plant.ControllerStateMap`.
 
@@ -232,7 +251,7 @@ class LabControllerStateMap(StateMap):
         Its :meth:`~LabController.control_law` is the map (its own state is not touched).
     """
 
-    def __init__(self, controller: LabController) -> None:
+    def __init__(self, controller: ControlLaw) -> None:
         super().__init__()
         self._controller = controller
         self.inputs = ["reference", "inclination"]

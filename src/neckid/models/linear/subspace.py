@@ -473,6 +473,10 @@ class StateSpaceSimulator:
                 f"u must have {self.n_inputs} values (one per input); got {row.shape[1]}"
             )
         check_finite(row, "u")
+        return np.asarray(self._advance(row), dtype=np.float64)
+
+    def _advance(self, row: FloatArray) -> FloatArray:
+        """``y(t)`` of one input row ``(1, n_inputs)``; the state moves on (subclasses: the model)."""
         y, self.x = state_space_run(*self._matrices, row, self.x)
         return np.asarray(y[0], dtype=np.float64)
 

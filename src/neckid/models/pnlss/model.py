@@ -36,14 +36,13 @@ from scipy.optimize import least_squares
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import DIVERGENCE_SPANS, Estimator, ModelResult, check_is_fitted
-from neckid.models.linear.subspace import SubspaceStateSpace
+from neckid.models.linear.subspace import StateSpaceSimulator, SubspaceStateSpace
 from neckid.models.linear.subspace_steps import estimate_state
 from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.pnlss._kernels import pnlss_run
 from neckid.models.pnlss.fitting import FreeRunProblem, Layout, free_run, linear_start
 from neckid.regressors import Lags
-from neckid.systems import history_rows
-from neckid.validation import Interval, check_finite
+from neckid.validation import Interval
 
 __all__ = ["PolynomialStateSpace", "PolynomialStateSpaceSimulator"]
 
@@ -467,7 +466,7 @@ class PolynomialStateSpace(Estimator):
         return model
 
 
-class PolynomialStateSpaceSimulator:
+class PolynomialStateSpaceSimulator(StateSpaceSimulator):
     """Step-by-step free run of a :class:`PolynomialStateSpace`, for closed loops.
 
     ``reset(y0, u0)`` estimates the state from ``max_lag_`` past outputs and inputs
@@ -476,35 +475,6 @@ class PolynomialStateSpaceSimulator:
     ``y(t)`` and advances the state with the arithmetic of ``simulate``.
     """
 
-    def __init__(self, model: PolynomialStateSpace) -> None:
-        self._model = model
-        self.n_inputs, self.n_outputs = model.n_inputs_, model.n_outputs_
-        self.reset()
-
-    def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
-        """Start again: from the state fitted to ``y0`` and ``u0``, or from zero without ``y0``.
-
-        Parameters
-        ----------
-        y0 : array_like, shape (n_outputs,) or (max_lag_, n_outputs), optional
-            Past outputs (oldest first); a single row is repeated.
-        u0 : array_like, shape (n_inputs,) or (max_lag_, n_inputs), optional
-            Past inputs, the same way (default zeros).
-        """
-        m = self._model.max_lag_
-        if y0 is None:
-            self.x = np.zeros(self._model.order_)
-            return
-        y_rows = history_rows(y0, m, self.n_outputs, "y0")
-        u_rows = history_rows(u0, m, self.n_inputs, "u0")
-        self.x = self._model.initial_state(y_rows, u_rows)
-
-    def step(self, u: ArrayLike) -> FloatArray:
-        """Advance one sample with input ``u`` (``(n_inputs,)``); return ``y(t)`` (``(n_outputs,)``)."""
-        row = np.asarray(u, dtype=np.float64).reshape(1, -1)
-        if row.shape[1] != self.n_inputs:
-            raise ValueError(
-                f"u must have {self.n_inputs} values (one per input); got {row.shape[1]}"
-            )
-        check_finite(row, "u")
+    def _advance(self, row: FloatArray) -> FloatArray:
+        """``y(t)`` of one input row, the state moved on with the arithmetic of ``simulate``."""
         return np.asarray(self._model.run(row, self.x)[0], dtype=np.float64)
