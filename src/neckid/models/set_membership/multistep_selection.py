@@ -7,7 +7,8 @@ training point). :func:`select_settings` chooses them on the training logs only:
 
 1. **Folds over runs.** With two or more training experiments each fold holds one out
    (leave-one-experiment-out); with one, the record is cut into ``MIN_BLOCKS = 3`` contiguous
-   time blocks (:func:`neckid.folds.time_blocks`) and each fold holds one block out.
+   time blocks (:func:`neckid.folds.fold_records`: of one period of the period average when
+   the input repeats exactly) and each fold holds one block out.
    Regressors never straddle two experiments or blocks.
 2. **Every setting of the grid** (:class:`SettingGrid`; by default :data:`EPSILON_FACTORS` ×
    :data:`INPUT_WEIGHTS` × :data:`LIPSCHITZ_FORMS`, 28 settings) is fitted on each fold's
@@ -52,7 +53,7 @@ import pandas as pd
 
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
-from neckid.folds import MIN_BLOCKS, time_blocks
+from neckid.folds import MIN_BLOCKS, fold_records
 from neckid.models.linear.arx import linear_sum
 from neckid.models.set_membership._kernels.priors import prior_bounds
 from neckid.models.set_membership.core import SMSettings
@@ -193,7 +194,7 @@ class MultiStepSelection:
 
     Attributes
     ----------
-    folds : {"experiments", "time blocks"}
+    folds : {"experiments", "time blocks", "time blocks of one period"}
         Leave-one-experiment-out, or contiguous blocks of the one training record.
     fold_names : tuple of str
         The held-out experiment (or block) of each fold.
@@ -313,14 +314,18 @@ def json_candidates(value: Any) -> float | list[float] | None:
 def fold_experiments(experiments: Sequence[IOData]) -> tuple[list[IOData], str]:
     """The parts the folds hold out: the experiments (two or more), else time blocks of the one.
 
+    One record is cut as :func:`neckid.folds.fold_records` cuts it: within one period of its
+    period average when its input repeats exactly.
+
     Returns
     -------
     parts : list of IOData
-    kind : {"experiments", "time blocks"}
+    kind : {"experiments", "time blocks", "time blocks of one period"}
     """
     if len(experiments) >= 2:
         return list(experiments), "experiments"
-    return time_blocks(experiments[0], MIN_BLOCKS), "time blocks"
+    parts, scheme = fold_records(list(experiments), MIN_BLOCKS)
+    return parts, "time blocks of one period" if scheme.endswith("period") else "time blocks"
 
 
 # ---------------------------------------------------------------------------------- one fold
