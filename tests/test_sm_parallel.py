@@ -235,3 +235,25 @@ def test_projection_keeps_the_parallel_output_inside_the_bounds_and_clips_it_out
     loaded = load_model(projected.save(tmp_path / "projected"))
     assert loaded.estimate == "projection"
     np.testing.assert_array_equal(loaded.simulate(test).y, result.y)
+
+
+def test_any_registered_model_runs_in_parallel(records, tmp_path):
+    train, test = records
+    for base in ("ss", "arx"):
+        model = ParallelSetMembership(Lags.arx(2, 2, 1), base=base).fit(train)
+        loaded = load_model(model.save(tmp_path / f"{base}.npz"))
+        assert type(loaded.linear_).__name__ == type(model.linear_).__name__
+        np.testing.assert_array_equal(loaded.simulate(test).y, model.simulate(test).y)
+        steps = model.simulator()
+        steps.reset(y0=test.y[: model.max_lag_], u0=test.u[: model.max_lag_])
+        stepped = np.array([steps.step(u) for u in test.u[model.max_lag_ :]])
+        np.testing.assert_allclose(stepped, model.simulate(test).y[model.max_lag_ :], atol=1e-9)
+    assert type(
+        ParallelSetMembership(Lags.arx(2, 2, 1), base="ss").fit(train).linear_
+    ).__name__ == ("SubspaceStateSpace")
+    own = LinearARX(Lags.arx(1, 1, 1))  # an unfitted model with its own settings
+    assert ParallelSetMembership(Lags.arx(2, 2, 1), base=own).fit(train).linear_.lags_.n_terms == 2
+    with pytest.raises(ValueError, match="must not be a Set Membership model"):
+        ParallelSetMembership(Lags.arx(2, 2, 1), base="sm").fit(train)
+    with pytest.raises(TypeError, match=r"state map .* not available yet"):
+        ParallelSetMembership(Lags.arx(2, 2, 1), base="ss").fit(train).state_map()

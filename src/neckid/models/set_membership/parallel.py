@@ -49,6 +49,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from sklearn.base import clone
 
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
@@ -119,12 +120,20 @@ class ParallelSetMembership(Estimator):
         The output at each step: SM's central estimate ``(f_u + f_l) / 2``, or the parallel
         model's output clipped into ``[f_l, f_u]`` (see the module docstring). The bounds are
         the same either way.
+    base : str or estimator, optional
+        The model run in parallel, so that the SM bounds come with the best simulator: a
+        registry name (:func:`neckid.methods`: ``"arx"``, ``"poly"``, ``"ss"``, ``"pnlss"``,
+        ``"greybox-neck"``, ...) made with ``lags`` and its defaults, or an unfitted estimator
+        with its own settings (cloned; given ``lags`` when its own are None; a model file then
+        keeps the fitted part, not these settings). ``None``: the linear ARX
+        (or the polynomial of ``parallel_degree`` / ``parallel_fit``). A base with a state of
+        its own (``ss``, ``pnlss``, ``greybox-neck``) has no python-control state map here yet.
 
     Attributes
     ----------
-    linear_ : LinearARX or PolynomialNARX
-        The model run in parallel (a linear ARX unless ``parallel_degree`` or ``parallel_fit``
-        say otherwise).
+    linear_ : estimator
+        The model run in parallel (a linear ARX unless ``base``, ``parallel_degree`` or
+        ``parallel_fit`` say otherwise).
     sm_ : SetMembership
         The SM map; its inputs are the model's inputs followed by one ``<output>_linear``
         channel per output.
@@ -191,6 +200,7 @@ class ParallelSetMembership(Estimator):
         "parallel_degree": PolynomialNARX._parameter_constraints["degree"],
         "parallel_fit": PolynomialNARX._parameter_constraints["fit_for"],
         "estimate": [Options({"central", "projection"})],
+        "base": [None, str, Estimator],
         **{k: SetMembership._parameter_constraints[k] for k in _SM_PARAMETERS},
     }
     predicts_by_simulation = True
@@ -214,6 +224,7 @@ class ParallelSetMembership(Estimator):
         lipschitz: str = "global",
         local_neighbours: int = 10,
         estimate: str = "central",
+        base: str | Estimator | None = None,
     ) -> None:
         self.lags = lags
         self.linear_lags = linear_lags
@@ -231,6 +242,7 @@ class ParallelSetMembership(Estimator):
         self.lipschitz = lipschitz
         self.local_neighbours = local_neighbours
         self.estimate = estimate
+        self.base = base
 
     # ------------------------------------------------------------------ fit
     def _sm_lags(self, input_names: Sequence[str], output_names: Sequence[str]) -> Lags:
@@ -269,9 +281,9 @@ class ParallelSetMembership(Estimator):
         bad = np.flatnonzero(~np.isfinite(simulated).all(axis=1))
         if bad.size:
             raise ValueError(
-                f"the linear ARX {self.linear_.lags_.to_lags()!r} diverges in free run on {argument}"
-                f" ({data.name or 'unnamed record'}) at sample {int(bad[0])}: it is unstable; try"
-                " other lags"
+                f"the model run in parallel ({type(self.linear_).__name__}) diverges in free run on"
+                f" {argument} ({data.name or 'unnamed record'}) at sample {int(bad[0])}: it is"
+                " unstable; try other lags or another base"
             )
         return self._augment(data, simulated)
 
@@ -310,20 +322,44 @@ class ParallelSetMembership(Estimator):
             augmented
         )
         self._set_channels(first)
-        self._set_fitted_attributes()
+        self._set_fitted_attributes(self.lags.resolve(experiments))
         return self
 
-    def _parallel_model(self) -> LinearARX | PolynomialNARX:
-        """The model run in parallel: the linear ARX, or a polynomial NARX when asked for."""
+    def _parallel_model(self) -> Any:
+        """The model run in parallel: ``base`` by its registry name, else the linear ARX.
+
+        Without ``base``, a polynomial NARX when ``parallel_degree`` or ``parallel_fit`` ask for one.
+        """
+        if isinstance(self.base, Estimator):  # an unfitted model with its own settings
+            model = clone(self.base)
+            if "lags" in model.get_params() and model.get_params()["lags"] is None:
+                model.set_params(lags=self.lags)
+        elif self.base is not None:
+            from neckid.registry import get_method
+
+            model = get_method(self.base).make(self.lags)
+        else:
+            model = None
+        if model is not None:
+            if "SetMembership" in type(model).__name__:
+                raise ValueError(
+                    f"base={self.base!r}: the model run in parallel must not be a Set Membership"
+                    " model itself; give arx, poly, ss, pnlss, greybox-neck, ..."
+                )
+            return model
         if int(self.parallel_degree) == 1 and self.parallel_fit == "prediction":
             return LinearARX(self.lags)
         return PolynomialNARX(
             self.lags, degree=int(self.parallel_degree), fit_for=self.parallel_fit
         )
 
-    def _set_fitted_attributes(self) -> None:
-        self.lags_: ResolvedLags = self.linear_.lags_
-        self.max_lag_ = max(self.linear_.lags_.max_lag, self.sm_.lags_.max_lag)
+    def _set_fitted_attributes(self, resolved: ResolvedLags | None = None) -> None:
+        # A base with a state of its own (ss, pnlss) has no regressor: ``lags`` on the data.
+        found = getattr(self.linear_, "lags_", None)
+        if found is None:
+            found = resolved if resolved is not None else self.lags_
+        self.lags_: ResolvedLags = found
+        self.max_lag_ = max(int(self.linear_.max_lag_), self.sm_.lags_.max_lag)
         self.n_samples_ = self.sm_.n_samples_
         self.epsilon_ = self.sm_.epsilon_
         self.gamma_ = self.sm_.gamma_
@@ -468,6 +504,13 @@ class ParallelSetMembership(Estimator):
             ``max(max_lag_, 1)`` rows each, oldest first.
         """
         check_is_fitted(self)
+        if not isinstance(self.linear_, LinearARX | PolynomialNARX):
+            raise TypeError(
+                f"the state map of a ParallelSetMembership holds the past outputs of the model"
+                f" run in parallel, which is the state of a NARX model only; this one runs a"
+                f" {type(self.linear_).__name__} (base={self.base!r}), whose state is its own:"
+                " not available yet; simulate it with model.simulator() instead"
+            )
         return ParallelStateMap(self, bounds, LINEAR_SUFFIX)
 
     def _check_state(self) -> None:
@@ -491,8 +534,10 @@ class ParallelSetMembership(Estimator):
                 "parallel_degree": int(self.parallel_degree),
                 "parallel_fit": str(self.parallel_fit),
                 "estimate": str(self.estimate),
+                "base": self.base if isinstance(self.base, str) else None,
             },
             "parallel_class": type(self.linear_).__name__,
+            "lags": self.lags_.to_dict(),
             **self._channels_meta(),
             "linear": linear_meta,
             "sm": sm_meta,
@@ -506,23 +551,26 @@ class ParallelSetMembership(Estimator):
         def part(prefix: str) -> dict[str, NDArray[Any]]:
             return {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
 
+        import importlib
+
+        from neckid.registry import model_classes
+
         model = cls(None, **meta["params"])
-        parallel: dict[str, type[LinearARX] | type[PolynomialNARX]] = {
-            "LinearARX": LinearARX,
-            "PolynomialNARX": PolynomialNARX,
-        }
+        parallel = {k: v for k, v in model_classes().items() if not k.endswith("SetMembership")}
         kind = meta.get("parallel_class", "LinearARX")
         if kind not in parallel:
             raise ValueError(f"parallel_class must be one of {sorted(parallel)}; got {kind!r}")
-        model.linear_ = parallel[kind]._from_state(part("linear__"), meta["linear"])
+        found = getattr(importlib.import_module(parallel[kind]), kind)
+        model.linear_ = found._from_state(part("linear__"), meta["linear"])
         model.sm_ = SetMembership._from_state(part("sm__"), meta["sm"])
-        model.lags = model.linear_.lags
+        resolved = ResolvedLags.from_dict(meta["lags"]) if "lags" in meta else None
+        model.lags = resolved.to_lags() if resolved is not None else model.linear_.lags
         sm_params = model.sm_.get_params()
         for name in model._SM_PARAMETERS:
             setattr(model, name, sm_params[name])
         model.ts_ = model.linear_.ts_
-        model._restore_channels(meta, model.linear_.lags_)
-        model._set_fitted_attributes()
+        model._restore_channels(meta, getattr(model.linear_, "lags_", resolved))
+        model._set_fitted_attributes(resolved)
         return model
 
 
@@ -550,7 +598,7 @@ class ParallelSetMembershipSimulator:
         m = max(self._model.max_lag_, 1)
         y_hist = history_rows(y0, m, self.n_outputs, "y0")
         u_hist = history_rows(u0, m, self.n_inputs, "u0")
-        m_linear = max(self._model.linear_.lags_.max_lag, 1)
+        m_linear = max(int(self._model.linear_.max_lag_), 1)
         self._linear.reset(y_hist[-m_linear:], u_hist[-m_linear:])
         # SM regressor history: the measured inputs, then the simulated outputs.
         self._v = np.hstack([u_hist, y_hist])
