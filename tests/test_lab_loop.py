@@ -308,3 +308,22 @@ def test_the_in_loop_protocol_ranks_free_run_and_in_loop_side_by_side() -> None:
     ranks = report.rankings()
     assert list(ranks["method"]) == ["arx"]
     assert {"free_run_rank", "in_loop_rank", "period_within_10"} <= set(ranks.columns)
+
+
+@pytest.mark.skipif(
+    not (DATA / "softneck" / "stair").is_dir(),
+    reason="the shared soft-neck logs (../shared/data/softneck) are not on this machine",
+)
+def test_the_benchmark_runs_the_in_loop_protocol(tmp_path: Path) -> None:
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    out = tmp_path / "in-loop"
+    args = ["benchmark", "--data-dir", str(DATA), "--only", "softneck-in-loop", "--methods", "arx"]
+    result = CliRunner().invoke(app, [*args, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    rankings = pd.read_csv(out / "in_loop_rankings.csv")
+    assert list(rankings["method"]) == ["arx"] and rankings["inclination_fit"].iloc[0] > 50
+    assert len(pd.read_csv(out / "in_loop.csv")) == 6  # the six test stairs

@@ -195,6 +195,42 @@ def warmup() -> None:
     )
 
 
+#: The protocol that runs every method in the lab's loops of the payload split's test logs.
+IN_LOOP = "softneck-in-loop"
+
+
+def _in_loop_benchmark(
+    data_dir: Path, methods: list[str], quick: bool, seed: int, out: Path, force: bool
+) -> None:
+    """The softneck-in-loop protocol: its rankings printed, its tables written into ``out``."""
+    from neckid.experiments.benchmark import PEER_METHODS
+    from neckid.experiments.benchmark.in_loop import run_in_loop_benchmark
+    from neckid.outputs import output_folder
+
+    with output_folder(out, force=force) as staged:
+        report = run_in_loop_benchmark(
+            data_dir, [m for m in methods if m not in PEER_METHODS], quick=quick, seed=seed
+        )
+        report.table.to_csv(staged.path("in_loop.csv"), index=False)
+        rankings = report.rankings()
+        rankings.to_csv(staged.path("in_loop_rankings.csv"), index=False)
+    table = Table(title="softneck-in-loop: payload split, test logs (200 g, 400 g)")
+    columns = {
+        "method": "method",
+        "free_run_fit": "free-run fit [%]",
+        "inclination_fit": "in-loop fit [%]",
+        "command_fit": "command fit [%]",
+        "int_period_ratio": "PI period ratio [-]",
+        "int_tracking_ratio": "PI tracking ratio [-]",
+    }
+    for header in columns.values():
+        table.add_column(header, justify="left" if header == "method" else "right")
+    for row in rankings.to_dict("records"):
+        table.add_row(*(str(row[k]) if k == "method" else f"{row[k]:.2f}" for k in columns))
+    console.print(table)
+    console.print(f"in-loop tables written to {out}/ (in_loop.csv, in_loop_rankings.csv)")
+
+
 @app.command()
 @handled
 def benchmark(
@@ -219,7 +255,9 @@ def benchmark(
         None,
         "--only",
         help="Comma-separated benchmarks: softneck, softneck-payload, softneck-controller (cross-run),"
-        " silverbox, cascaded_tanks, bouc_wen, robot_arm.",
+        " silverbox, cascaded_tanks, bouc_wen, robot_arm, and softneck-in-loop (every method in"
+        " the lab's loops of the payload split; not in the default run; its tables go into"
+        " --out, or --out/softneck-in-loop beside others).",
     ),
     out: Path = typer.Option(
         Path("neckid-benchmark"),
@@ -255,17 +293,25 @@ def benchmark(
     names = [n if n in PEER_METHODS else _method_name(n) for n in asked]
     # Long work reports progress: one line per data set and method, in a terminal or a log file.
     logging.getLogger("neckid.experiments.benchmark").setLevel(logging.INFO)
+    asked_only = _split(only)
+    in_loop = asked_only is not None and IN_LOOP in asked_only
+    rest = [b for b in asked_only if b != IN_LOOP] if asked_only is not None else None
+    if in_loop and not rest:
+        _in_loop_benchmark(data_dir, names, quick, seed, out, force)
+        return
     with _on_scheduler(scheduler):
         report = run_benchmark(
             data_dir,
             methods=names,
-            benchmarks=_split(only),
+            benchmarks=rest,
             quick=quick,
             seed=seed,
             output_dir=out,
             force=force,
             n_jobs=None if scheduler else jobs,
         )
+    if in_loop:
+        _in_loop_benchmark(data_dir, names, quick, seed, out / IN_LOOP, force)
     console.print(report.rich_table())
     if len(report.published):
         console.print(report.published_rich_table())
