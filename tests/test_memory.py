@@ -48,3 +48,10 @@ def test_set_membership_refuses_more_terms_than_rows() -> None:
         ValueError, match=r"more training rows than regressor terms: 150 rows for 300"
     ):
         neckid.methods()["sm"].make(Lags.arx(150, 150, 1)).fit(data)
+
+
+def test_a_pnlss_jacobian_too_large_for_the_machine_is_refused(small_machine: None) -> None:
+    from neckid.models.pnlss import PolynomialStateSpace
+
+    with pytest.raises(ValueError, match=r"free-run fit's Jacobian .* needs about .*order=3"):
+        PolynomialStateSpace(order=3, degree=3, max_iter=2).fit(arx_system(2000, 2))

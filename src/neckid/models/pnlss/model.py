@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from neckid._memory import check_allocation
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import DIVERGENCE_SPANS, Estimator, ModelResult, check_is_fitted
@@ -182,6 +183,12 @@ class PolynomialStateSpace(Estimator):
         theta = layout.pack((a, b, c, d, offset, np.zeros((n, k)), np.zeros((p, k))))
         self.powers_ = layout.tables()[0][-k:]
         self.n_samples_ = int(sum(d.n_samples for d in experiments))
+        check_allocation(
+            8.0 * 3 * self.n_samples_ * p * theta.size,  # the Jacobian, its copy, the solver's
+            f"the free-run fit's Jacobian ({self.n_samples_:,} samples x {p} outputs x"
+            f" {theta.size:,} parameters, order {n}, degree {int(self.degree)})",
+            "give a smaller order (order=3), a lower degree, or fewer samples",
+        )
         self._set_channels(experiments[0])
         self._optimise(layout, theta, experiments, int(self.max_iter))
         return self
