@@ -79,3 +79,34 @@ def test_the_network_reports_each_member_it_trains() -> None:
     assert counting.started == [("training 3 networks", 3)]
     assert counting.steps == 3
     assert np.all(np.isfinite(model.predict(data).y))
+
+
+def test_a_long_set_membership_free_run_reports_its_blocks_and_is_the_same(monkeypatch) -> None:
+    import importlib
+
+    kernels = importlib.import_module("neckid.models.set_membership._kernels.free_run")
+    from neckid import SetMembership
+
+    data = arx_system(3000, 4)
+    model = SetMembership(Lags.arx(2, 2, 3), progress=False).fit(data[:1500])
+    whole = model.simulate(data[1500:])
+    monkeypatch.setattr(kernels, "FREE_RUN_CHUNK", 400)  # 1,496 steps in 4 blocks
+    started: list[tuple[str, float | None]] = []
+    steps: list[float] = []
+
+    class Recording:
+        def start(self, label: str, total: float | None) -> Recording:
+            started.append((label, total))
+            return self
+
+        def advance(self, n: float = 1.0) -> None:
+            steps.append(n)
+
+        def stop(self) -> None:
+            pass
+
+    with reporting(Recording()):
+        blocks = model.simulate(data[1500:])
+    assert started == [("Set Membership free run", 1496)] and steps == [400, 400, 400, 296]
+    np.testing.assert_array_equal(blocks.y, whole.y)
+    np.testing.assert_array_equal(blocks.lower, whole.lower)

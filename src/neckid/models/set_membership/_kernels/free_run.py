@@ -8,17 +8,22 @@ the linear part is added, both optimal bounds are evaluated on the kd-tree
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numba import njit
 
 from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.tree import STACK_DEPTH, SMTree, query_one
+from neckid.progress import task
 
 __all__ = ["free_run"]
 
 
 @njit(cache=True)
 def _free_run_kernel(
+    first: int,
+    stop: int,
     u: FloatArray,
     y: FloatArray,
     lower: FloatArray,
@@ -50,7 +55,7 @@ def _free_run_kernel(
     node_stack = np.empty(STACK_DEPTH, np.int64)
     dist_stack = np.empty(STACK_DEPTH)
     no_points = np.empty((0, n_out))
-    for t in range(max_lag, y.shape[0]):
+    for t in range(max(first, max_lag), stop):
         for k in range(n_terms):
             if source[k] == 0:
                 w[k] = y[t - lag[k], channel[k]]
@@ -86,6 +91,10 @@ def _free_run_kernel(
             y[t, c] = linear + 0.5 * (f_lower + f_upper)
 
 
+#: Samples a long free run computes per compiled call, between progress reports.
+FREE_RUN_CHUNK = 50_000
+
+
 def free_run(
     tree: SMTree,
     u: FloatArray,
@@ -108,7 +117,7 @@ def free_run(
     y = np.array(y_initial, dtype=np.float64, order="C")
     lower = np.full(y.shape, np.nan)
     upper = np.full(y.shape, np.nan)
-    _free_run_kernel(
+    arguments: tuple[Any, ...] = (
         np.ascontiguousarray(u, dtype=np.float64),
         y,
         lower,
@@ -124,4 +133,15 @@ def free_run(
         np.ascontiguousarray(gamma, dtype=np.float64),
         *tree.kernel_arrays(),
     )
+    n = y.shape[0]
+    steps = max(n - int(max_lag), 0)
+    if steps <= FREE_RUN_CHUNK:  # one call: nothing worth reporting
+        _free_run_kernel(int(max_lag), n, *arguments)
+        return y, lower, upper
+    # A long run goes in blocks (the same loop, resumed): its progress and time left are shown.
+    with task("Set Membership free run", total=steps) as advance:
+        for first in range(int(max_lag), n, FREE_RUN_CHUNK):
+            stop = min(first + FREE_RUN_CHUNK, n)
+            _free_run_kernel(first, stop, *arguments)
+            advance(stop - first)
     return y, lower, upper
