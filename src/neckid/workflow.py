@@ -212,7 +212,9 @@ def _read_restamped(
     import pandas as pd
 
     if path.suffix.lower() == ".parquet":
-        frame = pd.read_parquet(path)
+        from neckid.data.parquet import read_parquet_columns
+
+        frame = read_parquet_columns(path, None)
     else:
         if not sep:
             raise ValueError("--sep must be one character or more; got an empty separator")

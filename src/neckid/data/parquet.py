@@ -26,7 +26,7 @@ __all__ = ["BYTES_PER_VALUE", "read_parquet_columns"]
 BYTES_PER_VALUE = 24
 
 
-def read_parquet_columns(path: str | Path, names: Sequence[str]) -> pd.DataFrame:
+def read_parquet_columns(path: str | Path, names: Sequence[str] | None) -> pd.DataFrame:
     """The columns ``names`` of the Parquet file ``path``, with its ``attrs`` (units) if any.
 
     The file's schema and row count are read first: a name that is not a column, a column name
@@ -37,8 +37,8 @@ def read_parquet_columns(path: str | Path, names: Sequence[str]) -> pd.DataFrame
     ----------
     path : str or Path
         The Parquet file.
-    names : sequence of str
-        The columns to read (a name given twice is read once).
+    names : sequence of str or None
+        The columns to read (a name given twice is read once); ``None`` reads every column.
 
     Returns
     -------
@@ -68,7 +68,7 @@ def read_parquet_columns(path: str | Path, names: Sequence[str]) -> pd.DataFrame
         n_rows = int(pq.read_metadata(path).num_rows)
     except Exception as exc:  # pyarrow's types on a damaged footer; the reason is kept
         raise _unreadable(path, exc) from None
-    wanted = list(dict.fromkeys(names))
+    wanted = list(dict.fromkeys(columns if names is None else names))
     missing = [name for name in wanted if name not in columns]
     if missing:
         raise KeyError(f"{path.name}: columns {missing} are not in the table; it has {columns}")

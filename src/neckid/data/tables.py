@@ -14,21 +14,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from neckid.data.parquet import read_parquet_columns
 from neckid.data.readers import _mat_variables, _time_seconds, _Unreadable
 
 __all__ = ["whole_table"]
-
-
-def _parquet_table(path: Path) -> pd.DataFrame:
-    try:
-        return pd.read_parquet(path)
-    except ImportError as exc:
-        raise ValueError(
-            f"{path.name}: reading Parquet needs pyarrow: pip install neckid[parquet] ({exc})"
-        ) from None
-    except Exception as exc:  # pyarrow raises its own types on a damaged file; keep the reason
-        reason = " ".join(str(exc).split())[:200] or type(exc).__name__
-        raise ValueError(f"{path.name} is not a readable Parquet file ({reason})") from None
 
 
 def _mat_table(path: Path) -> tuple[pd.DataFrame, list[str]]:
@@ -90,7 +79,7 @@ def whole_table(path: str | Path, *, sep: str = ",", time: str = "time") -> dict
     suffix = path.suffix.lower()
     skipped: list[str] = []
     if suffix == ".parquet":
-        frame, kind = _parquet_table(path), "parquet"
+        frame, kind = read_parquet_columns(path, None), "parquet"
     elif suffix == ".mat":
         (frame, skipped), kind = _mat_table(path), "mat"
     else:
