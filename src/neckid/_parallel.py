@@ -102,14 +102,9 @@ def _with_progress(results: Iterable[Any], total: int, label: str) -> Iterator[A
     Shown by the reporter of the context (the command line's bar, or lines in a log); without
     one, by a rich bar on standard error.
     """
-    from contextlib import ExitStack
+    from neckid.progress import shown_task
 
-    from neckid.progress import TerminalReporter, active, reporting, task
-
-    with ExitStack() as stack:
-        if active() is None:
-            stack.enter_context(reporting(TerminalReporter()))
-        advance = stack.enter_context(task(label, total=total))
+    with shown_task(label, total=total) as advance:
         for result in results:
             yield result
             advance()

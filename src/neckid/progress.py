@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from contextvars import ContextVar
 from typing import IO, Any, Protocol
 
@@ -29,6 +29,7 @@ __all__ = [
     "active",
     "default_reporter",
     "reporting",
+    "shown_task",
     "task",
 ]
 
@@ -83,6 +84,20 @@ def task(label: str, total: float | None = None) -> Iterator[Advance]:
         yield handle.advance
     finally:
         handle.stop()
+
+
+@contextmanager
+def shown_task(
+    label: str, total: float | None = None, *, terminal_only: bool = False
+) -> Iterator[Advance]:
+    """:func:`task` shown by the context's reporter or, with none, by a bar of its own.
+
+    The bar (:class:`TerminalReporter`, on standard error) is left out with ``terminal_only``
+    when standard error is not a terminal: for work that reports without being asked to.
+    """
+    own = _REPORTER.get() is None and not (terminal_only and not sys.stderr.isatty())
+    with reporting(TerminalReporter()) if own else nullcontext(), task(label, total) as advance:
+        yield advance
 
 
 @contextmanager

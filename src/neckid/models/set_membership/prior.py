@@ -13,7 +13,6 @@ Automatica 40(6):957-975, 2004.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
@@ -196,12 +195,10 @@ def _progress_callback(
         return None, lambda: None
     from contextlib import ExitStack
 
-    from neckid.progress import TerminalReporter, active, reporting, task
+    from neckid.progress import shown_task
 
     stack = ExitStack()
-    if active() is None and sys.stderr.isatty():
-        stack.enter_context(reporting(TerminalReporter()))
-    advance = stack.enter_context(task(label, total=1.0))
+    advance = stack.enter_context(shown_task(label, 1.0, terminal_only=True))
     shown = [0.0]
 
     def update(done: int, total: int) -> None:
