@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -191,7 +190,7 @@ def compare(
     --tilt) apply to the training and the test logs alike.
     """
     from neckid.comparison import compare as run_compare
-    from neckid.outputs import atomic_path, check_output_file
+    from neckid.outputs import check_output_file, write_json
     from neckid.regressors import Lags
     from neckid.workflow import parse_lags
 
@@ -238,8 +237,7 @@ def compare(
     for reason in result.reasons[:1]:
         console.print(f"  {reason}", markup=False)
     if json_out is not None:
-        with atomic_path(json_out) as temporary:
-            temporary.write_text(json.dumps(result.to_json(), indent=2), encoding="utf-8")
+        write_json(json_out, result.to_json())
         console.print(f"comparison written to {json_out}")
     if plot is not None:
         _write_plot(result, tests, plot)

@@ -9,7 +9,6 @@ on the shared training logs (:meth:`neckid.loops.lab_drive.LabDrive.identified`)
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -174,7 +173,7 @@ def validate_in_loop(
     """
     from neckid.loops.lab_loop import in_loop_on_log
     from neckid.models.io import load_model
-    from neckid.outputs import atomic_path
+    from neckid.outputs import write_json
 
     model = load_model(model_path)
     chosen, parameters = _controller(controller)
@@ -197,8 +196,7 @@ def validate_in_loop(
         records.append(result.to_dict())
     if json_out is not None:
         document = {"model": model_path.name, "kind": "in loop", "logs": records}
-        with atomic_path(json_out) as temporary:
-            temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
+        write_json(json_out, document)
         console.print(f"results written to {json_out}")
     if any("error" in r for r in records):
         raise typer.Exit(code=1)

@@ -415,9 +415,7 @@ def validate(
     A free run that diverges is reported as such (exit status 3, after the other logs).
     With --in-loop: the model in the loop of each closed-loop log instead (docs/in_loop.md).
     """
-    import json
-
-    from neckid.outputs import atomic_path, check_output_file
+    from neckid.outputs import check_output_file, write_json
 
     given = [*logs, model_path]
     for path, option in ((plot, "--plot"), (json_out, "--json")):
@@ -438,8 +436,7 @@ def validate(
     mean = _print_mean(records) if len(logs) > 1 else None
     if json_out is not None:
         document = {"model": model_path.name, "kind": "free run", "logs": records, "mean": mean}
-        with atomic_path(json_out) as temporary:
-            temporary.write_text(json.dumps(document, indent=2), encoding="utf-8")
+        write_json(json_out, document)
         console.print(f"results written to {json_out}")
     if plot is not None and runs:
         _validation_plot(model, runs, plot)
