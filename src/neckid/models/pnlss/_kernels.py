@@ -77,6 +77,61 @@ def _diverged(y: FloatArray, row: int, out: FloatArray, low: FloatArray, high: F
 
 
 @njit(cache=True)
+def _output(
+    x: FloatArray,
+    ut: FloatArray,
+    phi: FloatArray,
+    c: FloatArray,
+    d: FloatArray,
+    offset: FloatArray,
+    f: FloatArray,
+    first: int,
+    limit_low: FloatArray,
+    limit_high: FloatArray,
+    out: FloatArray,
+) -> bool:
+    """``out = C x + D u + c + F η``; whether an output left its limits."""
+    n_nl = f.shape[1]
+    bad = False
+    for i in range(out.shape[0]):
+        value = offset[i]
+        for j in range(x.shape[0]):
+            value += c[i, j] * x[j]
+        for j in range(ut.shape[0]):
+            value += d[i, j] * ut[j]
+        for k in range(n_nl):
+            value += f[i, k] * phi[first + k]
+        out[i] = value
+        if not limit_low[i] <= value <= limit_high[i]:
+            bad = True
+    return bad
+
+
+@njit(cache=True)
+def _next_state(
+    x: FloatArray,
+    ut: FloatArray,
+    phi: FloatArray,
+    a: FloatArray,
+    b: FloatArray,
+    e: FloatArray,
+    first: int,
+    new: FloatArray,
+) -> None:
+    """``new = A x + B u + E ζ``."""
+    n_nl = e.shape[1]
+    for i in range(x.shape[0]):
+        value = 0.0
+        for j in range(x.shape[0]):
+            value += a[i, j] * x[j]
+        for j in range(ut.shape[0]):
+            value += b[i, j] * ut[j]
+        for k in range(n_nl):
+            value += e[i, k] * phi[first + k]
+        new[i] = value
+
+
+@njit(cache=True)
 def pnlss_run(
     a: FloatArray,
     b: FloatArray,
@@ -112,32 +167,12 @@ def pnlss_run(
     for t in range(u.shape[0]):
         ut = u[t]
         _monomials(x, ut, center, scale, low, high, parent, var, z, inside, phi)
-        bad = False
-        for i in range(p):
-            value = offset[i]
-            for j in range(n):
-                value += c[i, j] * x[j]
-            for j in range(ut.shape[0]):
-                value += d[i, j] * ut[j]
-            for k in range(n_nl):
-                value += f[i, k] * phi[first + k]
-            out[i] = value
-            if not limit_low[i] <= value <= limit_high[i]:
-                bad = True
-        if bad:
+        if _output(x, ut, phi, c, d, offset, f, first, limit_low, limit_high, out):
             _diverged(y, t, out, limit_low, limit_high)
             return t
         for i in range(p):
             y[t, i] = out[i]
-        for i in range(n):
-            value = 0.0
-            for j in range(n):
-                value += a[i, j] * x[j]
-            for j in range(ut.shape[0]):
-                value += b[i, j] * ut[j]
-            for k in range(n_nl):
-                value += e[i, k] * phi[first + k]
-            new[i] = value
+        _next_state(x, ut, phi, a, b, e, first, new)
         for i in range(n):
             x[i] = new[i]
     return -1
@@ -241,19 +276,7 @@ def pnlss_sensitivity(
         ut = u[t]
         _monomials(x, ut, center, scale, low, high, parent, var, z, inside, phi)
         _state_jacobian(powers, lower, phi, inside, scale, first, n, zeta_x)
-        bad = False
-        for i in range(p):
-            value = offset[i]
-            for j in range(n):
-                value += c[i, j] * x[j]
-            for j in range(m):
-                value += d[i, j] * ut[j]
-            for k in range(n_nl):
-                value += f[i, k] * phi[first + k]
-            out[i] = value
-            if not limit_low[i] <= value <= limit_high[i]:
-                bad = True
-        if bad:
+        if _output(x, ut, phi, c, d, offset, f, first, limit_low, limit_high, out):
             _diverged(y, t, out, limit_low, limit_high)
             return t
         for i in range(p):
@@ -275,21 +298,15 @@ def pnlss_sensitivity(
             jacobian[t, i, o_off + i] = 1.0
             for k in range(n_nl):
                 jacobian[t, i, o_f + i * n_nl + k] = phi[first + k]
+        _next_state(x, ut, phi, a, b, e, first, new)
         finite = True
         for i in range(n):
-            value = 0.0
             for j in range(n):
-                value += a[i, j] * x[j]
                 total = a[i, j]
                 for k in range(n_nl):
                     total += e[i, k] * zeta_x[k, j]
                 trans[i, j] = total
-            for j in range(m):
-                value += b[i, j] * ut[j]
-            for k in range(n_nl):
-                value += e[i, k] * phi[first + k]
-            new[i] = value
-            finite = finite and np.isfinite(value)
+            finite = finite and np.isfinite(new[i])
         _advance(trans, sens, sens_new, x, ut, phi, first, n_nl)
         for i in range(n):
             x[i] = new[i]
