@@ -244,8 +244,8 @@ def _identify_summary(
     }
 
 
-def _load_for_model(
-    model_path: Path,
+def _read_for_model(
+    model: Any,
     log: Path,
     time: str,
     ts: float | None,
@@ -255,12 +255,10 @@ def _load_for_model(
     channels: list[str] | None = None,
     conditions: list[str] | None = None,
     tilt: bool = False,
-) -> tuple[Any, Any]:
-    from neckid.models.io import load_model
+) -> Any:
+    """The log as the model reads it: its channels, renamed by --map, through its preprocessing."""
     from neckid.workflow import parse_mapping, read_log_for_model
 
-    model = load_model(model_path)
-    # The model's channels, renamed by --map (conditions kept), through its preprocessing.
     data, pipeline = read_log_for_model(
         model,
         log,
@@ -275,7 +273,7 @@ def _load_for_model(
     )
     if pipeline is not None:
         console.print(f"preprocessing from the model: {pipeline.describe()}", markup=False)
-    return model, data
+    return data
 
 
 def _validate_one(model: Any, data: Any, log: Path) -> tuple[dict[str, Any], Any, Any]:
@@ -424,11 +422,12 @@ def validate(
     if in_loop:
         options = {"time": time, "ts": ts, "layout": layout, "sep": sep, "conditions": conditions}
         return validate_in_loop(model_path, logs, controller, json_out, options)
+    from neckid.models.io import load_model
+
+    model = load_model(model_path)  # once: every log runs the same model
     records, runs = [], []
     for log in logs:
-        model, data = _load_for_model(
-            model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
-        )
+        data = _read_for_model(model, log, time, ts, layout, sep, maps, channels, conditions, tilt)
         record, result, domain = _validate_one(model, data, log)
         records.append(record)
         if result is not None:
@@ -486,9 +485,10 @@ def simulate(
     check_output_file(out, force=force, inputs=[log, model_path])
     if json_out is not None:
         check_output_file(json_out, force=force, inputs=[log, model_path, out], option="--json")
-    model, data = _load_for_model(
-        model_path, log, time, ts, layout, sep, maps, channels, conditions, tilt
-    )
+    from neckid.models.io import load_model
+
+    model = load_model(model_path)
+    data = _read_for_model(model, log, time, ts, layout, sep, maps, channels, conditions, tilt)
     diverged: DivergenceError | None = None
     try:
         result = model.simulate(data)
