@@ -195,6 +195,16 @@ def warmup() -> None:
     )
 
 
+def _cell(value: object) -> str:
+    """A table cell: text as it is, a number to 2 decimals; −inf (a diverged run) and NaN said."""
+    if isinstance(value, str):
+        return value
+    number = float(value)  # type: ignore[arg-type]
+    if number != number:
+        return "–"  # nothing to measure (no oscillation, no int log)
+    return "diverged" if number == float("-inf") else f"{number:.2f}"
+
+
 #: The protocol that runs every method in the lab's loops of the payload split's test logs.
 IN_LOOP = "softneck-in-loop"
 
@@ -226,8 +236,16 @@ def _in_loop_benchmark(
     for header in columns.values():
         table.add_column(header, justify="left" if header == "method" else "right")
     for row in rankings.to_dict("records"):
-        table.add_row(*(str(row[k]) if k == "method" else f"{row[k]:.2f}" for k in columns))
+        table.add_row(*(_cell(row[k]) for k in columns))
     console.print(table)
+    diverged = report.table[report.table["diverged_at"].notna()]
+    for run in diverged.to_dict("records"):
+        error_console.print(
+            f"[yellow]diverged in the loop:[/yellow] {escape(str(run['method']))} on"
+            f" {escape(str(run['log']))} at row {int(float(run['diverged_at']))} (its in-loop fit"
+            " counts as -inf in the mean)",
+            highlight=False,
+        )
     console.print(f"in-loop tables written to {out}/ (in_loop.csv, in_loop_rankings.csv)")
 
 
