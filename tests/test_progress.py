@@ -9,7 +9,7 @@ import numpy as np
 
 from _synthetic import arx_system
 from neckid import Lags, NeuralNARX
-from neckid.progress import LineReporter, active, reporting, task
+from neckid.progress import LineReporter, active, counting, reporting, task
 
 
 class Clock:
@@ -110,3 +110,40 @@ def test_a_long_set_membership_free_run_reports_its_blocks_and_is_the_same(monke
     assert started == [("Set Membership free run", 1496)] and steps == [400, 400, 400, 296]
     np.testing.assert_array_equal(blocks.y, whole.y)
     np.testing.assert_array_equal(blocks.lower, whole.lower)
+
+
+class Recorder:
+    """A reporter that keeps what it was told."""
+
+    def __init__(self) -> None:
+        self.started: list[tuple[str, float | None]] = []
+        self.steps = 0.0
+
+    def start(self, label: str, total: float | None) -> Recorder:
+        self.started.append((label, total))
+        return self
+
+    def advance(self, steps: float = 1.0) -> None:
+        self.steps += steps
+
+    def stop(self) -> None:
+        pass
+
+
+def test_counting_advances_once_per_call_and_returns_the_value() -> None:
+    recorder = Recorder()
+    with reporting(recorder), task("calls", total=3) as advance:
+        twice = counting(lambda x: 2 * x, advance)
+        assert [twice(1), twice(2)] == [2, 4]
+    assert recorder.started == [("calls", 3)] and recorder.steps == 2
+
+
+def test_the_polynomial_free_run_fit_reports_its_evaluations_within_its_budget() -> None:
+    from neckid import PolynomialNARX
+
+    data = arx_system(600, 1)
+    recorder = Recorder()
+    with reporting(recorder):
+        model = PolynomialNARX(Lags.arx(2, 2, 1), degree=2, max_iter=7).fit(data)
+    assert recorder.started == [("polynomial NARX free-run fit (evaluations, at most)", 7)]
+    assert recorder.steps == model.fit_report_["evaluations"] <= 7

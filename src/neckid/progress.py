@@ -27,6 +27,7 @@ __all__ = [
     "Reporter",
     "TerminalReporter",
     "active",
+    "counting",
     "default_reporter",
     "reporting",
     "shown_task",
@@ -84,6 +85,23 @@ def task(label: str, total: float | None = None) -> Iterator[Advance]:
         yield handle.advance
     finally:
         handle.stop()
+
+
+def counting(function: Callable[..., Any], advance: Advance) -> Callable[..., Any]:
+    """``function`` that counts one step of ``advance`` per call.
+
+    For an optimiser whose budget is a number of evaluations (``max_nfev`` of
+    :func:`scipy.optimize.least_squares`): wrap its residuals in a :func:`task` of that total,
+    and the time left shown is that of the whole budget, an upper bound when it converges
+    earlier.
+    """
+
+    def counted(*args: Any, **kwargs: Any) -> Any:
+        value = function(*args, **kwargs)
+        advance()
+        return value
+
+    return counted
 
 
 @contextmanager

@@ -51,6 +51,7 @@ from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.polynomial._kernels import poly_free_run, poly_sensitivity
 from neckid.models.polynomial.monomials import monomial_tables
+from neckid.progress import counting, task
 from neckid.regressors import Lags
 from neckid.validation import Interval, Options
 
@@ -270,14 +271,15 @@ class PolynomialNARX(NarxModel):
                     linear_errors,
                 )
         method = "lm" if problem.n_rows * problem.n_out >= free.size else "trf"
-        solution = _levenberg_marquardt(
-            problem.residuals,
-            start,
-            jac=problem.jacobian,
-            method=method,
-            x_scale="jac",
-            max_nfev=budget,
-        )
+        with task("polynomial NARX free-run fit (evaluations, at most)", budget) as advance:
+            solution = _levenberg_marquardt(
+                counting(problem.residuals, advance),
+                start,
+                jac=problem.jacobian,
+                method=method,
+                x_scale="jac",
+                max_nfev=budget,
+            )
         improved = 2 * solution.cost <= cost  # least_squares' cost is half the sum of squares
         theta = solution.x if improved else start
         self.coef_ = problem.full(theta)
