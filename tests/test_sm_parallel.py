@@ -255,5 +255,39 @@ def test_any_registered_model_runs_in_parallel(records, tmp_path):
     assert ParallelSetMembership(Lags.arx(2, 2, 1), base=own).fit(train).linear_.lags_.n_terms == 2
     with pytest.raises(ValueError, match="must not be a Set Membership model"):
         ParallelSetMembership(Lags.arx(2, 2, 1), base="sm").fit(train)
-    with pytest.raises(TypeError, match=r"state map .* not available yet"):
-        ParallelSetMembership(Lags.arx(2, 2, 1), base="ss").fit(train).state_map()
+
+
+@pytest.mark.parametrize("base", ["ss", "greybox"])
+def test_a_base_with_a_state_of_its_own_gives_state_functions_that_run_as_the_simulator(
+    records, base
+):
+    from neckid.models.greybox.model import GreyBoxNeck
+
+    train, test = records
+    parallel = GreyBoxNeck(max_iter=5, n_play=2) if base == "greybox" else base
+    model = ParallelSetMembership(Lags.arx(2, 2, 1), base=parallel, linear_lags=[0, 1]).fit(train)
+    state_map = model.state_map(bounds=True)
+    assert state_map.states[0].startswith("base.")
+    assert state_map.outputs[1:] == [f"{test.output_names[0]}_{s}" for s in ("lower", "upper")]
+    m = model.max_lag_
+    simulator = model.simulator()
+    simulator.reset(y0=test.y[:m], u0=test.u[:m])
+    x = state_map.initial_state(test.y[:m], test.u[:m])
+    for u in test.u[m : m + 60]:
+        y, low, high = simulator.step_bounds(u)
+        out = state_map.output(x, u)
+        np.testing.assert_array_equal(out, np.concatenate([y, low, high]))
+        x = state_map.update(x, u)
+    # As a python-control system: the free run of model.simulate.
+    import control
+
+    from neckid.interop import initial_state, to_iosystem
+
+    window = test[: m + 60]
+    response = control.input_output_response(
+        to_iosystem(model),
+        np.arange(60) * test.ts,
+        window.u[m:].T,
+        initial_state(model, window.y[:m], window.u[:m]),
+    )
+    np.testing.assert_allclose(response.outputs, model.simulate(window).y[m:, 0], atol=1e-9)

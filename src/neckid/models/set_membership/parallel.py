@@ -70,7 +70,10 @@ from neckid.models.set_membership.narx import (
     Invalidation,
     SetMembership,
 )
-from neckid.models.set_membership.state_maps import ParallelStateMap
+from neckid.models.set_membership.state_maps import (
+    ParallelStateMap,
+    StatefulParallelStateMap,
+)
 from neckid.models.set_membership.update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Options, check_lag_list
@@ -127,7 +130,8 @@ class ParallelSetMembership(Estimator):
         with its own settings (cloned; given ``lags`` when its own are None; a model file then
         keeps the fitted part, not these settings). ``None``: the linear ARX
         (or the polynomial of ``parallel_degree`` / ``parallel_fit``). A base with a state of
-        its own (``ss``, ``pnlss``, ``greybox-neck``) has no python-control state map here yet.
+        its own (``ss``, ``pnlss``, ``greybox-neck``) runs with its own state (its state map then
+        holds that state and the SM regressor's history).
 
     Attributes
     ----------
@@ -489,7 +493,7 @@ class ParallelSetMembership(Estimator):
         check_is_fitted(self)
         return ParallelSetMembershipSimulator(self)
 
-    def state_map(self, bounds: bool = False) -> ParallelStateMap:
+    def state_map(self, bounds: bool = False) -> ParallelStateMap | StatefulParallelStateMap:
         """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
 
         Parameters
@@ -499,19 +503,21 @@ class ParallelSetMembership(Estimator):
 
         Returns
         -------
-        ParallelStateMap
-            State: the linear part's simulated outputs (``<output>_linear``) and the inputs,
-            ``max(max_lag_, 1)`` rows each, oldest first.
+        ParallelStateMap or StatefulParallelStateMap
+            On a NARX base (ARX, polynomial): the base's simulated outputs
+            (``<output>_linear``) and the inputs, ``max(max_lag_, 1)`` rows each, oldest first.
+            On a base with a state of its own (``ss``, ``pnlss``, ``greybox-neck``): the base's
+            state (``base.<name>``), then the SM regressor's history of inputs and base outputs.
         """
         check_is_fitted(self)
-        if not isinstance(self.linear_, LinearARX | PolynomialNARX):
+        if isinstance(self.linear_, LinearARX | PolynomialNARX):
+            return ParallelStateMap(self, bounds, LINEAR_SUFFIX)
+        if not callable(getattr(self.linear_, "state_map", None)):
             raise TypeError(
-                f"the state map of a ParallelSetMembership holds the past outputs of the model"
-                f" run in parallel, which is the state of a NARX model only; this one runs a"
-                f" {type(self.linear_).__name__} (base={self.base!r}), whose state is its own:"
-                " not available yet; simulate it with model.simulator() instead"
+                f"the base {type(self.linear_).__name__} (base={self.base!r}) has no state"
+                " functions: simulate this model with model.simulator() instead"
             )
-        return ParallelStateMap(self, bounds, LINEAR_SUFFIX)
+        return StatefulParallelStateMap(self, bounds, LINEAR_SUFFIX)
 
     def _check_state(self) -> None:
         super()._check_state()

@@ -24,7 +24,20 @@ from neckid.systems import (
     history_rows,
 )
 
-__all__ = ["MultiStepStateMap", "ParallelStateMap"]
+__all__ = ["MultiStepStateMap", "ParallelStateMap", "StatefulParallelStateMap"]
+
+
+def _parallel_feedthrough(model: Any, base_feedthrough: bool) -> bool:
+    """Whether a ParallelSetMembership's output reads ``u(t)``.
+
+    Through its SM regressor directly, or through the parallel model's output at lag 0 when
+    that one reads ``u(t)``.
+    """
+    sm_lags = model.sm_.lags_
+    measured = np.isin(sm_lags.channel, np.arange(len(model.input_names_)))
+    direct = bool(np.any((sm_lags.source == 1) & (sm_lags.lag == 0) & measured))
+    through_parallel = bool(np.any((sm_lags.source == 1) & (sm_lags.lag == 0) & ~measured))
+    return direct or (through_parallel and base_feedthrough)
 
 
 class ParallelStateMap(HistoryMap):
@@ -52,11 +65,7 @@ class ParallelStateMap(HistoryMap):
         self._m_linear = max(int(model.linear_.max_lag_), 1)
 
     def _feedthrough(self, model: Any) -> bool:
-        sm_lags = model.sm_.lags_
-        measured = np.isin(sm_lags.channel, np.arange(len(model.input_names_)))
-        direct = bool(np.any((sm_lags.source == 1) & (sm_lags.lag == 0) & measured))
-        through_linear = bool(np.any((sm_lags.source == 1) & (sm_lags.lag == 0) & ~measured))
-        return direct or (through_linear and has_lag_zero_input(model.linear_.lags_))
+        return _parallel_feedthrough(model, has_lag_zero_input(model.linear_.lags_))
 
     def _state_names(self, model: Any) -> list[str]:
         linear = [n + self._suffix for n in model.output_names_]
@@ -73,6 +82,92 @@ class ParallelStateMap(HistoryMap):
         self._linear.reset(y_hist[-self._m_linear :], u_hist[-self._m_linear :])
         y_linear = np.asarray(self._linear.step(u), dtype=np.float64)
         return np.concatenate([y_hist[1:].ravel(), y_linear, u_hist[1:].ravel(), u])
+
+
+class StatefulParallelStateMap(StateMap):
+    """State functions of a ParallelSetMembership whose parallel model has a state of its own.
+
+    The base is a state-space model (``ss``, ``pnlss``, ``greybox-neck``): its state is not a
+    history of its outputs, so the state is the base's own followed by the SM regressor's
+    history, ``m = max(max_lag_, 1)`` rows of ``[u, ŷ_base]`` (the measured inputs, then the
+    base's simulated outputs ``<output>_linear``), oldest row first:
+    ``x = [x_base, u(t−m), ŷ_base(t−m), …, u(t−1), ŷ_base(t−1)]``. The output function evaluates
+    the base's output at ``x_base``, the SM bounds at the regressor that completes, and the
+    model's estimate, with the arithmetic of :class:`ParallelSetMembershipSimulator
+    <neckid.models.set_membership.parallel.ParallelSetMembershipSimulator>` (the same bits); the
+    update advances the base's state and shifts the history.
+
+    Parameters
+    ----------
+    model : ParallelSetMembership
+        Fitted, on a base with a ``state_map``.
+    bounds : bool
+        Add the outputs ``<output>_lower`` and ``<output>_upper`` (the step's band).
+    linear_suffix : str
+        Appended to each output name for the base's outputs (``"_linear"``).
+    """
+
+    def __init__(self, model: Any, bounds: bool, linear_suffix: str) -> None:
+        super().__init__()
+        self._model = model
+        self._base = model.linear_.state_map()
+        self._n_base = len(self._base.states)
+        self._m_base = max(int(model.linear_.max_lag_), 1)
+        self._bounds = bounds
+        self.m = max(int(model.max_lag_), 1)
+        self.n_in, self.n_out = len(model.input_names_), len(model.output_names_)
+        self.inputs = list(model.input_names_)
+        self.outputs = list(model.output_names_)
+        if bounds:
+            self.outputs += [
+                f"{n}_{side}" for side in ("lower", "upper") for n in model.output_names_
+            ]
+        parallel = [n + linear_suffix for n in model.output_names_]
+        self.states = [f"base.{n}" for n in self._base.states] + history_names(
+            [*model.input_names_, *parallel], self.m
+        )
+        self.ts = float(model.ts_)
+        self.feedthrough = _parallel_feedthrough(model, bool(self._base.feedthrough))
+
+    def _split(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        return x[: self._n_base], x[self._n_base :].reshape(self.m, self.n_in + self.n_out)
+
+    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
+        x_base, history = self._split(x)
+        y_base = self._base.output(x_base, u)
+        v = np.vstack([history, np.concatenate([u, y_base])[None, :]])
+        t = v.shape[0] - 1
+        w = self._model.sm_.lags_.regressor_from_history(np.empty((t + 1, 0)), v, t)
+        found = self._model.sm_.core_.bounds(np.ascontiguousarray(w[None, :]))
+        low, high = found.lower[0], found.upper[0]
+        y = np.asarray(self._model._estimate(found.central[0], y_base, low, high), np.float64)
+        return np.concatenate([y, low, high]) if self._bounds else y
+
+    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
+        x_base, history = self._split(x)
+        y_base = self._base.output(x_base, u)
+        after = self._base.update(x_base, u)
+        return np.concatenate([after, history[1:].ravel(), u, y_base])
+
+    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
+        """The state ``ParallelSetMembershipSimulator.reset(y0, u0)`` starts from.
+
+        Parameters
+        ----------
+        y0 : array_like, shape (n_outputs,) or (m, n_outputs), optional
+            Past outputs, oldest first; one row is repeated; default zeros. The base starts
+            from its last rows, and the history takes them as the base's past outputs.
+        u0 : array_like, shape (n_inputs,) or (m, n_inputs), optional
+            Past inputs, the same way.
+
+        Returns
+        -------
+        ndarray, shape (n_base_states + m * (n_inputs + n_outputs),)
+        """
+        y_hist = history_rows(y0, self.m, self.n_out, "y0")
+        u_hist = history_rows(u0, self.m, self.n_in, "u0")
+        x_base = self._base.initial_state(y_hist[-self._m_base :], u_hist[-self._m_base :])
+        return np.concatenate([np.asarray(x_base, np.float64), np.hstack([u_hist, y_hist]).ravel()])
 
 
 class MultiStepStateMap(StateMap):
