@@ -43,6 +43,7 @@ from neckid.models.results import (
     ExtrapolationWarning,
     ModelResult,
     NotFittedError,
+    RunChecks,
     check_is_fitted,
 )
 from neckid.regressors import Lags, ResolvedLags
@@ -172,15 +173,21 @@ class Estimator(BaseEstimator, ModelFile):
                 envelope[name] = (low - spans * width, high + spans * width)
         return envelope
 
-    def _warn_extrapolation(self, data: IOData, result: ModelResult) -> None:
-        """Record and warn about a log outside the channels' and regressors' training ranges."""
-        outside = self.extrapolation(data)
+    def _warn_extrapolation(
+        self, data: IOData, result: ModelResult, checks: RunChecks | None = None
+    ) -> None:
+        """Record and warn about a log outside the channels' and regressors' training ranges.
+
+        ``checks``: the shares as the run counted them (else counted here).
+        """
+        outside = self.extrapolation(data) if checks is None else checks.extrapolation
         result.extras["extrapolation"] = outside
         far = {k: v for k, v in outside.items() if v > EXTRAPOLATION_WARNING}
         terms: dict[str, float] = {}
         box = getattr(self, "regressor_ranges_", None)
         if box and data.n_outputs == self.n_outputs_ and data.n_samples > self.max_lag_:
-            share, by_term = self._domain_shares(data)
+            counted = None if checks is None else checks.domain
+            share, by_term = self._domain_shares(data) if counted is None else counted
             result.extras["outside_domain"] = share
             terms = {k: v for k, v in by_term.items() if v > EXTRAPOLATION_WARNING}
         if far or terms:
@@ -221,9 +228,14 @@ class Estimator(BaseEstimator, ModelFile):
                 first = (int(out[0]) + start, j)
         return first
 
-    def _check_envelope(self, data: IOData, y: FloatArray, result: ModelResult) -> None:
-        """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope."""
-        first = self.first_runaway(y, self.max_lag_)
+    def _check_envelope(
+        self, data: IOData, y: FloatArray, result: ModelResult, checks: RunChecks | None = None
+    ) -> None:
+        """Raise :class:`DivergenceError` if the free run ``y`` leaves the divergence envelope.
+
+        ``checks``: the first runaway sample as the run found it (else looked for here).
+        """
+        first = self.first_runaway(y, self.max_lag_) if checks is None else checks.first_runaway
         if first is None:
             return
         row, j = first
@@ -363,13 +375,16 @@ class Estimator(BaseEstimator, ModelFile):
                     " (or identify a model in these units)"
                 )
 
-    def _initial_outputs(self, data: IOData, initial: ArrayLike | None) -> FloatArray:
+    def _initial_outputs(
+        self, data: IOData, initial: ArrayLike | None, *, filled: bool = True
+    ) -> FloatArray:
         """The output array a free run starts from: ``(n_samples, n_outputs)``.
 
         Its first ``max_lag_`` rows are the initial conditions: ``initial`` when given (one row,
         repeated, or ``max_lag_`` rows, oldest first), else the measured outputs of ``data``.
         The other rows are the measured outputs when there are any, zeros otherwise; a free run
-        overwrites them.
+        overwrites them (``filled=False`` leaves them unset, for a free run that writes every
+        one: no copy of the measured outputs).
         """
         self._check_inputs(data)
         m = self.max_lag_
@@ -378,19 +393,22 @@ class Estimator(BaseEstimator, ModelFile):
                 f"data has {data.n_samples} samples, too few for lags up to {m}: it needs at least"
                 f" {m + 1}"
             )
-        if initial is None:
-            if data.n_outputs == 0:
-                raise ValueError(
-                    f"data holds inputs only: give initial= the first {m} output sample(s),"
-                    f" shape ({self.n_outputs_},) or ({m}, {self.n_outputs_})"
-                )
-            return np.array(data.y, dtype=np.float64)
-        y = (
-            np.array(data.y, dtype=np.float64)
-            if data.n_outputs
-            else np.zeros((data.n_samples, self.n_outputs_))
-        )
-        y[:m] = history_rows(initial, max(m, 1), self.n_outputs_, "initial")[-m:] if m else y[:0]
+        if initial is None and data.n_outputs == 0:
+            raise ValueError(
+                f"data holds inputs only: give initial= the first {m} output sample(s),"
+                f" shape ({self.n_outputs_},) or ({m}, {self.n_outputs_})"
+            )
+        if not filled:
+            y = np.empty((data.n_samples, self.n_outputs_))
+            if initial is None:
+                y[:m] = data.y[:m]
+        elif data.n_outputs:
+            y = np.array(data.y, dtype=np.float64)
+        else:
+            y = np.zeros((data.n_samples, self.n_outputs_))
+        if initial is not None:
+            rows = history_rows(initial, max(m, 1), self.n_outputs_, "initial")
+            y[:m] = rows[-m:] if m else y[:0]
         return y
 
     def _result(
@@ -401,7 +419,13 @@ class Estimator(BaseEstimator, ModelFile):
         lower: FloatArray | None = None,
         upper: FloatArray | None = None,
         extras: dict[str, Any] | None = None,
+        checks: RunChecks | None = None,
     ) -> ModelResult:
+        """The result of a run, checked: the extrapolation warning, divergence errors.
+
+        ``checks`` (a compiled run's own counts, :class:`~neckid.models.results.RunChecks`)
+        replaces the passes over the samples these checks make otherwise.
+        """
         result = ModelResult.from_data(
             kind,
             data,
@@ -412,12 +436,16 @@ class Estimator(BaseEstimator, ModelFile):
             lower,
             upper,
             extras,
+            None if checks is None else checks.time,
         )
         if kind == "simulation":
-            self._warn_extrapolation(data, result)
-        bad = np.flatnonzero(~np.isfinite(y[self.max_lag_ :]).all(axis=1))
-        if bad.size:
-            row = int(bad[0]) + self.max_lag_
+            self._warn_extrapolation(data, result, checks)
+        if checks is None:
+            bad = np.flatnonzero(~np.isfinite(y[self.max_lag_ :]).all(axis=1))
+            row = int(bad[0]) + self.max_lag_ if bad.size else None
+        else:
+            row = checks.first_non_finite
+        if row is not None:
             what = "free run" if kind == "simulation" else "prediction"
             raise DivergenceError(
                 f"the {type(self).__name__} {what} diverged: output {y[row].tolist()} at sample"
@@ -427,7 +455,7 @@ class Estimator(BaseEstimator, ModelFile):
                 result,
             )
         if kind == "simulation":
-            self._check_envelope(data, y, result)
+            self._check_envelope(data, y, result, checks)
         return result
 
     def _check_state(self) -> None:

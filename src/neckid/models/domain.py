@@ -14,7 +14,10 @@ from the *measured* outputs):
   experiment never produced); the SM bounds widen there, the other models just extrapolate.
 
 :func:`regressor_domain` computes both; ``Estimator.domain(data)`` is the method form, and a
-free run's :class:`~neckid.models.base.ExtrapolationWarning` counts the box.
+free run's :class:`~neckid.models.base.ExtrapolationWarning` counts the box
+(:func:`box_shares`). :func:`regressor_terms` and :func:`channel_terms` give the training box
+and the channels' training ranges as the compiled passes read them
+(:mod:`neckid.models._domain_kernels`), for a free run that counts them itself.
 """
 
 from __future__ import annotations
@@ -24,10 +27,18 @@ from typing import Any
 
 import numpy as np
 
-from neckid._typing import BoolArray, FloatArray
+from neckid._typing import BoolArray, FloatArray, IntArray
 from neckid.data.iodata import IOData
 
-__all__ = ["NEAREST_QUANTILE", "Domain", "box_shares", "regressor_box", "regressor_domain"]
+__all__ = [
+    "NEAREST_QUANTILE",
+    "Domain",
+    "box_shares",
+    "channel_terms",
+    "regressor_box",
+    "regressor_domain",
+    "regressor_terms",
+]
 
 #: The radius of the nearest-regressor domain: this quantile of the training regressors'
 #: distances to their own nearest neighbour.
@@ -79,33 +90,67 @@ def regressor_box(x: FloatArray, names: tuple[str, ...]) -> dict[str, tuple[floa
     return {name: (float(low[j]), float(high[j])) for j, name in enumerate(names)}
 
 
+def regressor_terms(model: Any) -> tuple[list[str], IntArray, FloatArray]:
+    """The regressor terms of a fitted NARX model with a training range, as compiled passes read them.
+
+    Returns
+    -------
+    names : list of str
+        The terms' names, in the order of ``model.lags_.names`` (terms without a range left out).
+    terms : ndarray of int64, shape (n_terms, 3)
+        ``(source, channel, lag)`` of each: source 0 for an output, 1 for an input.
+    bounds : ndarray, shape (n_terms, 2)
+        ``(low, high)`` of each, from ``model.regressor_ranges_``.
+    """
+    lags = model.lags_
+    box: dict[str, tuple[float, float]] = getattr(model, "regressor_ranges_", {})
+    columns = (lags.source.tolist(), lags.channel.tolist(), lags.lag.tolist())
+    kept = [(name, term) for name, *term in zip(lags.names, *columns, strict=True) if name in box]
+    terms = np.array([term for _, term in kept], dtype=np.int64).reshape(-1, 3)
+    bounds = np.array([box[name] for name, _ in kept], dtype=np.float64).reshape(-1, 2)
+    return [name for name, _ in kept], terms, bounds
+
+
+def channel_terms(model: Any, data: IOData) -> tuple[list[str], IntArray, FloatArray]:
+    """The channels of ``data`` that ``model`` has a training range for, as terms of lag 0.
+
+    The channels ``Estimator.extrapolation`` counts, in its order (the inputs, then the
+    outputs): their names, their ``(source, channel, 0)`` rows and their ``(low, high)`` rows
+    from ``model.training_ranges_`` (see :func:`regressor_terms`).
+    """
+    ranges: dict[str, tuple[float, float]] = getattr(model, "training_ranges_", {})
+    found = [
+        (name, source, channel)
+        for source, names in ((1, data.input_names), (0, data.output_names))
+        for channel, name in enumerate(names)
+        if name in ranges
+    ]
+    terms = np.array([(source, channel, 0) for _, source, channel in found], np.int64)
+    bounds = np.array([ranges[name] for name, _, _ in found], dtype=np.float64)
+    return [name for name, _, _ in found], terms.reshape(-1, 3), bounds.reshape(-1, 2)
+
+
 def box_shares(model: Any, data: IOData) -> tuple[float, dict[str, float]]:
     """``Domain.share`` and ``Domain.by_term`` of the training box alone, in one compiled pass.
 
     The same numbers as :func:`regressor_domain` with ``nearest=False``, without building the
     regressor matrix (every free run's extrapolation warning counts them).
     """
-    from neckid.models._domain_kernels import box_counts
+    from neckid.models._domain_kernels import box_counts, channels_of
 
     lags = model.lags_
-    box: dict[str, tuple[float, float]] = getattr(model, "regressor_ranges_", {})
     data = model._with_conditions(data)
     lags.check_compatible(data)
-    terms = [j for j, name in enumerate(lags.names) if name in box]
-    bounds = np.array([box[lags.names[j]] for j in terms], dtype=np.float64).reshape(-1, 2)
+    names, terms, bounds = regressor_terms(model)
     counts, rows = box_counts(
-        np.asarray(data.y, dtype=np.float64),
-        np.asarray(data.u, dtype=np.float64),
-        np.ascontiguousarray(lags.source[terms], dtype=np.int64),
-        np.ascontiguousarray(lags.channel[terms], dtype=np.int64),
-        np.ascontiguousarray(lags.lag[terms], dtype=np.int64),
-        np.ascontiguousarray(bounds[:, 0]),
-        np.ascontiguousarray(bounds[:, 1]),
+        channels_of(data.y),
+        channels_of(data.u),
+        terms,
+        bounds,
         lags.max_lag,
     )
     n_rows = data.n_samples - lags.max_lag
-    by_term = {lags.names[j]: int(c) / n_rows for j, c in zip(terms, counts, strict=True)}
-    return rows / n_rows, by_term
+    return rows / n_rows, {name: int(c) / n_rows for name, c in zip(names, counts, strict=True)}
 
 
 def _nearest(model: Any, x: FloatArray) -> tuple[FloatArray, float] | None:

@@ -5,7 +5,8 @@
 - :class:`NotFittedError`, :func:`check_is_fitted`: a model used before ``fit``;
 - :class:`DivergenceError`: a free run that left the finite numbers or the divergence envelope
   of the training outputs (:data:`DIVERGENCE_SPANS`);
-- :class:`ExtrapolationWarning`: a log that leaves the range the model was identified on.
+- :class:`ExtrapolationWarning`: a log that leaves the range the model was identified on;
+- :class:`RunChecks`: what those checks found, when a compiled run counted them itself.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ __all__ = [
     "ExtrapolationWarning",
     "ModelResult",
     "NotFittedError",
+    "RunChecks",
     "check_is_fitted",
 ]
 
@@ -74,6 +76,38 @@ class DivergenceError(ValueError, ArithmeticError):
     def __init__(self, message: str, result: ModelResult) -> None:
         super().__init__(message)
         self.result = result
+
+
+@dataclass(frozen=True)
+class RunChecks:
+    """What the per-sample checks of a free run found, counted by the run itself.
+
+    A compiled free run that walks the samples anyway (``LinearARX.simulate`` with one output)
+    counts what ``Estimator._result`` would otherwise find in passes of its own; it hands this
+    over and ``_result`` reads it instead: the same numbers, the same warning and errors.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n_samples,)
+        The result's time stamps (``IOData.time`` of the log), in seconds.
+    extrapolation : dict of str to float
+        ``Estimator.extrapolation(data)``: channel -> share of the samples outside its
+        training range.
+    domain : (float, dict of str to float) or None
+        ``Estimator._domain_shares(data)``: the share of the samples outside the regressors'
+        training box, and by term; None when not counted.
+    first_non_finite : int or None
+        The first sample from ``max_lag_`` on with a non-finite output.
+    first_runaway : (int, int) or None
+        ``Estimator.first_runaway(y, max_lag_)``: sample and output of the first value outside
+        the divergence envelope.
+    """
+
+    time: FloatArray
+    extrapolation: dict[str, float]
+    domain: tuple[float, dict[str, float]] | None
+    first_non_finite: int | None
+    first_runaway: tuple[int, int] | None
 
 
 @dataclass(frozen=True)
@@ -130,12 +164,16 @@ class ModelResult:
         lower: FloatArray | None = None,
         upper: FloatArray | None = None,
         extras: dict[str, Any] | None = None,
+        time: FloatArray | None = None,
     ) -> ModelResult:
-        """A result on the time base and inputs of ``data`` (outputs named by the model)."""
+        """A result on the time base and inputs of ``data`` (outputs named by the model).
+
+        ``time``, when given, is ``data.time`` already computed (by a compiled run).
+        """
         units = tuple(output_units) if output_units is not None else ("",) * len(output_names)
         return cls(
             kind,
-            data.time,
+            data.time if time is None else time,
             y,
             tuple(output_names),
             int(n_initial),

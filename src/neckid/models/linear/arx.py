@@ -1,11 +1,12 @@
 """LinearARX: the batch least-squares ARX baseline over any :class:`~neckid.Lags` regressor.
 
 Its free run (:func:`linear_free_run`) is a linear filter, not a per-sample Python loop: for one
-output the FIR part of each input by ``np.convolve`` (what SciPy's ``lfilter`` runs for an FIR)
-and the all-pole part by :func:`_all_pole_filter` (``lfilter``'s arithmetic, compiled, without its
-per-call checks), a small compiled loop (:func:`_linear_free_run_kernel`) when several outputs
-feed back into each other. The generic NARX loop (``neckid.models.base._free_run``) is
-the reference both are tested against.
+output the FIR part of each input (``np.convolve``'s arithmetic) and the all-pole part
+(``lfilter``'s) in one compiled pass, :mod:`neckid.models.linear._arx_kernels`, which in
+``LinearARX.simulate`` also counts what every free run checks (channels and regressor terms
+outside their training ranges, non-finite outputs, the divergence envelope); a small compiled
+loop (:func:`_linear_free_run_kernel`) when several outputs feed back into each other. The
+generic NARX loop (``neckid.models.base._free_run``) is the reference both are tested against.
 """
 
 from __future__ import annotations
@@ -17,11 +18,15 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
+from neckid._typing import FloatArray, IntArray
 from neckid.data.iodata import IOData
+from neckid.models._domain_kernels import channels_of
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.domain import channel_terms, regressor_terms
+from neckid.models.linear._arx_kernels import MAX_FIR_TAPS, checked_free_run
 from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
+from neckid.models.results import RunChecks
 from neckid.regressors import Lags, ResolvedLags
 from neckid.validation import Interval
 
@@ -107,8 +112,10 @@ def linear_free_run(
 
     With one output the input part ``x(t) = c + Σ_l B_l u(t − l)`` does not feed back: it is a
     FIR filter per input, and ``y`` is the IIR filter ``1 / (1 − Σ_l a_l z^{-l})`` applied to
-    ``x``, both as :func:`scipy.signal.lfilter` runs them (the FIR by ``np.convolve``, the IIR in
-    direct form II transposed, here compiled: the same floats without its overhead). The IIR filter
+    ``x``, both as :func:`scipy.signal.lfilter` runs them (the FIR as ``np.convolve`` sums it,
+    the IIR in direct form II transposed), here in one compiled pass over the samples: the same
+    floats without its overhead (``np.convolve`` itself for an input with more than
+    ``MAX_FIR_TAPS`` taps, where its sum takes another order). The IIR filter
     starts from the state that :func:`scipy.signal.lfiltic` builds from the last ``L`` initial
     outputs, so that its first output is ``x(m) + Σ_l a_l y(m − l)`` exactly as in the loop
     ([1]_, sections 6.5 and 6.6). With several outputs the ``A_l`` couple them and the whole
@@ -138,7 +145,7 @@ def _linear_free_run(
 ) -> FloatArray:
     """:func:`linear_free_run` in place on ``y`` (C-contiguous float64, ``(n_samples, n_outputs)``)."""
     y = np.require(y, dtype=np.float64, requirements="C")
-    u_arr = np.asarray(u, dtype=np.float64)
+    u_arr = np.ascontiguousarray(u, dtype=np.float64)
     coef_arr = np.asarray(coef, dtype=np.float64).reshape(resolved.n_terms, -1)
     n, n_out = y.shape
     m = resolved.max_lag
@@ -146,12 +153,12 @@ def _linear_free_run(
         raise ValueError(
             f"data has {n} samples, too few for lags up to {m}: it needs at least {m + 1}"
         )
-    outputs = np.flatnonzero(resolved.source == 0)
     if n_out > 1:
+        outputs = np.flatnonzero(resolved.source == 0)
         inputs = np.flatnonzero(resolved.source == 1)
         _linear_free_run_kernel(
             y,
-            np.ascontiguousarray(u_arr),
+            u_arr,
             np.ascontiguousarray(resolved.channel[outputs], dtype=np.int64),
             np.ascontiguousarray(resolved.lag[outputs], dtype=np.int64),
             np.ascontiguousarray(coef_arr[outputs]),
@@ -162,48 +169,68 @@ def _linear_free_run(
             m,
         )
         return y
-    forcing = np.full(n - m, float(np.asarray(intercept, dtype=np.float64).reshape(())))
-    for channel in np.unique(resolved.channel[resolved.source == 1]):
-        terms = np.flatnonzero((resolved.source == 1) & (resolved.channel == channel))
-        numerator = np.zeros(int(resolved.lag[terms].max()) + 1)
-        np.add.at(numerator, resolved.lag[terms], coef_arr[terms, 0])
-        # what lfilter(numerator, [1.0], u) computes for an FIR filter, without its overhead
-        forcing += np.convolve(numerator, u_arr[:, channel])[m:n]
-    if outputs.size == 0:
-        y[m:, 0] = forcing
-        return y
-    order = int(resolved.lag[outputs].max())
+    fir, denominator, state = _single_output_filter(resolved, coef_arr, intercept, u_arr, y)
+    no_terms = (np.empty((0, 3), np.int64), np.empty((0, 2)))
+    checked_free_run(
+        channels_of(u_arr),
+        channels_of(np.empty((n, 0))),
+        fir,
+        denominator,
+        state,
+        y[:, 0],
+        (np.empty(0), 0.0, 0.0),
+        no_terms,
+        no_terms,
+        np.array([-np.inf, np.inf]),
+        m,
+    )
+    return y
+
+
+def _single_output_filter(
+    resolved: ResolvedLags, coef: FloatArray, intercept: ArrayLike, u: FloatArray, y: FloatArray
+) -> tuple[tuple[IntArray, FloatArray, FloatArray, float], FloatArray, FloatArray]:
+    """The single-output ARX map as filters: ``(fir, denominator, state)`` of ``checked_free_run``.
+
+    The FIR of each input (its coefficients by lag, a row of the padded ``numerator``), the
+    all-pole ``denominator`` ``1 − Σ_l a_l z^{-l}`` and the state that
+    :func:`scipy.signal.lfiltic` builds from the last initial outputs in ``y``, its arithmetic
+    without its checks. With more than ``MAX_FIR_TAPS`` taps on an input the FIRs are
+    convolved here (``np.convolve``, as ``lfilter`` does) into the ``forcing``.
+    """
+    n, m = y.shape[0], resolved.max_lag
+    value = float(np.asarray(intercept, dtype=np.float64).reshape(()))
+    columns = (resolved.source.tolist(), resolved.channel.tolist(), resolved.lag.tolist())
+    terms = list(zip(*columns, strict=True))
+    weights = coef[:, 0].tolist()
+    taps: dict[int, int] = {}  # input channel -> its FIR's length
+    for source, channel, lag in terms:
+        if source == 1:
+            taps[channel] = max(taps.get(channel, 0), lag + 1)
+    row_of = {channel: row for row, channel in enumerate(sorted(taps))}
+    order = max((lag for source, _, lag in terms if source == 0), default=0)
+    numerator = np.zeros((len(taps), max(taps.values(), default=1)))
     denominator = np.zeros(order + 1)
     denominator[0] = 1.0
-    np.subtract.at(denominator, resolved.lag[outputs], coef_arr[outputs, 0])
+    for (source, channel, lag), weight in zip(terms, weights, strict=True):
+        if source == 1:
+            numerator[row_of[channel], lag] += weight  # what np.add.at gave: 0.0 + weight
+        else:
+            denominator[lag] -= weight
+    channels = np.array(sorted(taps), dtype=np.int64)
+    forcing = np.empty(0)
+    if max(taps.values(), default=1) > MAX_FIR_TAPS:
+        forcing = np.full(n - m, value)
+        for row, channel in zip(numerator, channels.tolist(), strict=True):
+            # what lfilter(row, [1.0], u) computes for an FIR filter, without its overhead
+            forcing += np.convolve(row[: taps[channel]], u[:, channel])[m:n]
+        channels, numerator = channels[:0], numerator[:0]
     past = y[m - order : m, 0][::-1]  # y(m − 1), y(m − 2), ..., y(m − order)
     # signal.lfiltic([1.0], denominator, past), its arithmetic without its checks
     state = np.zeros(order)
     for k in range(order):
-        state[k] -= np.sum(denominator[k + 1 :] * past[: order - k], axis=0)
-    _all_pole_filter(denominator, forcing, state, y[m:, 0])
-    return y
-
-
-@numba.njit(cache=True, nogil=True)
-def _all_pole_filter(
-    denominator: FloatArray, x: FloatArray, state: FloatArray, out: FloatArray
-) -> None:  # pragma: no cover - compiled; tested bit for bit against lfilter
-    """``out = lfilter([1.0], denominator, x, zi=state)[0]``, the same floats (``denominator[0] = 1``).
-
-    The direct form II transposed of SciPy's ``_linear_filter`` with the numerator ``[1, 0, ...]``
-    padded to the denominator's length, term by term in its order (the products with the
-    numerator's zeros included), without the checks and copies of the Python wrapper.
-    """
-    order = denominator.shape[0] - 1
-    z = state.copy()
-    for k in range(x.shape[0]):
-        xn = x[k]
-        yn = z[0] + 1.0 * xn
-        for i in range(order - 1):
-            z[i] = z[i + 1] + xn * 0.0 - yn * denominator[i + 1]
-        z[order - 1] = xn * 0.0 - yn * denominator[order]
-        out[k] = yn
+        state[k] -= (denominator[k + 1 :] * past[: order - k]).sum()
+    return (channels, numerator, forcing, value), denominator, state
 
 
 @numba.njit(cache=True, nogil=True)
@@ -373,14 +400,63 @@ class LinearARX(NarxModel):
         -----
         The same values as the generic NARX free run (and as stepping :meth:`simulator`), to
         rounding, computed as a linear filter (:func:`linear_free_run`): some hundred times
-        faster than a loop over the samples in Python.
+        faster than a loop over the samples in Python. With one output the filter and the checks
+        of the result (extrapolation warning, divergence errors) are one compiled pass over the
+        samples, with the numbers the other models' checks find in passes of their own.
         """
         check_is_fitted(self)
         data = self._with_conditions(data)
-        y0 = self._initial_outputs(data, initial)
+        if self.n_outputs_ == 1:  # one compiled pass: the filter and every check of the run
+            y = self._initial_outputs(data, initial, filled=False)  # the run writes the rest
+            return self._result("simulation", data, y, checks=self._checked_run(data, y))
+        y = self._initial_outputs(data, initial)
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            y = _linear_free_run(self.lags_, self.coef_, self.intercept_, data.u, y0)
+            y = _linear_free_run(self.lags_, self.coef_, self.intercept_, data.u, y)
         return self._result("simulation", data, y)
+
+    def _checked_run(self, data: IOData, y: FloatArray) -> RunChecks:
+        """The single-output free run in place on ``y``, and what the run's checks found.
+
+        One compiled pass (:func:`~neckid.models.linear._arx_kernels.checked_free_run`) gives
+        the outputs of :func:`linear_free_run` and counts what ``_result`` would look for in
+        passes of its own: the time stamps, the channels outside their training ranges
+        (``extrapolation``), the regressor terms outside the training box (``_domain_shares``),
+        the first non-finite output and the first one outside :meth:`divergence_envelope`.
+        """
+        n, m = data.n_samples, self.max_lag_
+        u = np.asarray(data.u, dtype=np.float64)
+        coef = np.asarray(self.coef_, dtype=np.float64).reshape(self.lags_.n_terms, 1)
+        fir, denominator, state = _single_output_filter(self.lags_, coef, self.intercept_, u, y)
+        channel_names, channels, channel_bounds = channel_terms(self, data)
+        term_names, terms, term_bounds = regressor_terms(self)
+        counted = bool(getattr(self, "regressor_ranges_", None)) and data.n_outputs == 1
+        if not counted:  # as Estimator._warn_extrapolation: no box, or no measured outputs
+            term_names, terms, term_bounds = [], terms[:0], term_bounds[:0]
+        envelope = self.divergence_envelope().get(self.output_names_[0], (-np.inf, np.inf))
+        time = np.empty(n)
+        channel_counts, term_counts, rows, non_finite, runaway = checked_free_run(
+            channels_of(u),
+            channels_of(data.y),
+            fir,
+            denominator,
+            state,
+            y[:, 0],
+            (time, data.t0, data.ts),
+            (channels, channel_bounds),
+            (terms, term_bounds),
+            np.array(envelope, dtype=np.float64),
+            m,
+        )
+        by_term = {k: int(c) / (n - m) for k, c in zip(term_names, term_counts, strict=True)}
+        return RunChecks(
+            time=time,
+            extrapolation={
+                k: int(c) / n for k, c in zip(channel_names, channel_counts, strict=True)
+            },
+            domain=(rows / (n - m), by_term) if counted else None,
+            first_non_finite=int(non_finite) if non_finite >= 0 else None,
+            first_runaway=(int(runaway), 0) if runaway >= 0 else None,
+        )
 
     def _check_state(self) -> None:
         super()._check_state()
