@@ -74,6 +74,7 @@ COMPLEXITY: Mapping[str, int] = {
     "scheduled": 1,
     "ss": 2,
     "greybox-neck": 2,
+    "greybox-tanks": 2,
     "sm-linear": 2,
     "sm": 3,
     "sm-parallel": 3,
@@ -86,7 +87,7 @@ COMPLEXITY: Mapping[str, int] = {
 
 #: Methods whose regressor is not their lags (the subspace model: its order comes from the
 #: singular values): one candidate each, not one per lag set.
-LAG_FREE_METHODS = frozenset({"ss", "pnlss", "greybox-neck"})
+LAG_FREE_METHODS = frozenset({"ss", "pnlss", "greybox-neck", "greybox-tanks"})
 
 
 def input_reach(train: Sequence[IOData], tests: Sequence[IOData]) -> float:

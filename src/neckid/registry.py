@@ -10,8 +10,8 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'greybox-neck', 'nn', 'pnlss', 'poly', 'rls', 'scheduled', 'scheduled-position', 'sm',
- 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
+['arx', 'greybox-neck', 'greybox-tanks', 'nn', 'pnlss', 'poly', 'rls', 'scheduled',
+ 'scheduled-position', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -180,6 +180,16 @@ _METHODS: tuple[Method, ...] = (
         "tendon slack and a Prandtl-Ishlinskii hysteresis in series with stable second-order"
         " dynamics, fitted on the free-run error",
         quick={"max_iter": 8, "n_play": 2},
+    ),
+    Method(
+        "greybox-tanks",
+        "Grey-box cascaded tanks (ODE)",
+        "neckid.models.greybox.ode:GreyBoxODE",
+        "the cascaded tanks' physical model (power-law outflows from Torricelli's, pump dead zone, both"
+        " tanks' overflows; one pump voltage in, one level out), parameters fitted on the"
+        " free-run error; GreyBoxODE takes a user's structure the same way",
+        defaults={"structure": "cascaded-tanks"},
+        quick={"n_starts": 2, "max_iter": 20},
     ),
     Method(
         "sm-multistep",

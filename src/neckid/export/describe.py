@@ -487,6 +487,28 @@ def _greybox(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
+def _greybox_ode(model: Any) -> tuple[str, dict[str, Any]]:
+    structure = model.structure_
+    step = (
+        "dx/dt = f(x, u, p) integrated by classical Runge-Kutta, substeps steps per sample,"
+        " input held"
+        if structure.time == "continuous"
+        else "x(t+1) = f(x(t), u(t), p)"
+    )
+    return "greybox_ode", {
+        "equation": f"grey-box structure {structure.name!r}: {step}, then the structure's"
+        " saturation; y(t) = g(x(t), u(t), p); f, g and the saturation are the structure's"
+        " functions (neckid.models.greybox); p in the order of parameter_names",
+        "structure_name": structure.name,
+        "parameter_names": list(structure.parameter_names),
+        "parameter_units": [p.unit for p in structure.parameters],
+        "parameter_values": _array(model.parameters_),
+        "state_names": list(structure.state_names),
+        "initial_states": _array(model.initial_states_),
+        "substeps": int(model.substeps_),
+    }
+
+
 def _pnlss(model: Any) -> tuple[str, dict[str, Any]]:
     names = [f"x{k + 1}" for k in range(int(model.order_))] + list(model.input_names_)
     return "polynomial_state_space", {
@@ -526,4 +548,5 @@ _DESCRIBERS: dict[str, Describer] = {
     "MultiStepSetMembership": _multistep,
     "GainScheduledModel": _scheduled,
     "GreyBoxNeck": _greybox,
+    "GreyBoxODE": _greybox_ode,
 }

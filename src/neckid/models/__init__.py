@@ -8,7 +8,7 @@
 - :mod:`neckid.models.pnlss`: :class:`PolynomialStateSpace` (PNLSS);
 - :mod:`neckid.models.neural`: :class:`NeuralNARX`;
 - :mod:`neckid.models.scheduled`: :class:`GainScheduledModel`;
-- :mod:`neckid.models.greybox`: :class:`GreyBoxNeck`;
+- :mod:`neckid.models.greybox`: :class:`GreyBoxNeck`, :class:`GreyBoxODE` (your own equations);
 - shared: :mod:`~neckid.models.base` (the contract and simulators), :mod:`~neckid.models.results`,
   :mod:`~neckid.models.kstep`, :mod:`~neckid.models.bands`, :mod:`~neckid.models.domain`,
   :mod:`~neckid.models.cache`, :mod:`~neckid.models.io`, :mod:`~neckid.models.online`,
@@ -23,7 +23,7 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from neckid.models.greybox import GreyBoxNeck
+    from neckid.models.greybox import GreyBoxNeck, GreyBoxODE
     from neckid.models.linear import LinearARX, RecursiveARX, SubspaceStateSpace
     from neckid.models.neural import NeuralNARX
     from neckid.models.pnlss import PolynomialStateSpace
@@ -38,6 +38,7 @@ if TYPE_CHECKING:
 __all__ = [
     "GainScheduledModel",
     "GreyBoxNeck",
+    "GreyBoxODE",
     "LinearARX",
     "MultiStepSetMembership",
     "NeuralNARX",
@@ -61,6 +62,7 @@ _FAMILY = {
     "NeuralNARX": "neckid.models.neural",
     "GainScheduledModel": "neckid.models.scheduled",
     "GreyBoxNeck": "neckid.models.greybox",
+    "GreyBoxODE": "neckid.models.greybox",
 }
 
 if not TYPE_CHECKING:
