@@ -367,3 +367,29 @@ def test_the_state_map_steps_as_the_free_run() -> None:
         outputs.append(system.output(x, row))
         x = system.update(x, row)
     np.testing.assert_allclose(np.vstack(outputs), model.simulate(data).y[1:], rtol=0, atol=1e-12)
+
+
+def test_the_fit_reports_each_least_squares_run_from_its_starts() -> None:
+    from neckid.progress import reporting
+
+    class Recorder:
+        def __init__(self) -> None:
+            self.started: list[tuple[str, float | None]] = []
+            self.steps = 0.0
+
+        def start(self, label: str, total: float | None) -> Recorder:
+            self.started.append((label, total))
+            return self
+
+        def advance(self, steps: float = 1.0) -> None:
+            self.steps += steps
+
+        def stop(self) -> None:
+            pass
+
+    recorder = Recorder()
+    with reporting(recorder):
+        GreyBoxODE(structure="cascaded-tanks", n_starts=4, max_iter=30).fit(_tanks_data(n=200))
+    # 4 screening runs, then the best 3 refined (max_iter above the screening budget)
+    assert [total for _, total in recorder.started] == [7] and recorder.steps == 7
+    assert "cascaded-tanks" in recorder.started[0][0]

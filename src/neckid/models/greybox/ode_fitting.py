@@ -50,6 +50,7 @@ from neckid._typing import FloatArray
 from neckid.models.greybox.ode_kernels import evaluate, free_run
 from neckid.models.greybox.structure import GreyBoxStructure
 from neckid.models.results import DIVERGENCE_SPANS
+from neckid.progress import task
 
 __all__ = [
     "DIFF_STEP",
@@ -232,15 +233,27 @@ def _fit(
     search = _Search(problem)
     starts = search.starts(n_starts, seed)
     n_values = sum(y[1:].size for _, y in problem.runs)
-    if len(starts) == 1 or not search.low.size:
-        screened = [_solve(problem, search, starts[0], max_iter)]
-    else:
-        screened = [_solve(problem, search, z, min(SCREEN_EVALUATIONS, max_iter)) for z in starts]
-    start_costs = np.array([2.0 * s.cost / n_values for s in screened])
-    refined = screened
-    if len(screened) > 1 and max_iter > SCREEN_EVALUATIONS:
-        order = np.argsort(start_costs, kind="stable")[:REFINED_STARTS]
-        refined = [_solve(problem, search, screened[i].x, max_iter) for i in order]
+    single = len(starts) == 1 or not search.low.size
+    refine = not single and max_iter > SCREEN_EVALUATIONS
+    solves = 1 if single else len(starts) + (min(REFINED_STARTS, len(starts)) if refine else 0)
+    label = f"grey-box fit of {problem.structure.name!r} (least-squares runs from the starts)"
+    with task(label, solves) as advance:
+        if single:
+            screened = [_solve(problem, search, starts[0], max_iter)]
+            advance()
+        else:
+            screened = []
+            for z in starts:
+                screened.append(_solve(problem, search, z, min(SCREEN_EVALUATIONS, max_iter)))
+                advance()
+        start_costs = np.array([2.0 * s.cost / n_values for s in screened])
+        refined = screened
+        if refine:
+            order = np.argsort(start_costs, kind="stable")[:REFINED_STARTS]
+            refined = []
+            for i in order:
+                refined.append(_solve(problem, search, screened[i].x, max_iter))
+                advance()
     best = min(refined, key=lambda s: float(s.cost))
     runs = len(problem.runs)
     n_free = best.x.size
