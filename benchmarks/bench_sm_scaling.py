@@ -1,10 +1,12 @@
 """Set Membership fit at scale: N → fit time and memory, and the prior check old vs new.
 
-Run:  .venv/bin/python benchmarks/bench_sm_scaling.py [--quick] [--large]
+Run:  .venv/bin/python benchmarks/bench_sm_scaling.py [--quick] [--large] [--terms 6]
+      [--sizes 100000,1000000] [--prior default given]
 
 Each row is one fit of ``SetMembership`` on a neck-like system (``_systems.neck_like``: three
-past outputs and three inputs at lags 8..10, n = 12 regressors), in a fresh subprocess so that
-its peak memory is its own. Two ways of choosing the prior:
+past outputs and three inputs at lags 8..10, n = 12 regressors; with ``--terms 6`` three past
+outputs and the three inputs at lag 8, n = 6), in a fresh subprocess so that its peak memory is
+its own. Three ways of choosing the prior:
 
 - ``default``: ε at the knee of the γ*(ε) curve (48 ε values), γ = 1.1 γ*(ε);
 - ``epsilon``: ε = the simulated noise bound 1e-3 given, with ``epsilons=[ε]`` so that γ*(ε)
@@ -21,10 +23,12 @@ the raw regressor matrix (N·n·8 bytes); and the fit's peak resident set size a
 before the fit (VmHWM after resetting it, Linux). Targets (issue 18): N = 1e6 in < 60 s and
 < 2 GB, memory <= 2x the raw regressor.
 
-``--quick`` runs N = 1e4 and 3e4 (< 30 s); the default N = 1e4, 1e5, 1e6; ``--large`` adds
-N = 1e7 without the default rule (its 48-ε curve is out of reach there: see docs/scaling.md;
-the old check is extrapolated by N^1.4 from N = 1e6). ``--prior`` picks the ways of choosing
-the prior (all three by default). On a shared 2-core machine timings are noisy.
+``--quick`` runs N = 1e4 and 3e4 (< 30 s); the default N = 1e4, 1e5, 1e6 (``--sizes`` picks
+others); ``--large`` adds N = 1e7 without the default rule (its 48-ε curve is out of reach
+there: see docs/scaling.md; the old check is extrapolated by N^1.4 from N = 1e6). ``--prior``
+picks the ways of choosing the prior (all three by default). The memory target of issue 33:
+the default fit's peak <= 100 bytes per sample at n = 6 (``--terms 6 --prior default``). On a
+shared 2-core machine timings are noisy.
 """
 
 from __future__ import annotations
@@ -36,17 +40,25 @@ import subprocess
 import sys
 import time
 import tracemalloc
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
 from _systems import NECK_LIKE_LAGS, NECK_LIKE_NOISE, neck_like
 
+from neckid import Lags
 from neckid.models.set_membership._kernels.gamma import gamma_star
 from neckid.models.set_membership.narx import SetMembership
-from neckid.models.set_membership.training import prior_holds, prior_holds_by_query
+from neckid.models.set_membership.training import prior_holds
 
-LAGS = NECK_LIKE_LAGS
+#: The regressor by number of terms: the neck-like 12, or three past outputs and the inputs at 8.
+LAGS = {12: NECK_LIKE_LAGS, 6: Lags(outputs=3, inputs=[8])}
+#: Samples dropped at the start of the log: its output is 0 until sample 10 and its inputs hold
+#: their first value, so with six terms (lags 1-3 and 8) its first rows are identical regressors
+#: with different targets, which would set ε (γ*(ε) infinite below half their spread).
+SKIP = {12: 0, 6: 10}
 MARGIN = 1.1
 #: The ways of choosing (ε, γ), see the module docstring.
 PRIORS = ("given", "epsilon", "default")
@@ -72,28 +84,41 @@ def _reset_peak_rss() -> bool:
     return True
 
 
-def worker(n: int, mode: str) -> dict:
+def _old_check() -> Callable[..., Any]:
+    """The previous prior check (the bounds at every training point), kept beside the tests."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from _sm_reference import prior_holds_by_query
+
+    return prior_holds_by_query  # type: ignore[no-any-return]
+
+
+def worker(n: int, mode: str, terms: int) -> dict:
     """One fit of N regressors; returns the measurements (run in its own process)."""
-    warm = neck_like(3_000, seed=0)
-    SetMembership(LAGS, progress=False).fit(warm)  # compile / load the kernel cache
-    SetMembership(LAGS, epsilon=NECK_LIKE_NOISE, gamma=5.0, progress=False).fit(warm)
-    data = neck_like(n + LAGS.max_lag, seed=1)
+    lags = LAGS[terms]
+    skip = SKIP[terms]
+    warm = neck_like(25_000, seed=0)[skip:]  # above the tree's and the search's thresholds
+    model = SetMembership(lags, progress=False).fit(warm)  # compile / load the kernel cache
+    SetMembership(lags, epsilon=NECK_LIKE_NOISE, gamma=5.0, progress=False).fit(warm)
+    tree = model._tree
+    gamma_star(tree.points, tree.targets, model.gamma_curve_.epsilons, tree=tree, slopes="always")
+    del model, tree
+    data = neck_like(n + lags.max_lag + skip, seed=1)[skip:]
     kwargs: dict = {}
     if mode == "epsilon":
         kwargs = {"epsilon": NECK_LIKE_NOISE, "epsilons": [NECK_LIKE_NOISE]}
     elif mode == "given":
-        x, y = LAGS.build(data)
+        x, y = lags.build(data)
         points = np.ascontiguousarray(x / x.std(axis=0))
         star = gamma_star(points, y, np.array([[NECK_LIKE_NOISE]]))[0, 0]
         kwargs = {"epsilon": NECK_LIKE_NOISE, "gamma": MARGIN * float(star)}
         del x, y, points
-    raw = n * LAGS.resolve([data]).n_terms * 8
+    raw = n * lags.resolve([data]).n_terms * 8
     rss_before = _status_kib("VmRSS")
     reset = _reset_peak_rss()
     tracemalloc.start()
     start_bytes = tracemalloc.get_traced_memory()[0]
     start = time.perf_counter()
-    model = SetMembership(LAGS, progress=False, **kwargs).fit(data)
+    model = SetMembership(lags, progress=False, **kwargs).fit(data)
     fit_time = time.perf_counter() - start
     retained, peak = (v - start_bytes for v in tracemalloc.get_traced_memory())
     tracemalloc.stop()
@@ -107,7 +132,7 @@ def worker(n: int, mode: str) -> dict:
     old_check: float | None = None
     if n <= OLD_CHECK_LIMIT:
         start = time.perf_counter()
-        valid_old = prior_holds_by_query(tree, epsilon, gamma)
+        valid_old = _old_check()(tree, epsilon, gamma)
         old_check = time.perf_counter() - start
         assert np.array_equal(valid_old, valid_new), (valid_old, valid_new)
     return {
@@ -127,9 +152,9 @@ def worker(n: int, mode: str) -> dict:
     }
 
 
-def run(n: int, mode: str) -> dict:
+def run(n: int, mode: str, terms: int) -> dict:
     """:func:`worker` in a fresh interpreter."""
-    command = [sys.executable, __file__, "--worker", str(n), mode]
+    command = [sys.executable, __file__, "--worker", str(n), mode, str(terms)]
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise RuntimeError(f"worker N={n} {mode} failed:\n{done.stderr}")
@@ -171,26 +196,30 @@ def main() -> None:
     parser.add_argument(
         "--prior", nargs="+", choices=PRIORS, default=list(PRIORS), help="which priors to run"
     )
-    parser.add_argument("--worker", nargs=2, metavar=("N", "MODE"), help=argparse.SUPPRESS)
+    parser.add_argument("--terms", type=int, choices=sorted(LAGS), default=12, help="n")
+    parser.add_argument("--sizes", help="comma-separated N (instead of the default sizes)")
+    parser.add_argument("--worker", nargs=3, metavar=("N", "MODE", "TERMS"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        print(json.dumps(worker(int(args.worker[0]), args.worker[1])))
+        print(json.dumps(worker(int(args.worker[0]), args.worker[1], int(args.worker[2]))))
         return
     sizes = [10_000, 30_000] if args.quick else [10_000, 100_000, 1_000_000]
+    if args.sizes:
+        sizes = [int(float(v)) for v in args.sizes.split(",")]
     jobs = [(n, mode) for n in sizes for mode in args.prior]
     if args.large:
         jobs += [(10_000_000, mode) for mode in args.prior if mode != "default"]
     print(
-        f"SetMembership fit, neck-like system, n = 12; numba {numba.__version__},"
-        f" {numba.get_num_threads()} threads, {os.cpu_count()} CPUs visible"
-        " (shared machine: timings are noisy)"
+        f"SetMembership fit, neck-like system, n = {args.terms}; numba {numba.__version__},"
+        f" {numba.get_num_threads()} threads, {os.cpu_count()} CPUs visible, load average"
+        f" {os.getloadavg()[0]:.2f} (shared machine: timings are noisy)"
     )
     print("raw = N·n·8 bytes; 'kept' = what the fitted model holds; old chk = bounds at all N\n")
     print(HEADER)
     old_fit: dict[str, tuple[int, float]] = {}
     for n, mode in jobs:
         start = time.perf_counter()
-        result = run(n, mode)
+        result = run(n, mode, args.terms)
         if result["old_check"] is not None:
             old_fit[mode] = (n, result["old_check"])
         print(_row(result, old_fit), flush=True)

@@ -517,6 +517,27 @@ class Estimator(BaseEstimator, ModelFile):
         return HistoryMap(self, bounds)
 
 
+def _stacked_rows(
+    resolved: ResolvedLags, experiments: Sequence[IOData]
+) -> tuple[FloatArray, FloatArray]:
+    """The regressor rows and targets of several experiments, one block of rows after the other.
+
+    Each experiment's rows are built (:meth:`ResolvedLags.build_one`, which refuses one too short
+    for the lags, before anything is allocated here) and copied into its block at once.
+    """
+    sizes = [d.n_samples - resolved.max_lag for d in experiments]
+    for d, size in zip(experiments, sizes, strict=True):
+        if size < 1:
+            resolved.build_one(d)  # raises, naming the record
+    x = np.empty((sum(sizes), resolved.n_terms))
+    y = np.empty((sum(sizes), len(resolved.output_names)))
+    first = 0
+    for d, size in zip(experiments, sizes, strict=True):
+        x[first : first + size], y[first : first + size] = resolved.build_one(d)
+        first += size
+    return x, y
+
+
 class NarxModel(Estimator):
     """Base class of the models whose one-step map is ``y(t) = f(w(t))`` over a :class:`Lags` regressor.
 
@@ -569,17 +590,23 @@ class NarxModel(Estimator):
         return self.lags
 
     def _prepare_fit(self, data: IOData | Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
+        """Check the settings and the data; return the training regressor rows and their targets.
+
+        ``x`` is a new array that the caller may take over (Set Membership scales and reorders
+        it in place). ``y`` may be a read-only view of the data's outputs (one experiment): a
+        caller must not write into it. Several experiments are built one after the other into
+        one preallocated pair of arrays, so that only one experiment's rows exist twice at a
+        time (not every experiment's rows and their stack).
+        """
         self._validate_params()
         experiments = as_experiments(self._with_conditions(data, fitting=True))
         lags = self._lags()
         resolved = lags.resolve(experiments)
         self._check_training(experiments)
-        parts = [resolved.build_one(d) for d in experiments]
-        if len(parts) == 1:  # one experiment: the regressor rows as built (a new array), no copy;
-            x, y = parts[0][0], parts[0][1].copy()  # the targets may be a view of the data
+        if len(experiments) == 1:
+            x, y = resolved.build_one(experiments[0])
         else:
-            x = np.vstack([p[0] for p in parts])
-            y = np.vstack([p[1] for p in parts])
+            x, y = _stacked_rows(resolved, experiments)
         self.lags_ = resolved
         self._set_channels(experiments[0])
         self.n_samples_ = int(x.shape[0])

@@ -295,12 +295,7 @@ def _choose_prior(
         logger.debug(
             "gamma*(eps) over %d pairs, %d eps values", n_rows * (n_rows - 1) // 2, grid.shape[0]
         )
-        if (
-            epsilon is None
-            and settings.epsilons is None
-            and prior.KNEE_METHOD == "search"
-            and n_rows >= prior.KNEE_SEARCH_MIN_ROWS
-        ):
+        if epsilon is None and settings.epsilons is None and n_rows >= prior.KNEE_SEARCH_MIN_ROWS:
             # The default rule: the curve exact only as far as its knee needs (knee_search).
             curve = prior.knee_search(tree, grid, settings.progress, output_names=tuple(names))
         else:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -215,14 +214,20 @@ def _gamma_star(
     grid: FloatArray,
     progress: ProgressOption,
     tree: SMTree | None = None,
+    lower: FloatArray | None = None,
 ) -> FloatArray:
     """:func:`~neckid.models.set_membership._kernels.tree.gamma_star` with the progress option (and a tree).
 
     Values already computed for the same points and targets (a digest of their bytes) are taken
-    from the active ``gamma_curves`` cache (:mod:`neckid.models.cache`) and only the missing ε are computed: a selection that fits several
-    candidates on one regressor (the default 48-ε curve, each with its own given ε) walks the
-    pairs once per new ε. γ*(ε) is exact for each ε whatever else is in the grid, so a cached
-    value is the value a new pass would give.
+    from the active ``gamma_curves`` cache (:mod:`neckid.models.cache`) and only the missing ε
+    are computed: a selection that fits several candidates on one regressor (the default 48-ε
+    curve, each with its own given ε) walks the pairs once per new ε. γ*(ε) is exact for each ε
+    whatever else is in the grid, so a cached value is the value a new pass would give.
+
+    ``lower`` (shape of ``grid``) holds values known to be at most γ*(ε), each the slope of a
+    pair of these very rows (γ*(ε) of a subset of them, :func:`knee_search`): the search starts
+    its running maximum there (``floor``) and skips what cannot exceed it. The result is
+    ``max(γ*(ε), lower) = γ*(ε)``, the same floats.
     """
     grid = np.asarray(grid, dtype=np.float64)
     cache = active_cache("gamma_curves")
@@ -240,7 +245,12 @@ def _gamma_star(
         callback, close = _progress_callback(progress, points.shape[0])
         try:
             computed = gamma_star(
-                points, targets, np.ascontiguousarray(grid[missing]), callback=callback, tree=tree
+                points,
+                targets,
+                np.ascontiguousarray(grid[missing]),
+                callback=callback,
+                tree=tree,
+                floor=None if lower is None else np.ascontiguousarray(lower[missing]),
             )
         finally:
             close()
@@ -253,10 +263,6 @@ def _gamma_star(
     return out
 
 
-#: How the default rule (ε and γ not given, the default grid) finds the knee: ``"search"``
-#: (:func:`knee_search`: located on a subsample, then γ*(ε) exact on the grid's first values
-#: only) or ``"walk"`` (γ*(ε) exact on the whole grid over all pairs, the rule before issue 33).
-KNEE_METHOD: Literal["search", "walk"] = "search"
 #: Rows of the subsample on which :func:`knee_search` locates the knee (every k-th row in time).
 KNEE_SUBSAMPLE = 5_000
 #: Below this many training rows the default rule walks the whole curve (it takes < 1 s there).
@@ -270,11 +276,21 @@ KNEE_STEP = 3
 KNEE_SAFETY = 4.0
 
 
+#: Rows of the permutation scanned at a time by :func:`_subsample_rows` (its only temporaries).
+_SCAN_ROWS = 1 << 14
+
+
 def _subsample_rows(tree: SMTree, size: int) -> IntArray:
     """Tree positions of every ``ceil(N / size)``-th training row, in the order of time."""
     n_rows = tree.points.shape[0]
     stride = max(1, -(-n_rows // max(int(size), 1)))
-    positions = np.flatnonzero(tree.perm % stride == 0)
+    positions = np.concatenate(
+        [
+            first + np.flatnonzero(tree.perm[first : first + _SCAN_ROWS] % stride == 0)
+            for first in range(0, n_rows, _SCAN_ROWS)
+        ]
+        or [np.zeros(0, np.int64)]
+    )
     return positions[np.argsort(tree.perm[positions], kind="stable")]
 
 
@@ -300,7 +316,12 @@ def knee_search(
        ``b = f + 4 + KNEE_MARGIN``, or ``k_s + 2 + KNEE_MARGIN + 1`` if larger when the
        subsample's knee ``k_s`` stands out (its ratio ``KNEE_SAFETY`` times those past it): each
        value exact whatever else is in the grid, and so the ratios ``r_e`` at the inner points
-       whose five values are all exact, the same floats as over the whole curve;
+       whose five values are all exact, the same floats as over the whole curve. Each pass
+       starts its running maxima at the subsample's values (the slopes of pairs of these very
+       rows, so lower bounds: the result is the same, and the search skips what cannot exceed
+       them) and bounds slopes with regional linear models where that prunes
+       (:mod:`~neckid.models.set_membership._kernels.slope`): past a knee, where millions of
+       distant pairs have nearly the largest slope, this is what makes the exact values cheap;
     3. stops when the largest of those, ``r*`` at ``e*``, has ``KNEE_MARGIN`` exact inner
        points after it and every inner point beyond the exact part has a subsample ratio below
        ``r* / KNEE_SAFETY``; otherwise extends the exact part (one pass over the pairs) as far
@@ -339,7 +360,11 @@ def knee_search(
     if rows.size < 2 * k + 1 or 2 * rows.size > n_rows:
         values = _gamma_star(tree.points, tree.targets, grid, progress, tree)
         return GammaCurve(grid, values, names, n_rows)
-    sub = gamma_star(tree.points[rows], tree.targets[rows], grid, method="tree")
+    subtree = SMTree(
+        tree.points[rows], tree.targets[rows], overwrite_points=True, overwrite_targets=True
+    )
+    sub = gamma_star(subtree.points, subtree.targets, grid, method="tree", tree=subtree)
+    del subtree
     # γ*(ε) is infinite exactly where identical rows differ by more than 2ε (every row, not the
     # subsample's): the knee lies at least two grid steps past the last such ε.
     spread = duplicate_spread(tree.points, tree.targets)
@@ -363,7 +388,10 @@ def knee_search(
         if np.all(KNEE_SAFETY * past[np.isfinite(past)] < sub_ratio[knee, c]):
             last = max(last, knee + k + KNEE_MARGIN + 1)
     last = min(n_eps - 1, last)
-    exact = _gamma_star(tree.points, tree.targets, grid[: last + 1], progress, tree)
+    # The subsample's γ*(ε) are slopes of pairs of these rows: lower bounds that start the search.
+    exact = _gamma_star(
+        tree.points, tree.targets, grid[: last + 1], progress, tree, sub[: last + 1]
+    )
     while last < n_eps - 1:
         needed = max(
             _knee_needs(grid[: last + 1, c], exact[:, c], sub_ratio[:, c], n_eps)
@@ -372,7 +400,14 @@ def knee_search(
         if needed <= last:
             break
         more = min(n_eps - 1, max(needed, last + KNEE_STEP))
-        added = _gamma_star(tree.points, tree.targets, grid[last + 1 : more + 1], progress, tree)
+        added = _gamma_star(
+            tree.points,
+            tree.targets,
+            grid[last + 1 : more + 1],
+            progress,
+            tree,
+            sub[last + 1 : more + 1],
+        )
         exact = np.vstack([exact, added])
         last = more
     return GammaCurve(np.array(grid[: last + 1]), exact, names, n_rows)

@@ -120,7 +120,7 @@ def unscale(points: FloatArray, weights: FloatArray, out: FloatArray | None = No
 def _residual(
     points: FloatArray, y: FloatArray, weights: FloatArray, coef: FloatArray, intercept: FloatArray
 ) -> FloatArray:
-    """``y − linear_sum(unscale(points))`` block by block; ``y`` itself without a linear part."""
+    """``y − linear_sum(unscale(points))`` block by block (a copy of ``y`` without a linear part)."""
     if not (np.any(coef) or np.any(intercept)):
         return np.array(y, dtype=np.float64, order="C")
     residual = np.empty(y.shape)
@@ -159,8 +159,8 @@ def training_tree(
         ``y`` in tree order when ``keep_outputs``.
     """
     x *= weights
-    residual = _residual(x, y, weights, coef, intercept)
-    tree = SMTree(x, residual, overwrite_points=True)
+    residual = _residual(x, y, weights, coef, intercept)  # a new array, reordered in place
+    tree = SMTree(x, residual, overwrite_points=True, overwrite_targets=True)
     return tree, (np.ascontiguousarray(y[tree.perm]) if keep_outputs else None)
 
 
@@ -171,46 +171,92 @@ _MIX_2 = np.uint64(0x94D049BB133111EB)
 _NEGATIVE_ZERO = np.uint64(1 << 63)
 
 
+@njit(cache=True, inline="always")
+def _row_hash(bits: NDArray[np.uint64], i: int) -> np.uint32:  # pragma: no cover - compiled
+    """A 32-bit hash of row ``i`` of float64 bit patterns (−0 hashed as +0, as ``==`` sees them)."""
+    h = _GOLDEN
+    for k in range(bits.shape[1]):
+        v = bits[i, k]
+        if v == _NEGATIVE_ZERO:
+            v = np.uint64(0)
+        h = h * _GOLDEN + v  # then the splitmix64 finaliser
+        h = (h ^ (h >> np.uint64(30))) * _MIX_1
+        h = (h ^ (h >> np.uint64(27))) * _MIX_2
+        h = h ^ (h >> np.uint64(31))
+    return np.uint32((h ^ (h >> np.uint64(32))) & np.uint64(0xFFFFFFFF))
+
+
 @njit(cache=True)
-def _row_hashes(bits: NDArray[np.uint64]) -> NDArray[np.uint64]:  # pragma: no cover - compiled
-    """A 64-bit hash per row of float64 bit patterns (−0 hashed as +0, as ``==`` sees them)."""
-    n_rows, n_terms = bits.shape
-    hashes = np.empty(n_rows, np.uint64)
-    for i in range(n_rows):
-        h = _GOLDEN
-        for k in range(n_terms):
-            v = bits[i, k]
-            if v == _NEGATIVE_ZERO:
-                v = np.uint64(0)
-            h = h * _GOLDEN + v  # then the splitmix64 finaliser
-            h = (h ^ (h >> np.uint64(30))) * _MIX_1
-            h = (h ^ (h >> np.uint64(27))) * _MIX_2
-            h = h ^ (h >> np.uint64(31))
-        hashes[i] = h
+def _row_hashes(bits: NDArray[np.uint64]) -> NDArray[np.uint32]:  # pragma: no cover - compiled
+    """:func:`_row_hash` of every row."""
+    hashes = np.empty(bits.shape[0], np.uint32)
+    for i in range(bits.shape[0]):
+        hashes[i] = _row_hash(bits, i)
     return hashes
 
 
 @njit(cache=True)
+def _repeated(ordered: NDArray[np.uint32]) -> NDArray[np.uint32]:  # pragma: no cover - compiled
+    """The values that occur more than once in a sorted array, ascending, each once."""
+    count = 0
+    for p in range(1, ordered.shape[0]):
+        if ordered[p] == ordered[p - 1] and (p == 1 or ordered[p - 1] != ordered[p - 2]):
+            count += 1
+    values = np.empty(count, np.uint32)
+    count = 0
+    for p in range(1, ordered.shape[0]):
+        if ordered[p] == ordered[p - 1] and (p == 1 or ordered[p - 1] != ordered[p - 2]):
+            values[count] = ordered[p]
+            count += 1
+    return values
+
+
+@njit(cache=True)
+def _candidate_groups(
+    bits: NDArray[np.uint64], repeated: NDArray[np.uint32]
+) -> tuple[IntArray, IntArray]:  # pragma: no cover - compiled; tested through check_duplicates
+    """The rows whose hash is in ``repeated``, grouped by hash: ``order`` and group ``offsets``.
+
+    Group g is ``order[offsets[g]:offsets[g + 1]]`` (rows ascending); the hashes are computed
+    again instead of kept, so only the candidate rows take memory.
+    """
+    offsets = np.zeros(repeated.shape[0] + 1, np.int64)
+    for i in range(bits.shape[0]):
+        h = _row_hash(bits, i)
+        g = np.searchsorted(repeated, h)
+        if g < repeated.shape[0] and repeated[g] == h:
+            offsets[g + 1] += 1
+    for group in range(repeated.shape[0]):
+        offsets[group + 1] += offsets[group]
+    fill = offsets[:-1].copy()
+    order = np.empty(offsets[-1], np.int64)
+    for i in range(bits.shape[0]):
+        h = _row_hash(bits, i)
+        g = np.searchsorted(repeated, h)
+        if g < repeated.shape[0] and repeated[g] == h:
+            order[fill[g]] = i
+            fill[g] += 1
+    return order, offsets
+
+
+@njit(cache=True)
 def _widest_duplicates(
-    points: FloatArray, targets: FloatArray, order: IntArray, hashes: NDArray[np.uint64]
+    points: FloatArray, targets: FloatArray, order: IntArray, offsets: IntArray
 ) -> tuple[FloatArray, IntArray]:  # pragma: no cover - compiled; tested through check_duplicates
     """Per output, the widest target spread over a group of identical rows, and its two rows.
 
-    ``order`` sorts ``hashes``; a run of equal hashes is split into its groups of identical rows
-    (compared exactly), one group after the other.
+    Each group of rows with equal hashes (``order``, ``offsets`` of :func:`_candidate_groups`)
+    is split into its sets of identical rows (compared exactly), one set after the other.
     """
-    n_rows, n_terms = points.shape
+    n_terms = points.shape[1]
     n_out = targets.shape[1]
     spread = np.zeros(n_out)
     pair = np.zeros((n_out, 2), np.int64)
     high = np.empty(n_out, np.int64)
     low = np.empty(n_out, np.int64)
-    grouped = np.zeros(n_rows, np.bool_)  # by position in ``order``
-    first = 0
-    while first < n_rows:
-        stop = first + 1
-        while stop < n_rows and hashes[order[stop]] == hashes[order[first]]:
-            stop += 1
+    grouped = np.zeros(order.shape[0], np.bool_)  # by position in ``order``
+    for g in range(offsets.shape[0] - 1):
+        first, stop = offsets[g], offsets[g + 1]
         for lead in range(first, stop - 1):
             if grouped[lead]:
                 continue
@@ -240,7 +286,6 @@ def _widest_duplicates(
                     spread[c] = width
                     pair[c, 0] = high[c]
                     pair[c, 1] = low[c]
-        first = stop
     return spread, pair
 
 
@@ -248,7 +293,7 @@ def check_duplicates(tree: SMTree, epsilon: FloatArray, output_names: Sequence[s
     """Refuse identical regressors whose outputs differ by more than 2ε (no γ can fit them).
 
     Rows are grouped by a hash of their values and compared exactly within a group, so the
-    check allocates a few numbers per row, not a copy of the rows. The message names the two
+    check allocates 4 bytes per row (and 8 per row whose hash repeats), not a copy of the rows. The message names the two
     rows in the order of the training data (``tree.perm``) with the widest spread.
 
     Raises
@@ -287,17 +332,24 @@ def duplicate_spread(points: FloatArray, targets: FloatArray) -> FloatArray:
 def _duplicates(points: FloatArray, targets: FloatArray) -> tuple[FloatArray, IntArray]:
     """Per output, the widest target spread among identical rows and the pair of rows holding it.
 
-    Rows are grouped by a hash of their values and compared exactly within a group.
+    A 32-bit hash per row (4 bytes per row, sorted in place) finds the hashes that repeat; only
+    the rows with such a hash are then grouped and compared exactly (their hash computed again),
+    so the check takes 4 bytes per row plus 8 per candidate row, not a copy of the rows.
     """
-    hashes = _row_hashes(points.view(np.uint64))
-    order = np.argsort(hashes, kind="stable")
-    return _widest_duplicates(points, targets, order, hashes)
+    bits = points.view(np.uint64)
+    hashes = _row_hashes(bits)
+    hashes.sort()
+    repeated = _repeated(hashes)
+    del hashes
+    order, offsets = _candidate_groups(bits, repeated)
+    return _widest_duplicates(points, targets, order, offsets)
 
 
 # ====================================================================================== prior
 def prior_tolerance(targets: FloatArray, epsilon: FloatArray) -> FloatArray:
     """``PRIOR_TOLERANCE · (1 + max |ỹ| + ε)`` per output: the slack the prior checks allow."""
-    return PRIOR_TOLERANCE * (1.0 + np.max(np.abs(targets), axis=0) + epsilon)
+    largest = np.maximum(np.abs(targets.min(axis=0)), np.abs(targets.max(axis=0)))
+    return PRIOR_TOLERANCE * (1.0 + largest + epsilon)
 
 
 def prior_holds(

@@ -3,7 +3,8 @@
 - :mod:`.tree`: :class:`SMTree` (a kd-tree with per-node target ranges), the exact branch-and-bound
   bounds and the compiled free run;
 - :mod:`.gamma`: γ*(ε) over a grid of ε (:func:`gamma_star`), by branch and bound over the tree
-  or over all pairs;
+  (:mod:`.gamma_search`, pruned further by the per-region slope bound of :mod:`.slope`) or over
+  all pairs;
 - :mod:`.local`: local Lipschitz constants and the bounds that use them;
 - :mod:`.priors`: the point constants and bounds of several priors in one walk of the tree
   (the cross-validation of the multi-step model).

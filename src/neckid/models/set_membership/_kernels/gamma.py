@@ -7,11 +7,12 @@ in which pairs they can prove useless without computing them.
 
 - :func:`_pairs_rows_kernel` walks every pair ``(i, j > i)`` of a set of rows (the reference,
   quadratic in the number of points);
-- :func:`_tree_leaves_kernel` searches the kd-tree built by
-  :func:`neckid.models.set_membership._kernels.tree.build_tree` by branch and bound (Bentley 1975; Friedman,
-  Bentley & Finkel 1977): the points of one leaf search together for the partners that could
-  still raise the running maximum, and skip every node whose bound on the ratio,
-  (max |ỹ_i − ỹ_j| − 2ε) / min ‖w̃_i − w̃_j‖ over the node, cannot exceed it.
+- the kd-tree branch and bound of :mod:`~neckid.models.set_membership._kernels.gamma_search`
+  searches the tree built by :func:`neckid.models.set_membership._kernels.tree.build_tree`
+  (Bentley 1975; Friedman, Bentley & Finkel 1977): the points of one leaf search together for
+  the partners that could still raise the running maximum, and skip every node whose bound on
+  the ratio, (max |ỹ_i − ỹ_j| − 2ε) / min ‖w̃_i − w̃_j‖ over the node, cannot exceed it (or
+  whose slope bound, :mod:`~neckid.models.set_membership._kernels.slope`, cannot).
 
 Both test a pair (or a node) against one table, ``reach2[b, c]``: the squared distance below
 which a pair whose |ỹ_i − ỹ_j| falls in bin ``b`` can raise γ*(ε) at some ε of the grid, given
@@ -42,24 +43,33 @@ Information Processing Systems 13, 521-527, 2001.
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Callable
-from typing import Any, Literal
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numba import njit, prange
 
 from neckid._typing import FloatArray, IntArray
-from neckid.models.set_membership._kernels.tree import STACK_DEPTH, SMTree
+from neckid.models.set_membership._kernels.gamma_search import (
+    _raise,
+    _tree_leaves_kernel,
+    _tree_leaves_serial,
+)
+from neckid.models.set_membership._kernels.slope import SlopeBounds, no_slope_bounds, slope_bounds
+from neckid.models.set_membership._kernels.tree import SMTree
 
 __all__ = [
     "GAMMA_LEAF_SIZE",
     "REACH_BINS",
+    "SLOPE_MIN_SKIPPED",
     "TREE_HANDOVER",
     "TREE_MIN_POINTS",
     "TREE_NODE_COST",
     "TREE_PAIR_COST",
+    "TREE_SLOPE_COST",
     "GammaMethod",
+    "SlopeOption",
     "gamma_star",
     "gamma_star_blocked",
 ]
@@ -81,109 +91,15 @@ TREE_NODE_COST = 4.5
 TREE_HANDOVER = 1.25
 #: A tree block runs without threads when the previous one cost less than this (in pairs).
 SERIAL_WORK = 200_000
-
-
-# ------------------------------------------------------------------------- one pair
-@njit(cache=True, inline="always")
-def _raise_with_pair(
-    g: FloatArray,
-    dd: float,
-    targets: FloatArray,
-    i: int,
-    j: int,
-    twice_eps: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-) -> None:
-    """Raise the running maxima ``g`` (E, m) with the pair ``(i, j)`` at squared distance ``dd``.
-
-    ``reach2[b, c]`` bounds from above the squared distance below which a pair whose output
-    difference Δ falls in bin ``b - 1`` (``Δ * bins_per_unit[c]``) can still raise ``g`` at
-    some ε; other pairs are skipped without a square root or a division. For a pair, the ratio
-    ℓ_e = (Δ − 2ε_e)/d is affine in ε and the running maximum G_e is convex in ε (a maximum of
-    such lines, sampled on the grid), so ℓ_e − G_e is concave along the grid: once it is <= 0 and
-    not increasing it stays <= 0, and the loop over the grid stops. ``twice_eps`` is sorted.
-    """
-    n_out = targets.shape[1]
-    n_eps = twice_eps.shape[0]
-    n_bins = reach2.shape[0]
-    if dd == 0.0:
-        for c in range(n_out):
-            delta = abs(targets[i, c] - targets[j, c])
-            for e in range(n_eps):
-                if delta - twice_eps[e, c] <= 0.0:
-                    break
-                g[e, c] = np.inf
-        return
-    for c in range(n_out):
-        delta = abs(targets[i, c] - targets[j, c])
-        b = int(delta * bins_per_unit[c]) + 1
-        if b >= n_bins:
-            b = n_bins - 1
-        if dd >= reach2[b, c]:
-            continue
-        d = math.sqrt(dd)
-        previous = -np.inf
-        for e in range(n_eps):
-            num = delta - twice_eps[e, c]
-            if num <= 0.0:
-                break
-            ratio = num / d
-            gap = ratio - g[e, c]
-            if gap > 0.0:
-                g[e, c] = ratio
-            elif gap <= previous and previous > -np.inf and twice_eps[e, c] > twice_eps[e - 1, c]:
-                # (a repeated ε of the grid has its own entry: never stop on it)
-                break
-            previous = gap
-
-
-@njit(cache=True, inline="always")
-def _raise_margin_with_pair(
-    g: FloatArray,
-    dd: float,
-    targets: FloatArray,
-    i: int,
-    j: int,
-    gamma: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-) -> None:
-    """Raise the running maxima ``g`` (1, m) of ``Δ − γ d`` with the pair ``(i, j)``.
-
-    ``gamma`` (1, m) holds γ; ``reach2[b, c]`` bounds the squared distance below which a pair
-    with Δ in bin ``b - 1`` can exceed ``g`` (``d < (Δ − g) / γ``); other pairs are skipped.
-    """
-    n_bins = reach2.shape[0]
-    for c in range(targets.shape[1]):
-        delta = abs(targets[i, c] - targets[j, c])
-        margin = delta
-        if dd > 0.0:
-            b = min(int(delta * bins_per_unit[c]) + 1, n_bins - 1)
-            if dd >= reach2[b, c]:
-                continue
-            margin = delta - gamma[0, c] * math.sqrt(dd)
-        if margin > g[0, c]:
-            g[0, c] = margin
-
-
-@njit(cache=True, inline="always")
-def _raise(
-    margin: bool,
-    g: FloatArray,
-    dd: float,
-    targets: FloatArray,
-    i: int,
-    j: int,
-    twice_eps: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-) -> None:
-    """:func:`_raise_margin_with_pair` if ``margin`` (``twice_eps`` holds γ), else the γ* one."""
-    if margin:
-        _raise_margin_with_pair(g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
-    else:
-        _raise_with_pair(g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
+#: Cost of one slope bound (:mod:`.slope`), in the same units.
+TREE_SLOPE_COST = 6.0
+#: With ``slopes="auto"``, the slope bounds are dropped after a block in which they skipped less
+#: than this share of the nodes they were tested on (a skipped node saves its whole subtree, so a
+#: few per cent pay for the test).
+SLOPE_MIN_SKIPPED = 0.01
+#: Whether the tree search also bounds slopes with regional linear models (see
+#: :func:`gamma_star_blocked`).
+SlopeOption = Literal["never", "auto", "always"] | SlopeBounds
 
 
 # ------------------------------------------------------------------------- all pairs
@@ -219,177 +135,6 @@ def _pairs_rows_kernel(
                 d2[q] += diff * diff
         for q in range(count):
             _raise(margin, g, d2[q], targets, i, i + 1 + q, twice_eps, reach2, bins_per_unit)
-
-
-# ------------------------------------------------------------------------- kd-tree
-@njit(cache=True)
-def _search_leaf(
-    q: int,
-    points: FloatArray,
-    targets: FloatArray,
-    twice_eps: FloatArray,
-    g: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-    tree: Any,
-    stack: IntArray,
-    margin: bool,
-) -> tuple[int, int]:
-    """Raise ``g`` (E, m) with the pairs ``(i, j > i)``, ``i`` in leaf ``q``, by branch and bound.
-
-    ``points`` and ``targets`` are in tree order and ``i``, ``j`` are tree positions; ``tree`` is
-    ``(start, end, left, right, lo, hi, ymin, ymax)`` of :class:`~neckid.models.set_membership._kernels.tree.SMTree`.
-    The points of a leaf are close together, so they search the tree together (node-to-node
-    bounds, as in the dual-tree algorithms of Gray & Moore 2001): a node is opened only if it
-    holds a position after the leaf's first one and, for some output c,
-
-        dist²(box(q), box(node)) < reach2[bin(Δ_max), c],
-        Δ_max = max(max ỹ(q) − min ỹ(node), max ỹ(node) − min ỹ(q)).
-
-    In a leaf that passes, each point ``i`` of ``q`` is tested again with its own distance to the
-    box and its own Δ_max = max(|ỹ_i − min ỹ(node)|, |ỹ_i − max ỹ(node)|), then each pair with its
-    own Δ (no distance when the table is 0 there) and, last, its squared distance.
-
-    Every pair (i, j) under a node has Δ <= Δ_max and ‖w̃_i − w̃_j‖² >= each box distance² in
-    floating point too: differences, absolute values, squares and sums are monotone, and a box
-    distance sums a subset of the terms of the point distance in the same order (the others
-    are 0). The table grows with Δ, so a skipped node holds only pairs that the same test in
-    :func:`_raise_with_pair` would skip: the result is bit for bit that of all pairs.
-
-    Returns
-    -------
-    computed, tested : int
-        Squared distances of pairs computed, and box distances computed (nodes and leaf points).
-    """
-    start, end, left, right, lo, hi, ymin, ymax = tree
-    n_dims = points.shape[1]
-    n_out = targets.shape[1]
-    n_bins = reach2.shape[0]
-    first, last = start[q], end[q]
-    stack[0] = 0
-    top = 1
-    computed = 0
-    tested = 0
-    while top > 0:
-        top -= 1
-        node = stack[top]
-        if end[node] <= first + 1:
-            continue
-        reach = 0.0
-        for c in range(n_out):
-            delta = max(ymax[q, c] - ymin[node, c], ymax[node, c] - ymin[q, c], 0.0)
-            b = min(int(delta * bins_per_unit[c]) + 1, n_bins - 1)
-            reach = max(reach, reach2[b, c])
-        if reach == 0.0:
-            continue
-        tested += 1
-        acc = 0.0
-        for k in range(n_dims):
-            gap = max(lo[node, k] - hi[q, k], lo[q, k] - hi[node, k], 0.0)  # 0 if they overlap
-            acc += gap * gap
-        if acc >= reach:
-            continue
-        child = left[node]
-        if child >= 0:
-            stack[top] = right[node]
-            stack[top + 1] = child
-            top += 2
-            continue
-        for i in range(first, min(last, end[node] - 1)):
-            reach = 0.0
-            for c in range(n_out):
-                y = targets[i, c]
-                delta = max(abs(y - ymin[node, c]), abs(y - ymax[node, c]))
-                b = min(int(delta * bins_per_unit[c]) + 1, n_bins - 1)
-                reach = max(reach, reach2[b, c])
-            if reach == 0.0:
-                continue
-            tested += 1
-            acc = 0.0
-            for k in range(n_dims):
-                v = points[i, k]
-                gap = max(lo[node, k] - v, v - hi[node, k], 0.0)
-                acc += gap * gap
-            if acc >= reach:
-                continue
-            for j in range(max(start[node], i + 1), end[node]):
-                reach = 0.0
-                for c in range(n_out):
-                    b = int(abs(targets[i, c] - targets[j, c]) * bins_per_unit[c]) + 1
-                    reach = max(reach, reach2[min(b, n_bins - 1), c])
-                if reach == 0.0:
-                    continue
-                dd = 0.0
-                for k in range(n_dims):
-                    diff = points[j, k] - points[i, k]
-                    dd += diff * diff
-                computed += 1
-                if dd < reach or dd == 0.0:
-                    _raise(margin, g, dd, targets, i, j, twice_eps, reach2, bins_per_unit)
-    return computed, tested
-
-
-@njit(cache=True, parallel=True)
-def _tree_leaves_kernel(
-    points: FloatArray,
-    targets: FloatArray,
-    twice_eps: FloatArray,
-    leaves: IntArray,
-    out: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-    tree: Any,
-    work: IntArray,
-    margin: bool,
-) -> None:
-    """:func:`_search_leaf` for each leaf of ``leaves`` (threads); ``work[r]`` its two counts."""
-    for r in prange(leaves.shape[0]):
-        stack = np.empty(STACK_DEPTH, np.int64)
-        work[r, 0], work[r, 1] = _search_leaf(
-            leaves[r],
-            points,
-            targets,
-            twice_eps,
-            out[r],
-            reach2,
-            bins_per_unit,
-            tree,
-            stack,
-            margin,
-        )
-
-
-@njit(cache=True)
-def _tree_leaves_serial(
-    points: FloatArray,
-    targets: FloatArray,
-    twice_eps: FloatArray,
-    leaves: IntArray,
-    out: FloatArray,
-    reach2: FloatArray,
-    bins_per_unit: FloatArray,
-    tree: Any,
-    work: IntArray,
-    margin: bool,
-) -> None:  # pragma: no cover - compiled; the same leaves as the threaded kernel
-    """:func:`_tree_leaves_kernel` without threads, for blocks with little work.
-
-    Waking the thread pool costs more than a small block, and much more on a busy machine.
-    """
-    stack = np.empty(STACK_DEPTH, np.int64)
-    for r in range(leaves.shape[0]):
-        work[r, 0], work[r, 1] = _search_leaf(
-            leaves[r],
-            points,
-            targets,
-            twice_eps,
-            out[r],
-            reach2,
-            bins_per_unit,
-            tree,
-            stack,
-            margin,
-        )
 
 
 # ------------------------------------------------------------------------- driver
@@ -465,6 +210,7 @@ def gamma_star_blocked(
     adaptive: bool = False,
     floor: FloatArray | None = None,
     margin: bool = False,
+    slopes: SlopeOption = "never",
 ) -> tuple[FloatArray, dict[str, int]]:
     """γ*(ε) on a sorted grid ``twice_eps`` (2ε, shape (E, m)), block after block of rows.
 
@@ -492,7 +238,7 @@ def gamma_star_blocked(
         kernel (over the points in tree order). The result is the same, bit for bit; only the
         time differs. The costs are in units of one pair of the all-pairs kernel, measured on 1
         to 20 dimensions.
-    floor : ndarray, shape (n_outputs,), optional
+    floor : ndarray, shape (n_outputs,) or (n_eps, n_outputs), optional
         Start the running maxima at this value instead of 0: the result is
         ``max(γ*(ε), floor)``, and only pairs that could exceed the floor are computed. With a
         floor at or above γ*(ε) the table of reachable distances is small from the start and
@@ -503,6 +249,14 @@ def gamma_star_blocked(
         ``twice_eps`` then holds γ, shape (1, m), and so does the result (``floor`` starts it).
         A pair can raise it only if ``d < (Δ − 2ε̂)/γ``, the table of γ*(ε) with the roles of
         the running maximum and the grid swapped.
+    slopes : {"never", "auto", "always"} or SlopeBounds, default "never"
+        With a tree (never with ``margin``), also test every node that passes the box test with
+        the bound of the regional linear models of
+        :mod:`~neckid.models.set_membership._kernels.slope`, built before the first block (one
+        pass over the points, about what the first lower bound over neighbouring rows costs):
+        ``"auto"`` drops them after a block in which they skipped less than
+        ``SLOPE_MIN_SKIPPED`` of what they were tested on, ``"always"`` keeps them; given bounds
+        (of this tree) are kept too. Either way the result is the same, bit for bit.
 
     Returns
     -------
@@ -510,38 +264,28 @@ def gamma_star_blocked(
         γ*(ε), in the order of ``twice_eps``.
     stats : dict
         ``pairs`` (all pairs), ``computed`` and ``tested`` (pair and box distances the tree
-        computed), ``tree_rows`` and ``pair_rows`` (rows done by each kernel).
+        computed), ``sloped`` and ``skipped`` (slope bounds evaluated, and the nodes they
+        skipped), ``slope_blocks`` (tree blocks run with slope bounds), ``tree_rows`` and
+        ``pair_rows`` (rows done by each kernel).
     """
     n_points = points.shape[0]
-    best = np.zeros(twice_eps.shape)
-    if floor is not None:
-        best = np.array(np.broadcast_to(floor, twice_eps.shape), dtype=np.float64)
-    if tree is None or points is not tree.points:
-        _seed_kernel(points, targets, twice_eps, best, margin)
+    best = _first_maxima(points, targets, twice_eps, floor, margin, tree)
+    search: _TreeBlocks | None = None
     if tree is not None:
         points, targets = tree.points, tree.targets
-        _seed_kernel(points, targets, twice_eps, best, margin)
-        arrays = (
-            tree.start,
-            tree.end,
-            tree.left,
-            tree.right,
-            tree.lo,
-            tree.hi,
-            tree.ymin,
-            tree.ymax,
-        )
+        search = _TreeBlocks.start(tree, twice_eps, best, margin, slopes)
         leaves = np.flatnonzero(tree.left < 0)
         units = _interleaved(leaves[np.argsort(tree.start[leaves], kind="stable")])
     else:
         units = _interleaved(np.arange(n_points))
-    searching = tree is not None
     span = np.ptp(targets, axis=0) if n_points else np.zeros(targets.shape[1])
     bins_per_unit = np.where(span > 0, (REACH_BINS - 2) / np.where(span > 0, span, 1.0), 0.0)
     total = n_points * (n_points - 1) // 2
-    stats = {"pairs": total, "computed": 0, "tested": 0, "tree_rows": 0, "pair_rows": 0}
+    stats = dict.fromkeys(
+        ("computed", "tested", "sloped", "skipped", "slope_blocks", "tree_rows", "pair_rows"), 0
+    )
+    stats["pairs"] = total
     points_t: FloatArray | None = None
-    cost = np.inf  # of the last tree block, in pairs of the all-pairs kernel
     reach2: FloatArray | None = None
     reach_of = best  # the maxima reach2 was computed from
     done = 0
@@ -560,19 +304,10 @@ def gamma_star_blocked(
                 else _reach_table(best, twice_eps, bins_per_unit)
             )
             reach_of = best
-        if searching:
-            out = np.broadcast_to(best, (block.size, *best.shape)).copy()
-            work = np.zeros((block.size, 2), dtype=np.int64)
-            kernel = _tree_leaves_serial if cost < SERIAL_WORK else _tree_leaves_kernel
-            kernel(
-                points, targets, twice_eps, block, out, reach2, bins_per_unit, arrays, work, margin
-            )
-            computed, tested = (int(v) for v in work.sum(axis=0))
-            stats["computed"] += computed
-            stats["tested"] += tested
+        if search is not None and search.searching:
+            out = search.run(block, best, reach2, bins_per_unit, stats)
             stats["tree_rows"] += int(count.sum())
-            cost = TREE_PAIR_COST * computed + TREE_NODE_COST * tested
-            searching = not (adaptive and cost > TREE_HANDOVER * pairs)
+            search.searching = not (adaptive and search.cost > TREE_HANDOVER * pairs)
         else:
             rows = np.ascontiguousarray(_rows_of(first, last) if tree is not None else block)
             if points_t is None:
@@ -587,6 +322,121 @@ def gamma_star_blocked(
         if callback is not None:
             callback(done, total)
     return best, stats
+
+
+def _first_maxima(
+    points: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    floor: FloatArray | None,
+    margin: bool,
+    tree: SMTree | None,
+) -> FloatArray:
+    """The running maxima before the first block: the floor raised by the seed pairs.
+
+    The pairs of rows up to ``_SEED_STEPS`` apart, in the order given and (with a tree) in tree
+    order.
+    """
+    best = np.zeros(twice_eps.shape)
+    if floor is not None:
+        best = np.array(np.broadcast_to(floor, twice_eps.shape), dtype=np.float64)
+    if tree is None or points is not tree.points:
+        _seed_kernel(points, targets, twice_eps, best, margin)
+    if tree is not None:
+        _seed_kernel(tree.points, tree.targets, twice_eps, best, margin)
+    return best
+
+
+@dataclass
+class _TreeBlocks:
+    """The kd-tree side of :func:`gamma_star_blocked`: its arrays, slope bounds and last cost.
+
+    ``slope_state`` is ``"off"``, ``"on"`` (dropped after a block where the bounds skipped less
+    than ``SLOPE_MIN_SKIPPED`` of what they tested) or ``"kept"``; ``monotone`` says that the
+    running maxima do not increase along the grid (true of every maximum of pair slopes; a
+    floor per ε might break it), which lets the slope test stop early.
+    """
+
+    tree: SMTree
+    twice_eps: FloatArray
+    margin: bool
+    bounds: SlopeBounds
+    slope_state: str
+    monotone: bool
+    cost: float = np.inf  # of the last block, in pairs of the all-pairs kernel
+    searching: bool = True
+
+    @classmethod
+    def start(
+        cls,
+        tree: SMTree,
+        twice_eps: FloatArray,
+        best: FloatArray,
+        margin: bool,
+        slopes: SlopeOption,
+    ) -> _TreeBlocks:
+        """The search's state before the first block (slope bounds built if asked for)."""
+        bounds = no_slope_bounds(tree.targets.shape[1], tree.points.shape[1])
+        state = "off"
+        if not margin and isinstance(slopes, SlopeBounds):
+            bounds, state = slopes, "kept"
+        elif not margin and slopes in ("always", "auto"):
+            bounds = slope_bounds(tree, twice_eps)
+            state = "kept" if slopes == "always" else "on"
+        monotone = bool(np.all(best[1:] <= best[:-1]))
+        return cls(tree, twice_eps, margin, bounds, state, monotone)
+
+    def run(
+        self,
+        block: IntArray,
+        best: FloatArray,
+        reach2: FloatArray,
+        bins_per_unit: FloatArray,
+        stats: dict[str, int],
+    ) -> FloatArray:
+        """Search the leaves of ``block``; return their running maxima and add to ``stats``."""
+        tree = self.tree
+        out = np.broadcast_to(best, (block.size, *best.shape)).copy()
+        work = np.zeros((block.size, 4), dtype=np.int64)
+        kernel = _tree_leaves_serial if self.cost < SERIAL_WORK else _tree_leaves_kernel
+        arrays = (
+            tree.start,
+            tree.end,
+            tree.left,
+            tree.right,
+            tree.lo,
+            tree.hi,
+            tree.ymin,
+            tree.ymax,
+        )
+        kernel(
+            tree.points,
+            tree.targets,
+            self.twice_eps,
+            block,
+            out,
+            reach2,
+            bins_per_unit,
+            arrays,
+            work,
+            self.margin,
+            tuple(self.bounds),
+            self.monotone,
+        )
+        computed, tested, sloped, skipped = (int(v) for v in work.sum(axis=0))
+        for name, value in (
+            ("computed", computed),
+            ("tested", tested),
+            ("sloped", sloped),
+            ("skipped", skipped),
+            ("slope_blocks", int(self.slope_state != "off")),
+        ):
+            stats[name] += value
+        self.cost = TREE_PAIR_COST * computed + TREE_NODE_COST * tested + TREE_SLOPE_COST * sloped
+        if self.slope_state == "on" and skipped < SLOPE_MIN_SKIPPED * sloped:
+            self.bounds = no_slope_bounds(tree.targets.shape[1], tree.points.shape[1])
+            self.slope_state = "off"
+        return out
 
 
 # ---------------------------------------------------------------------------------- gamma*(eps)
@@ -612,6 +462,7 @@ def gamma_star(
     *,
     tree: SMTree | None = None,
     floor: FloatArray | None = None,
+    slopes: SlopeOption = "auto",
 ) -> FloatArray:
     """γ*(ε) = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for each ε of a grid and each output.
 
@@ -640,11 +491,16 @@ def gamma_star(
         A kd-tree already built over ``points`` and ``targets`` (any leaf size; the estimator
         passes its own, with ``points=tree.points`` and ``targets=tree.targets``): searched
         instead of building a new one (which would copy the points).
-    floor : ndarray, shape (n_outputs,), optional
+    floor : ndarray, shape (n_outputs,) or (n_eps, n_outputs), optional
         Return ``max(γ*(ε), floor)``: pairs that cannot exceed the floor are never computed
         (see :func:`~neckid.models.set_membership._kernels.gamma.gamma_star_blocked`). The result equals the floor
         exactly when no pair exceeds it, which is how :func:`~neckid.models.set_membership.training.prior_holds`
         checks γ >= γ*(ε) without computing γ*(ε).
+    slopes : {"auto", "never", "always"} or SlopeBounds, default "auto"
+        Whether the tree search also bounds slopes with regional linear models of the targets:
+        by default once it finds itself opening many nodes (see ``slopes`` of
+        :func:`~neckid.models.set_membership._kernels.gamma.gamma_star_blocked`). The result is
+        the same either way.
 
     Returns
     -------
@@ -699,9 +555,20 @@ def gamma_star(
     elif tree is None:
         tree = SMTree(points, targets, GAMMA_LEAF_SIZE)
     if floor is not None:
-        floor = np.ascontiguousarray(floor, dtype=np.float64)
+        floor = np.asarray(floor, dtype=np.float64)
+        if floor.ndim == 2:  # one value per ε and output: in the order of the sorted grid
+            floor = np.take_along_axis(floor, order, axis=0)
+        floor = np.ascontiguousarray(floor)
     best, stats = gamma_star_blocked(
-        points, targets, twice_eps, n_blocks, callback, tree, method == "auto", floor
+        points,
+        targets,
+        twice_eps,
+        n_blocks,
+        callback,
+        tree,
+        method == "auto",
+        floor,
+        slopes=slopes,
     )
     logger.debug("gamma*(eps) over %d points: %s", n_points, stats)
     result = np.empty_like(best)

@@ -444,6 +444,14 @@ def _bounds_few_kernel(
 SERIAL_QUERIES = 64
 
 
+def _reordered(rows: FloatArray, perm: IntArray, in_place: bool) -> FloatArray:
+    """``rows[perm]``: ``rows`` itself reordered in place when allowed and writeable, else a copy."""
+    if in_place and rows.flags.writeable:
+        _permute_rows(rows, perm)
+        return rows
+    return np.ascontiguousarray(rows[perm])
+
+
 class SMTree:
     """Kd-tree over scaled training regressors with per-node target ranges, for exact SM bounds.
 
@@ -462,6 +470,8 @@ class SMTree:
         Reorder ``points`` in place into tree order and keep it as :attr:`points` instead of
         keeping a reordered copy (when it is a C-contiguous float64 array; else a copy is made
         as usual): for a caller that no longer needs the rows in their first order.
+    overwrite_targets : bool, default False
+        The same for ``targets`` (when it is a writeable C-contiguous float64 array).
     """
 
     def __init__(
@@ -471,18 +481,15 @@ class SMTree:
         leaf_size: int = LEAF_SIZE,
         *,
         overwrite_points: bool = False,
+        overwrite_targets: bool = False,
     ) -> None:
         points = np.ascontiguousarray(points, dtype=np.float64)
         targets = np.ascontiguousarray(targets, dtype=np.float64)
         tree = build_tree(points, leaf_size)
         perm = tree["perm"]
         self.perm: IntArray = perm
-        if overwrite_points:
-            _permute_rows(points, perm)
-            self.points: FloatArray = points
-        else:
-            self.points = np.ascontiguousarray(points[perm])
-        self.targets: FloatArray = np.ascontiguousarray(targets[perm])
+        self.points: FloatArray = _reordered(points, perm, overwrite_points)
+        self.targets: FloatArray = _reordered(targets, perm, overwrite_targets)
         self.start: IntArray = tree["start"]
         self.end: IntArray = tree["end"]
         self.left: IntArray = tree["left"]
