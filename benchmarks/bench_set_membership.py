@@ -17,12 +17,16 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 import numba
 import numpy as np
 from _systems import NECK_LIKE_LAGS, neck_like
 
+# The plain NumPy references the kernels are tested against live with the tests.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from _sm_reference import bounds_reference, gamma_star_reference
 from neckid import IOData
 from neckid.models.set_membership._kernels.gamma import gamma_star
