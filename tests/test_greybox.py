@@ -71,6 +71,7 @@ def _made_by_the_model(slack: float, seed: int, n: int = 1200) -> tuple[IOData, 
     truth.slack_ = np.array([slack])
     truth.radii_ = np.zeros((1, 1))
     truth.reflection_ = reflection(np.poly([0.9 + 0.2j, 0.9 - 0.2j]).real)[None, :]
+    truth.mode_radius_ = 1.0
     truth.weights_ = np.array([[10.0, 1.0]])
     truth.n_conditions_, truth.train_mse_, truth.n_samples_ = 0, 0.0, n
     truth._set_channels(IOData(x, np.zeros(n), ts=TS))
@@ -99,6 +100,18 @@ def test_a_linear_model_cannot_fit_the_slack_the_grey_box_can() -> None:
     arx = neckid.LinearARX(neckid.Lags.arx(2, 2, 1)).fit(data)
     grey = GreyBoxNeck(order=2, n_play=1, max_iter=40).fit(data)
     assert grey.fit_percent(test)[0] > arx.fit_percent(test)[0] + 5.0
+
+
+def test_every_pole_settles_within_the_records() -> None:
+    # By default no pole is slower than a fifth of the longest record: with unit static gain a
+    # slower one would integrate the operators' output, and its weights would grow to match.
+    data, _ = _made_by_the_model(slack=0.2, seed=8, n=600)
+    model = GreyBoxNeck(n_play=1, max_iter=10).fit(data)
+    assert model.mode_radius_ == pytest.approx(np.exp(-5.0 / 600))
+    assert np.max(np.abs(np.roots(model.denominators_[0]))) <= model.mode_radius_ + 1e-12
+    given = GreyBoxNeck(n_play=1, max_iter=10, max_time_constant=0.1).fit(data)
+    assert given.mode_radius_ == pytest.approx(np.exp(-TS / 0.1))
+    assert np.max(np.abs(np.roots(given.denominators_[0]))) <= given.mode_radius_ + 1e-12
 
 
 def test_save_load_gives_the_same_free_run(tmp_path) -> None:

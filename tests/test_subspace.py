@@ -18,7 +18,7 @@ import neckid
 from neckid import IOData
 from neckid.interop import to_control, to_iosystem
 from neckid.models.linear import SubspaceStateSpace
-from neckid.models.linear.subspace_steps import spectral_radius
+from neckid.models.linear.subspace_steps import bound_modes, spectral_radius
 
 TS = 0.01
 
@@ -110,6 +110,93 @@ def test_several_experiments_are_stacked_without_a_window_across_two() -> None:
     )  # fmt: skip
     spliced = SubspaceStateSpace(refine=False, order=4).fit(joined)
     assert _eigenvalue_error(spliced) > 1e-6  # the windows across the splice are not the system
+
+
+def test_the_order_of_several_runs_is_chosen_on_held_out_runs() -> None:
+    runs = [_record(seed, n=800, noise=0.01)[0] for seed in (10, 11, 12)]
+    model = SubspaceStateSpace(order="folds", refine=False).fit(runs)
+    assert model.order_rule_ == "folds"
+    assert model.order_ == 4
+    fits = model.order_fold_fits_
+    assert fits.shape == (18, 3)  # orders 1 … (horizon − 1) x n_outputs, a column per run
+    assert fits[3].min() > 98.5 > 97.0 > fits[2].max()  # order 4 carries over to other runs
+    default = SubspaceStateSpace(refine=False).fit(runs)
+    assert default.order_rule_ == "singular values" and default.order_ == 4
+    assert default.order_fold_fits_.shape == (0, 3)
+    assert SubspaceStateSpace(order=3, refine=False).fit(runs).order_rule_ == "given"
+    with pytest.raises(ValueError, match="order='folds' holds each experiment out"):
+        SubspaceStateSpace(order="folds").fit(runs[0])
+    with pytest.raises(ValueError, match="order must be"):
+        SubspaceStateSpace(order="gap").fit(runs[0])
+
+
+def _training_error(model: SubspaceStateSpace, runs: list[IOData]) -> float:
+    """Sum of squares of ``simulate`` on the training runs after the initial samples.
+
+    Each output in units of its standard deviation over the runs (the fit's scaling).
+    """
+    m = model.max_lag_
+    scale = np.vstack([r.y for r in runs]).std(axis=0)
+    return float(sum(np.sum(((r.y - model.simulate(r).y)[m:] / scale) ** 2) for r in runs))
+
+
+def test_the_fit_minimises_the_error_of_the_runs_simulate_makes() -> None:
+    # B, D and c are least squares on the free run from the state of each run's first samples,
+    # as simulate() starts it: that training error is stationary in each of them (with initial
+    # states fitted to whole records instead, it is not).
+    runs = [_record(seed, n=600, noise=0.05)[0] for seed in (20, 21)]
+    model = SubspaceStateSpace(order=4, refine=False, feedthrough=True).fit(runs)
+    best = _training_error(model, runs)
+    for name in ("B_", "D_", "intercept_"):
+        matrix = getattr(model, name)
+        for index in np.ndindex(matrix.shape):
+            for step in (-1e-3, 1e-3):
+                matrix[index] += step
+                assert _training_error(model, runs) >= best * (1.0 - 1e-12), (name, index, step)
+                matrix[index] -= step
+
+
+def test_the_refinement_lowers_the_error_of_the_runs_simulate_makes() -> None:
+    runs = [_record(seed, n=600, noise=0.05)[0] for seed in (22, 23)]
+    plain = SubspaceStateSpace(order=2, refine=False).fit(runs)
+    refined = SubspaceStateSpace(order=2).fit(runs)  # too small an order: room to improve
+    assert refined.refined_
+    assert _training_error(refined, runs) < _training_error(plain, runs)
+
+
+def test_a_mode_slower_than_max_time_constant_is_bounded() -> None:
+    # A pole at 0.9999 (time constant 100 s) seen on 20-s records: over them, an integrator.
+    rng = np.random.default_rng(30)
+    n = 2000
+    u = np.repeat(rng.uniform(-1.0, 1.0, n // 50), 50)
+    y = np.zeros(n)
+    for t in range(1, n):
+        y[t] = 0.9999 * y[t - 1] + 0.01 * u[t - 1]
+    data = IOData(u, y + 1e-4 * rng.normal(size=n), ts=TS)
+    free = SubspaceStateSpace(order=1).fit(data)  # by default, stability alone
+    assert spectral_radius(free.A_) > 0.9995 and not free.bounded_
+    assert free.mode_radius_ == 1.0 - 1e-9
+    tau = n * TS / 5.0  # a fifth of the record: the mode decays to 0.7 % within it
+    model = SubspaceStateSpace(order=1, max_time_constant=tau).fit(data)
+    assert model.mode_radius_ == pytest.approx(np.exp(-5.0 / n))
+    assert spectral_radius(model.A_) <= model.mode_radius_ * (1.0 + 1e-9)
+    assert model.bounded_
+
+
+def test_bound_modes_moves_only_the_slow_modes() -> None:
+    rng = np.random.default_rng(31)
+    basis = rng.normal(size=(3, 3))
+    modal = np.zeros((3, 3))
+    modal[:2, :2] = 0.999 * np.array([[np.cos(0.1), np.sin(0.1)], [-np.sin(0.1), np.cos(0.1)]])
+    modal[2, 2] = -0.5
+    a = basis @ modal @ np.linalg.inv(basis)
+    bounded, moved = bound_modes(a, 0.99)
+    eigenvalues = np.linalg.eigvals(bounded)
+    assert moved
+    np.testing.assert_allclose(np.sort(np.abs(eigenvalues)), [0.5, 0.99, 0.99], atol=1e-12)
+    np.testing.assert_allclose(np.sort(np.abs(np.angle(eigenvalues)))[:2], [0.1, 0.1], atol=1e-12)
+    same, moved = bound_modes(a, 0.9995)
+    assert same is a and not moved
 
 
 def test_an_unstable_estimate_is_stabilised() -> None:

@@ -43,7 +43,8 @@ class Problem:
     ``runs`` holds, per experiment, ``(motors (n, J), conditions (n, C), outputs (n, O))``;
     ``radii`` the Prandtl–Ishlinskii radii above the slack ``(J, K)``; ``start`` the samples
     taken as initial conditions; ``envelope`` the lowest and highest value a free run may take
-    per output ``(2, O)``; ``spans`` each motor input's training range ``(J,)``.
+    per output ``(2, O)``; ``spans`` each motor input's training range ``(J,)``; ``radius``
+    the largest pole magnitude of the dynamics (:func:`~.hysteresis.denominator`).
     """
 
     runs: Sequence[tuple[FloatArray, FloatArray, FloatArray]]
@@ -53,6 +54,7 @@ class Problem:
     start: int
     envelope: FloatArray
     spans: FloatArray
+    radius: float = 1.0
 
 
 def basis(
@@ -112,7 +114,8 @@ def free_run_error(
     """
     parts, weights, diverged = [], [], False
     for o in range(coefficients.shape[0]):
-        columns, target = _columns(problem, slack, denominator(coefficients[o]), o)
+        polynomial = denominator(coefficients[o], problem.radius)
+        columns, target = _columns(problem, slack, polynomial, o)
         with np.errstate(all="ignore"):
             theta = np.linalg.lstsq(columns, target, rcond=None)[0]
             residual = target - columns @ theta
@@ -126,7 +129,11 @@ def free_run_error(
 
 
 def _arx_start(problem: Problem) -> FloatArray:
-    """Reflection coefficients of each output's poles in an ARX least-squares fit (the start)."""
+    """Reflection coefficients of each output's poles in an ARX least-squares fit (the start).
+
+    The ARX polynomial is read at the scale of ``problem.radius`` (``a_i / ρ^i``) and its
+    reflection coefficients clipped into the box: poles beyond the radius start on it.
+    """
     n, m, d = problem.order, problem.start, problem.delay
     coefficients = []
     for o in range(problem.runs[0][2].shape[1]):
@@ -137,7 +144,8 @@ def _arx_start(problem: Problem) -> FloatArray:
             rows.append(np.column_stack([*past, motors[t - d], conditions[t - d], np.ones(t.size)]))
             targets.append(y[t, o])
         theta = np.linalg.lstsq(np.vstack(rows), np.concatenate(targets), rcond=None)[0]
-        coefficients.append(reflection(np.concatenate([[1.0], theta[:n]]), REFLECTION_BOUND))
+        polynomial = np.concatenate([[1.0], theta[:n]]) / problem.radius ** np.arange(n + 1)
+        coefficients.append(reflection(polynomial, REFLECTION_BOUND))
     return np.asarray(coefficients)
 
 

@@ -17,7 +17,8 @@ so a tendon slack of width :math:`s` in series with a **Prandtl–Ishlinskii ope
 The **linear dynamics** are an all-pole filter of order ``n`` with unit static gain and a delay
 ``d``, :math:`y(t) = -\sum_{i=1}^n a_i\,y(t-i) + g\,v(t-d)` with :math:`g = 1 + \sum_i a_i`,
 parametrised by reflection coefficients :math:`k_i \in (-1, 1)` (the Levinson step-up
-recursion), which is stable for every value in the box: :func:`denominator`.
+recursion), which is stable for every value in the box, every pole within a radius
+:math:`\rho \le 1` when the coefficients are scaled by :math:`\rho^i`: :func:`denominator`.
 """
 
 from __future__ import annotations
@@ -97,11 +98,13 @@ def play_step(state: FloatArray, x: float, radii: FloatArray) -> FloatArray:
     return np.minimum(np.maximum(state, x - radii), x + radii)
 
 
-def denominator(coefficients: ArrayLike) -> FloatArray:
+def denominator(coefficients: ArrayLike, radius: float = 1.0) -> FloatArray:
     r"""``[1, a_1, …, a_n]`` from reflection coefficients ``k_1 … k_n`` (Levinson step-up).
 
     :math:`a^{(i)}(z) = a^{(i-1)}(z) + k_i\,z^{-i} a^{(i-1)}(1/z)`; every root lies inside the
-    unit circle when every :math:`|k_i| < 1`.
+    unit circle when every :math:`|k_i| < 1`. With ``radius`` :math:`\rho \in (0, 1]` the
+    coefficients become :math:`a_i \rho^i`, the roots :math:`\rho` times those: every pole lies
+    within :math:`|z| < \rho`.
 
     Examples
     --------
@@ -109,12 +112,14 @@ def denominator(coefficients: ArrayLike) -> FloatArray:
     array([ 1. , -0.9])
     >>> bool(np.all(np.abs(np.roots(denominator([-0.99, 0.95]))) < 1))
     True
+    >>> bool(np.all(np.abs(np.roots(denominator([-0.99, 0.95], radius=0.9))) < 0.9))
+    True
     """
     a = np.ones(1)
     for k in np.asarray(coefficients, dtype=np.float64).reshape(-1):
         padded = np.append(a, 0.0)
         a = padded + k * padded[::-1]
-    return a
+    return np.asarray(a * float(radius) ** np.arange(a.size), dtype=np.float64)
 
 
 def reflection(polynomial: ArrayLike, bound: float = 0.9995) -> FloatArray:

@@ -26,6 +26,7 @@ from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.greybox.fitting import REFLECTION_BOUND, Problem, basis, fit_problem
 from neckid.models.greybox.hysteresis import denominator, dynamics_run, play_step
+from neckid.models.linear.subspace_steps import STABILITY_MARGIN, slowest_mode_radius
 from neckid.models.online import update_experiments
 from neckid.models.results import DIVERGENCE_SPANS
 from neckid.regressors import Lags
@@ -40,7 +41,8 @@ class GreyBoxNeck(Estimator):
 
     Every input but the conditions goes through its own slack and hysteresis; each output has
     its own all-pole dynamics of ``order`` with unit static gain (stable by construction:
-    reflection coefficients in ``(-1, 1)``) and its own weights. Fitted on the free-run error.
+    reflection coefficients in ``(-1, 1)``, every pole within ``mode_radius_``) and its own
+    weights. Fitted on the free-run error.
 
     Parameters
     ----------
@@ -57,6 +59,14 @@ class GreyBoxNeck(Estimator):
         Largest play radius above the slack, as a share of each input's training range.
     slack : bool, default True
         Fit a tendon-slack width per input (otherwise ``b = 0``).
+    max_time_constant : float, optional
+        Slowest time constant [s] of the dynamics: every pole lies within
+        ``exp(−ts / max_time_constant)``. ``None``: a fifth of the longest training experiment
+        (:func:`~neckid.models.linear.subspace_steps.slowest_mode_radius`), so every mode
+        settles within a record that shows it: a slower pole, with unit static gain, turns
+        the operators' output into an integrated one of unbounded scale (see
+        ``docs/greybox.md``); a very large value (``1e9``):
+        stability alone.
     max_iter : int, default 60
         Function evaluations of ``scipy.optimize.least_squares``.
 
@@ -68,6 +78,8 @@ class GreyBoxNeck(Estimator):
         PI radii ``r_jk`` above the slack.
     reflection_ : ndarray, shape (n_outputs, order)
         Reflection coefficients; ``denominators_`` the polynomials ``[1, a_1, …, a_n]``.
+    mode_radius_ : float
+        Largest pole magnitude allowed, ``exp(−ts / max_time_constant)``.
     weights_ : ndarray, shape (n_outputs, n_basis)
         ``w``, ``w^c``, ``q`` and ``c`` in the order of
         :func:`~neckid.models.greybox.fitting.basis`.
@@ -93,6 +105,7 @@ class GreyBoxNeck(Estimator):
         "n_play": [Interval("int", 1, None)],
         "play_span": [Interval("real", 0.0, 1.0, closed="right")],
         "slack": ["boolean"],
+        "max_time_constant": [None, Interval("real", 0.0, None, closed="neither")],
         "max_iter": [Interval("int", 1, None)],
     }
 
@@ -105,6 +118,7 @@ class GreyBoxNeck(Estimator):
         n_play: int = 5,
         play_span: float = 0.25,
         slack: bool = True,
+        max_time_constant: float | None = None,
         max_iter: int = 60,
     ) -> None:
         self.lags = lags
@@ -113,6 +127,7 @@ class GreyBoxNeck(Estimator):
         self.n_play = n_play
         self.play_span = play_span
         self.slack = slack
+        self.max_time_constant = max_time_constant
         self.max_iter = max_iter
 
     # ------------------------------------------------------------------ fit
@@ -152,16 +167,24 @@ class GreyBoxNeck(Estimator):
             (np.asarray(d.u[:, :n_motor]), np.asarray(d.u[:, n_motor:]), np.asarray(d.y))
             for d in experiments
         ]
-        problem = Problem(runs, radii, int(self.order), int(self.delay), m, envelope, spans)
+        radius = self._mode_radius(experiments)
+        problem = Problem(runs, radii, int(self.order), int(self.delay), m, envelope, spans, radius)
         slack, coefficients, weights, cost = fit_problem(
             problem, bool(self.slack), int(self.max_iter)
         )
-        self.slack_, self.radii_ = slack, radii
+        self.slack_, self.radii_, self.mode_radius_ = slack, radii, radius
         self.reflection_, self.weights_ = coefficients, weights
         self.n_conditions_, self.train_mse_ = int(n_conditions), cost
         self.n_samples_ = int(y.shape[0])
         self._set_channels(experiments[0])
         self.max_lag_ = m
+
+    def _mode_radius(self, experiments: Sequence[IOData]) -> float:
+        """``exp(−ts / max_time_constant)``, by default from the longest experiment."""
+        if self.max_time_constant is None:
+            return slowest_mode_radius(max(d.n_samples for d in experiments))
+        radius = np.exp(-float(experiments[0].ts) / float(self.max_time_constant))
+        return float(min(radius, 1.0 - STABILITY_MARGIN))
 
     def partial_fit(self, data: IOData | Sequence[IOData]) -> GreyBoxNeck:
         """Refit on ``data`` alone with the same settings (not an update).
@@ -187,7 +210,7 @@ class GreyBoxNeck(Estimator):
     def denominators_(self) -> FloatArray:
         """``[1, a_1, …, a_n]`` per output, shape ``(n_outputs, order + 1)``."""
         check_is_fitted(self)
-        return np.vstack([denominator(k) for k in self.reflection_])
+        return np.vstack([denominator(k, self.mode_radius_) for k in self.reflection_])
 
     def operator_output(self, data: IOData) -> FloatArray:
         """``v(t)``: the slack and hysteresis output before the dynamics, ``(n_samples, n_outputs)``."""
@@ -284,6 +307,8 @@ class GreyBoxNeck(Estimator):
                 f"reflection coefficients must lie in [-{REFLECTION_BOUND}, {REFLECTION_BOUND}]"
                 f" (stable poles); got {self.reflection_.tolist()}"
             )
+        if not 0.0 < self.mode_radius_ <= 1.0:
+            raise ValueError(f"mode_radius must lie in (0, 1]; got {self.mode_radius_}")
         if self.max_lag_ != max(int(self.order), int(self.delay), 1):
             raise ValueError(f"max_lag {self.max_lag_} does not fit order and delay")
 
@@ -304,6 +329,7 @@ class GreyBoxNeck(Estimator):
             "n_samples": self.n_samples_,
             "n_conditions": self.n_conditions_,
             "train_mse": self.train_mse_,
+            "mode_radius": self.mode_radius_,
             **self._channels_meta(),
         }
         return arrays, meta
@@ -320,6 +346,8 @@ class GreyBoxNeck(Estimator):
         model.n_samples_ = int(meta["n_samples"])
         model.n_conditions_ = int(meta["n_conditions"])
         model.train_mse_ = float(meta["train_mse"])
+        # Files written before the radius was recorded had none (the unit circle).
+        model.mode_radius_ = float(meta.get("mode_radius", 1.0))
         for key in ("slack", "radii", "reflection", "weights"):
             setattr(model, f"{key}_", np.ascontiguousarray(arrays[key], dtype=np.float64))
         model.max_lag_ = max(int(model.order), int(model.delay), 1)

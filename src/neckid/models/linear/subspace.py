@@ -4,16 +4,19 @@ r"""SubspaceStateSpace: a linear state-space model identified by subspace method
 
     x(t+1) = A\,x(t) + B\,u(t) + K\,e(t), \qquad y(t) = C\,x(t) + D\,u(t) + c + e(t)
 
-(MATLAB's ``n4sid`` model). The identification is PO-MOESP with least squares for ``B``, ``D``,
-``c`` and the initial states, an optional refinement of the free-run error and a Kalman gain
-by Hannan–Rissanen regression: each step is a function of :mod:`.subspace_steps`, whose
-docstring gives the equations; the documentation page ``docs/subspace.md`` the whole method.
+(MATLAB's ``n4sid`` model). The identification is PO-MOESP with least squares for ``B``, ``D``
+and ``c`` on the free run from the initial state of each run's first samples, a refinement of
+that free-run error and a Kalman gain by Hannan–Rissanen regression: each step is a function of
+:mod:`.subspace_steps`, whose docstring gives the equations; the order from the singular
+values or, with ``order="folds"``, on held-out runs (:mod:`.subspace_order`); the documentation page
+``docs/subspace.md`` gives the whole method.
 """
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,10 +24,13 @@ from numpy.typing import ArrayLike, NDArray
 from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.linear.subspace_order import order_by_folds
 from neckid.models.linear.subspace_steps import (
     STABILITY_MARGIN,
+    bound_modes,
     choose_order,
     estimate_state,
+    initial_states,
     innovations,
     kalman_gain,
     observability_basis,
@@ -39,7 +45,7 @@ from neckid.models.linear.subspace_steps import (
 from neckid.models.online import update_experiments
 from neckid.regressors import Lags
 from neckid.systems import StateMap, history_rows
-from neckid.validation import Interval, check_finite
+from neckid.validation import Interval, Options, check_finite
 
 __all__ = ["StateSpaceMap", "StateSpaceSimulator", "SubspaceStateSpace"]
 
@@ -60,9 +66,12 @@ class SubspaceStateSpace(Estimator):
     lags : Lags, optional
         Only its ``conditions`` are used (experimental conditions appended as constant inputs,
         as for every model); the state takes the place of the regressor's lags.
-    order : int, optional
+    order : int or "folds", optional
         State dimension ``n``. ``None`` chooses it at the largest gap of the singular values
-        (``singular_values_``), from 1 to ``(horizon − 1) × n_outputs``.
+        (``singular_values_``), from 1 to ``(horizon − 1) × n_outputs``; ``"folds"``, with two
+        or more experiments, on held-out runs: each held out in turn, the smallest order within
+        one standard error of the best mean free-run fit
+        (:func:`~neckid.models.linear.subspace_order.order_by_folds`).
     horizon : int, optional
         Block rows ``i`` of the past and of the future in the Hankel matrices (default
         ``max(10, order + 1)``). It is also ``max_lag_``: the free run starts from the state
@@ -72,9 +81,18 @@ class SubspaceStateSpace(Estimator):
         at least one sample of delay.
     fit_intercept : bool, default True
         Estimate the output offset ``c`` (and centre the Hankel matrices).
+    max_time_constant : float, optional
+        Slowest time constant [s] a mode may have: every eigenvalue of ``A`` is kept within
+        ``exp(−ts / max_time_constant)`` (the subspace estimate's slower modes moved onto that
+        circle, the refinement held inside it). ``None``: stability alone. A mode slower than
+        the records is an integrator over them and drifts on any input bias of a new run; a
+        fifth of the longest record
+        (:func:`~neckid.models.linear.subspace_steps.slowest_mode_radius`) bounds it, at a
+        cost on the soft-neck logs (``docs/subspace.md``).
     refine : bool, default True
-        Refine all matrices, ``c`` and the initial states on the free-run error
-        (``scipy.optimize.least_squares``), kept only if stable and better.
+        Refine all matrices and ``c`` on the free-run error, every run from the state of its
+        first ``horizon`` samples as in :meth:`simulate` (``scipy.optimize.least_squares``);
+        kept only if stable and better.
     max_iter : int, default 100
         Function evaluations of the refinement.
 
@@ -82,7 +100,9 @@ class SubspaceStateSpace(Estimator):
     ----------
     A_, B_, C_, D_ : ndarray
         ``(n, n)``, ``(n, n_inputs)``, ``(n_outputs, n)``, ``(n_outputs, n_inputs)``; every
-        eigenvalue of ``A_`` lies inside the unit circle.
+        eigenvalue of ``A_`` lies within ``mode_radius_`` (inside the unit circle).
+    mode_radius_ : float
+        ``exp(−ts / max_time_constant)`` (see ``max_time_constant``).
     intercept_ : ndarray, shape (n_outputs,)
         ``c``.
     kalman_gain_ : ndarray, shape (n, n_outputs)
@@ -91,8 +111,17 @@ class SubspaceStateSpace(Estimator):
         Of the PO-MOESP matrix, on signals scaled to unit standard deviation: the order's
         evidence (``order_`` of them stand out).
     order_, horizon_ : int
+    order_rule_ : str
+        How ``order_`` was set: ``"given"``, ``"folds"`` or
+        ``"singular values"`` (one).
+    order_fold_fits_ : ndarray, shape (n_candidates, n_experiments)
+        With ``order_rule_ == "folds"``: row ``k`` the free-run fit [%] of order ``k + 1`` on
+        each held-out experiment (unrefined); otherwise empty.
     stabilised_ : bool
         The least-squares ``A`` was unstable and Maciejowski's stable estimate replaced it.
+    bounded_ : bool
+        The subspace ``A`` had a mode beyond ``mode_radius_``; it was moved onto that circle
+        (:func:`~neckid.models.linear.subspace_steps.bound_modes`).
     refined_ : bool
         The refinement was run and kept.
     max_lag_ : int
@@ -115,8 +144,9 @@ class SubspaceStateSpace(Estimator):
 
     _parameter_constraints: ClassVar[dict[str, list[Any]]] = {
         "lags": [None, Lags],
-        "order": [None, Interval("int", 1, None)],
+        "order": [None, Interval("int", 1, None), Options({"folds"})],
         "horizon": [None, Interval("int", 2, None)],
+        "max_time_constant": [None, Interval("real", 0.0, None, closed="neither")],
         "feedthrough": ["boolean"],
         "fit_intercept": ["boolean"],
         "refine": ["boolean"],
@@ -127,8 +157,9 @@ class SubspaceStateSpace(Estimator):
         self,
         lags: Lags | None = None,
         *,
-        order: int | None = None,
+        order: int | Literal["folds"] | None = None,
         horizon: int | None = None,
+        max_time_constant: float | None = None,
         feedthrough: bool = False,
         fit_intercept: bool = True,
         refine: bool = True,
@@ -137,6 +168,7 @@ class SubspaceStateSpace(Estimator):
         self.lags = lags
         self.order = order
         self.horizon = horizon
+        self.max_time_constant = max_time_constant
         self.feedthrough = feedthrough
         self.fit_intercept = fit_intercept
         self.refine = refine
@@ -150,7 +182,8 @@ class SubspaceStateSpace(Estimator):
         ------
         ValueError
             For a bad hyper-parameter, data too short for the horizon, or an ``order`` the
-            horizon cannot hold (``order <= (horizon − 1) × n_outputs``).
+            horizon cannot hold (``order <= (horizon − 1) × n_outputs``), or ``order="folds"``
+            with a single experiment.
         """
         self._validate_params()
         experiments = as_experiments(self._with_conditions(data, fitting=True))
@@ -158,10 +191,10 @@ class SubspaceStateSpace(Estimator):
         self._fit_experiments(experiments, self.order)
         return self
 
-    def _horizon(self, order: int | None) -> int:
+    def _horizon(self, order: int | str | None) -> int:
         if self.horizon is not None:
             return int(self.horizon)
-        return max(DEFAULT_HORIZON, (order or 0) + 1)
+        return max(DEFAULT_HORIZON, (int(order) if isinstance(order, numbers.Integral) else 0) + 1)
 
     def _scales(self, experiments: Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
         """Standard deviation of every input and output channel (1 for a constant one)."""
@@ -172,7 +205,7 @@ class SubspaceStateSpace(Estimator):
         sy[~(sy > 0)] = 1.0
         return su, sy
 
-    def _fit_experiments(self, experiments: Sequence[IOData], order: int | None) -> None:
+    def _fit_experiments(self, experiments: Sequence[IOData], order: int | str | None) -> None:
         su, sy = self._scales(experiments)
         scaled = [(d.u / su, d.y / sy) for d in experiments]
         i = self._horizon(order)
@@ -181,7 +214,24 @@ class SubspaceStateSpace(Estimator):
         factor = past_future_factor(scaled, i, intercept)
         left, values = observability_basis(factor, i, m, p)
         largest = max(1, min((i - 1) * p, int(np.sum(values > 0))))
-        n = int(order) if order is not None else choose_order(values, largest)
+        radius = self._mode_radius(experiments)
+        self.order_rule_, self.order_fold_fits_ = "given", np.zeros((0, len(experiments)))
+        if isinstance(order, numbers.Integral):
+            n = int(order)
+        elif order == "folds":
+            too_short = [k for k, (u, _) in enumerate(scaled) if u.shape[0] <= 2 * i]
+            if len(experiments) < 2 or too_short:
+                raise ValueError(
+                    "order='folds' holds each experiment out in turn: it needs two or more,"
+                    f" each longer than 2 * horizon = {2 * i} samples; got {len(experiments)}"
+                    f" (too short: {too_short}); give order=None or an order"
+                )
+            self.order_rule_ = "folds"
+            options = (feedthrough, intercept)
+            n, self.order_fold_fits_ = order_by_folds(scaled, i, largest, options, radius, sy)
+        else:
+            self.order_rule_ = "singular values"
+            n = choose_order(values, largest)
         if n > (i - 1) * p:
             raise ValueError(
                 f"order {n} needs horizon > order / n_outputs + 1 = {n // p + 1}: the"
@@ -189,15 +239,17 @@ class SubspaceStateSpace(Estimator):
                 f" {(i - 1) * p}; raise horizon"
             )
         a, c, self.stabilised_ = shift_invariance(left, values, n, p)
-        b, d, offset, x0s = output_error_regression(a, c, scaled, feedthrough, intercept)
+        a, self.bounded_ = bound_modes(a, radius)
+        b, d, offset, _ = output_error_regression(a, c, scaled, feedthrough, intercept, i, sy)
         matrices: Matrices = (a, b, c, d, offset)
         self.refined_ = False
         if self.refine:
-            refined, x0s = refine_free_run(
-                matrices, x0s, scaled, feedthrough, intercept, int(self.max_iter)
+            refined = refine_free_run(
+                matrices, scaled, feedthrough, intercept, int(self.max_iter), i, radius, sy
             )
             self.refined_ = refined is not matrices
             matrices = refined
+        x0s = initial_states(matrices, scaled, i, sy)
         gain = kalman_gain(matrices, x0s, scaled, innovations(scaled, i, feedthrough, intercept))
         a, b, c, d, offset = matrices
         self.A_ = np.ascontiguousarray(a)
@@ -207,10 +259,18 @@ class SubspaceStateSpace(Estimator):
         self.intercept_ = np.asarray(offset * sy, dtype=np.float64)
         self.kalman_gain_ = np.ascontiguousarray(gain / sy[None, :])
         self.singular_values_ = np.asarray(values, dtype=np.float64)
+        self.mode_radius_ = radius
         self.order_, self.horizon_ = n, i
         self.n_samples_ = int(sum(d.n_samples for d in experiments))
         self._set_channels(experiments[0])
         self.max_lag_ = i
+
+    def _mode_radius(self, experiments: Sequence[IOData]) -> float:
+        """``exp(−ts / max_time_constant)``; just inside the unit circle without it."""
+        if self.max_time_constant is None:
+            return 1.0 - STABILITY_MARGIN
+        radius = np.exp(-float(experiments[0].ts) / float(self.max_time_constant))
+        return float(min(radius, 1.0 - STABILITY_MARGIN))
 
     def partial_fit(self, data: IOData | Sequence[IOData]) -> SubspaceStateSpace:
         """Refit on ``data`` alone, keeping the order found by :meth:`fit` (not an update).
@@ -378,6 +438,7 @@ class SubspaceStateSpace(Estimator):
             "intercept": self.intercept_,
             "kalman_gain": self.kalman_gain_,
             "singular_values": self.singular_values_,
+            "order_fold_fits": self.order_fold_fits_,
         }
         params = self.get_params(deep=False)
         lags = params.pop("lags")
@@ -388,6 +449,9 @@ class SubspaceStateSpace(Estimator):
             "n_samples": self.n_samples_,
             "order": self.order_,
             "horizon": self.horizon_,
+            "order_rule": self.order_rule_,
+            "mode_radius": self.mode_radius_,
+            "bounded": bool(self.bounded_),
             "stabilised": bool(self.stabilised_),
             "refined": bool(self.refined_),
             **self._channels_meta(),
@@ -404,6 +468,12 @@ class SubspaceStateSpace(Estimator):
         model.n_samples_ = int(meta["n_samples"])
         model.order_, model.horizon_ = int(meta["order"]), int(meta["horizon"])
         model.stabilised_, model.refined_ = bool(meta["stabilised"]), bool(meta["refined"])
+        # Files written before the order rule was recorded: the rule is not known.
+        model.order_rule_ = str(meta.get("order_rule", "unknown"))
+        model.mode_radius_ = float(meta.get("mode_radius", 1.0 - STABILITY_MARGIN))
+        model.bounded_ = bool(meta.get("bounded", False))
+        fold_fits = arrays.get("order_fold_fits", np.zeros((0, 0)))
+        model.order_fold_fits_ = np.asarray(fold_fits, dtype=np.float64)
         for key in ("A", "B", "C", "D", "intercept", "kalman_gain", "singular_values"):
             value = np.ascontiguousarray(arrays[key], dtype=np.float64)
             setattr(model, f"{key}_", value)

@@ -24,15 +24,17 @@ once :math:`A` and :math:`C` are known (Verhaegen & Verdult 2007, section 9.2.4)
    matrix without its last, and without its first block row). An unstable estimate is
    replaced by Maciejowski's (1995): :math:`A = \Gamma_i^{+} [\overline{\Gamma}; 0]`, whose
    eigenvalues lie strictly inside the unit circle.
-4. :func:`output_error_regression`: :math:`B`, :math:`D`, the output offset :math:`c` and one
-   initial state per experiment, by linear least squares on the free-run (output) error, in
-   which they enter linearly once :math:`A` and :math:`C` are fixed.
+4. :func:`output_error_regression`: :math:`B`, :math:`D` and the output offset :math:`c` by
+   linear least squares on the free-run (output) error, in which they enter linearly once
+   :math:`A` and :math:`C` are fixed, each experiment starting from the state its first
+   ``n_initial`` samples give (:func:`initial_state_solver`), as every free run of the model
+   starts: the fit minimises the error of the runs the model will make.
 5. :func:`kalman_gain`: :math:`K` by the two-stage regression of Hannan & Rissanen (1982):
    innovations from a long ARX model, then the output error of step 4 regressed on their
    filtered values.
 
-The refinement of the free-run error over all matrices (``scipy.optimize.least_squares``) is
-:func:`refine_free_run`. All of it works on signals scaled to unit standard deviation per
+The refinement of the free-run error over all matrices (``scipy.optimize.least_squares``), the
+initial states again from the first samples, is :func:`refine_free_run`. All of it works on signals scaled to unit standard deviation per
 channel; :mod:`.subspace` maps the matrices back.
 """
 
@@ -48,9 +50,13 @@ from scipy.optimize import least_squares
 from neckid._typing import FloatArray
 
 __all__ = [
+    "SETTLING_SHARE",
     "STABILITY_MARGIN",
+    "bound_modes",
     "choose_order",
     "estimate_state",
+    "initial_state_solver",
+    "initial_states",
     "innovations",
     "kalman_gain",
     "observability_basis",
@@ -59,12 +65,17 @@ __all__ = [
     "predictor_run",
     "refine_free_run",
     "shift_invariance",
+    "slowest_mode_radius",
     "spectral_radius",
     "state_space_run",
 ]
 
 #: Largest spectral radius of ``A`` (and of ``A − K C``) accepted: 1 − 1e-9.
 STABILITY_MARGIN = 1e-9
+
+#: A mode must decay to ``exp(−SETTLING_SHARE)`` within the shortest training record
+#: (:func:`slowest_mode_radius`): its time constant is at most a fifth of that record.
+SETTLING_SHARE = 5.0
 
 #: Smallest singular value relative to the largest that the order rule looks at.
 _FLOOR = 1e-13
@@ -284,6 +295,48 @@ def shift_invariance(
     return a, c, True
 
 
+def slowest_mode_radius(n_samples: int, share: float = SETTLING_SHARE) -> float:
+    """The largest eigenvalue magnitude a record of ``n_samples`` can show settling.
+
+    ``exp(−share / n_samples)``: a mode of that magnitude has the time constant
+    ``n_samples / share`` samples and decays to ``e^{−share}`` (0.7 % for 5) within the record.
+    A slower mode is not identifiable from it as a decaying one: over the record it is an
+    integrator, and a model that keeps it drifts on any input bias of a new run.
+    """
+    return float(min(np.exp(-share / n_samples), 1.0 - STABILITY_MARGIN))
+
+
+def bound_modes(a: FloatArray, radius: float) -> tuple[FloatArray, bool]:
+    """``a`` with every eigenvalue of magnitude above ``radius`` moved onto that circle.
+
+    On the real Schur form ``A = Z T Zᵀ``: a real eigenvalue ``λ`` on the diagonal of ``T``
+    becomes ``sign(λ) radius``, a 2×2 block of a complex pair (``|λ|² = det``) is scaled by
+    ``radius / |λ|``; the other blocks, the coupling above the diagonal and ``Z`` are kept, so
+    the faster modes do not move. Returns ``(A, moved)``.
+
+    Examples
+    --------
+    >>> a, moved = bound_modes(np.diag([0.999, 0.5]), 0.99)
+    >>> np.round(np.diag(a), 6).tolist(), moved
+    ([0.99, 0.5], True)
+    """
+    if spectral_radius(a) <= radius:
+        return a, False
+    t, z = scipy.linalg.schur(a, output="real")
+    k, n = 0, t.shape[0]
+    while k < n:
+        if k + 1 < n and t[k + 1, k] != 0.0:
+            magnitude = float(np.sqrt(abs(np.linalg.det(t[k : k + 2, k : k + 2]))))
+            if magnitude > radius:
+                t[k : k + 2, k : k + 2] *= radius / magnitude
+            k += 2
+            continue
+        if abs(t[k, k]) > radius:
+            t[k, k] = np.copysign(radius, t[k, k])
+        k += 1
+    return np.asarray(z @ t @ z.T, dtype=np.float64), True
+
+
 # ============================================================================ step 4
 def _responses(a: FloatArray, c: FloatArray, drive: FloatArray) -> FloatArray:
     """``(n_samples, n_outputs, n_states, n_drive)``: output of ``(A, e_k, C)`` driven by column j."""
@@ -325,42 +378,68 @@ def _solve_scaled(x: FloatArray, y: FloatArray) -> FloatArray:
 def _columns(
     a: FloatArray,
     c: FloatArray,
-    experiments: Sequence[tuple[FloatArray, FloatArray]],
+    u: FloatArray,
     options: tuple[bool, bool],
-    states: Sequence[FloatArray] | None = None,
+    states: FloatArray | None = None,
 ) -> FloatArray:
-    """Derivatives of the free run over ``[A?, B, C?, D?, c?, x0 per experiment]``, stacked.
+    """Derivatives of one experiment's free run over ``[A?, B, C?, D?, c?]``, its state fixed.
 
     One row per sample and output (time first, as ``y.ravel()``), one column per parameter,
-    in the order of :func:`_unpack`. ``A`` and ``C`` are there when the state trajectories
-    ``states`` are given: ``∂y/∂A_jk`` is the response through state ``j`` to ``x_k(t)``,
+    in the order of :func:`_unpack`. ``A`` and ``C`` are there when the state trajectory
+    ``states`` is given: ``∂y/∂A_jk`` is the response through state ``j`` to ``x_k(t)``,
     ``∂y/∂C_ok = x_k(t)`` on output ``o``. The others do not depend on the parameters.
     """
     feedthrough, intercept = options
     n, p = a.shape[0], c.shape[0]
-    m = experiments[0][0].shape[1]
-    sizes = [n * n if states else 0, n * m, p * n if states else 0]
+    m = u.shape[1]
+    given = states is not None
+    sizes = [n * n if given else 0, n * m, p * n if given else 0]
     sizes += [p * m if feedthrough else 0, p if intercept else 0]
-    n_shared = int(sum(sizes))
-    total = n_shared + n * len(experiments)
     edges = np.concatenate([[0], np.cumsum(sizes)])
-    rows = []
-    for e, (u, _) in enumerate(experiments):
-        columns = np.zeros((u.shape[0], p, total))
-        if states:
-            columns[:, :, : edges[1]] = _responses(a, c, states[e]).reshape(-1, p, n * n)
-        columns[:, :, edges[1] : edges[2]] = _responses(a, c, u).reshape(-1, p, n * m)
-        for o in range(p):
-            if states:
-                columns[:, o, edges[2] + o * n : edges[2] + (o + 1) * n] = states[e]
-            if feedthrough:
-                columns[:, o, edges[3] + o * m : edges[3] + (o + 1) * m] = u
-        if intercept:
-            columns[:, :, edges[4] : edges[5]] = np.eye(p)
-        start = n_shared + n * e
-        columns[:, :, start : start + n] = _free_response(a, c, u.shape[0])
-        rows.append(columns.reshape(-1, total))
-    return np.vstack(rows)
+    columns = np.zeros((u.shape[0], p, int(edges[-1])))
+    if states is not None:
+        columns[:, :, : edges[1]] = _responses(a, c, states).reshape(-1, p, n * n)
+    columns[:, :, edges[1] : edges[2]] = _responses(a, c, u).reshape(-1, p, n * m)
+    for o in range(p):
+        if states is not None:
+            columns[:, o, edges[2] + o * n : edges[2] + (o + 1) * n] = states
+        if feedthrough:
+            columns[:, o, edges[3] + o * m : edges[3] + (o + 1) * m] = u
+    if intercept:
+        columns[:, :, edges[4] : edges[5]] = np.eye(p)
+    return columns.reshape(u.shape[0] * p, -1)
+
+
+def initial_state_solver(
+    a: FloatArray, c: FloatArray, n_initial: int, output_scale: FloatArray | None = None
+) -> FloatArray:
+    """The map from the first ``n_initial`` samples' free-response error to ``x(0)``.
+
+    ``pinv(W O) W``, ``O`` the ``(n_initial · n_outputs, n)`` free response ``C A^k``, ``k = 0 …
+    n_initial − 1`` (rows time first), ``W`` each output's row multiplied by
+    ``output_scale`` (default 1): ``x(0)`` is the least-squares state (minimum norm where
+    unobservable) of those samples. On signals divided by ``output_scale`` it gives the state
+    :func:`estimate_state` finds on the unscaled ones, so the fit starts every training run
+    where the fitted model will start it.
+    """
+    free = _free_response(a, c, n_initial).reshape(-1, a.shape[0])
+    if output_scale is None:
+        return np.asarray(np.linalg.pinv(free), dtype=np.float64)
+    weights = np.tile(np.asarray(output_scale, dtype=np.float64), n_initial)
+    solver = np.linalg.pinv(weights[:, None] * free) * weights[None, :]
+    return np.asarray(solver, dtype=np.float64)
+
+
+def _after_initial(
+    values: FloatArray, free: FloatArray, solver: FloatArray, skip: int
+) -> FloatArray:
+    """``values − O pinv(O_m) values[:m]`` from row ``skip`` on: the state's share taken out.
+
+    For a free run ``y = F θ + O x(0)`` whose ``x(0) = pinv(O_m) (y_m − F_m θ)`` comes from the
+    first ``skip`` rows, ``y − ŷ = (y − O pinv(O_m) y_m) − (F − O pinv(O_m) F_m) θ``: the
+    target and the columns both go through this map.
+    """
+    return (values - free @ (solver @ values[:skip]))[skip:]
 
 
 def output_error_regression(
@@ -369,31 +448,63 @@ def output_error_regression(
     experiments: Sequence[tuple[FloatArray, FloatArray]],
     feedthrough: bool,
     intercept: bool,
+    n_initial: int,
+    output_scale: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray, list[FloatArray]]:
-    """``B``, ``D``, offset and one initial state per experiment, minimising the free-run error.
+    """``B``, ``D`` and offset minimising the free-run error, each run from its first samples.
 
     With ``A`` and ``C`` fixed the free run
-    ``y(t) = C A^t x_0 + Σ_{s<t} C A^{t−1−s} B u(s) + D u(t) + c`` is linear in
-    ``(B, D, c, x_0)``: one regressor column per unknown, each the response of the model to one
-    input channel through one state (:func:`state_space_run`), solved together over all
-    experiments (each with its own ``x_0``).
+    ``y(t) = C A^t x_0 + Σ_{s<t} C A^{t−1−s} B u(s) + D u(t) + c`` is linear in ``(B, D, c)``,
+    and so is ``x_0`` when it is the least-squares state of the first ``n_initial`` samples
+    (:func:`initial_state_solver`, as :func:`estimate_state` gives it to every free run): one
+    regressor column per unknown, each the response of the model to one input channel through
+    one state (:func:`state_space_run`) with the part the initial state absorbs taken out,
+    solved over the samples after the first ``n_initial`` of every experiment (Verhaegen &
+    Verdult 2007, §9.2.4, with the initial state of the protocol instead of a free one).
+
+    ``output_scale``: see :func:`initial_state_solver`.
 
     Returns
     -------
     (B (n, m), D (p, m), offset (p,), [x0 (n,) per experiment])
-        ``D`` is zeros without ``feedthrough``, the offset zeros without ``intercept``.
+        ``D`` is zeros without ``feedthrough``, the offset zeros without ``intercept``; ``x0``
+        each experiment's state at sample 0, from its first ``n_initial`` samples.
     """
     n, p = a.shape[0], c.shape[0]
     m = experiments[0][0].shape[1]
-    columns = _columns(a, c, experiments, (feedthrough, intercept))
-    theta = _solve_scaled(columns, np.concatenate([y.reshape(-1) for _, y in experiments]))
+    solver, skip = initial_state_solver(a, c, n_initial, output_scale), n_initial * p
+    rows, targets = [], []
+    for u, y in experiments:
+        free = _free_response(a, c, u.shape[0]).reshape(-1, n)
+        rows.append(_after_initial(_columns(a, c, u, (feedthrough, intercept)), free, solver, skip))
+        targets.append(_after_initial(y.reshape(-1), free, solver, skip))
+    theta = _solve_scaled(np.vstack(rows), np.concatenate(targets))
     b = theta[: n * m].reshape(n, m)
     at = n * m
     d = theta[at : at + p * m].reshape(p, m) if feedthrough else np.zeros((p, m))
     at += p * m if feedthrough else 0
-    offset = theta[at : at + p] if intercept else np.zeros(p)
-    x0s = list(theta[-n * len(experiments) :].reshape(len(experiments), n))
-    return b, d, np.asarray(offset, dtype=np.float64), x0s
+    offset = np.asarray(theta[at : at + p] if intercept else np.zeros(p), dtype=np.float64)
+    x0s = initial_states((a, b, c, d, offset), experiments, n_initial, output_scale)
+    return b, d, offset, x0s
+
+
+def initial_states(
+    model: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray],
+    experiments: Sequence[tuple[FloatArray, FloatArray]],
+    n_initial: int,
+    output_scale: FloatArray | None = None,
+) -> list[FloatArray]:
+    """``x(0)`` of every experiment from its first ``n_initial`` samples.
+
+    ``output_scale``: see :func:`initial_state_solver`.
+    """
+    a, b, c, d, offset = model
+    solver = initial_state_solver(a, c, n_initial, output_scale)
+    states = []
+    for u, y in experiments:
+        forced = state_space_run(a, b, c, d, offset, u[:n_initial], np.zeros(a.shape[0]))[0]
+        states.append(np.asarray(solver @ (y[:n_initial] - forced).reshape(-1)))
+    return states
 
 
 # ============================================================================ step 5
@@ -477,75 +588,89 @@ def kalman_gain(
 
 # ============================================================================ refinement
 def _unpack(
-    theta: FloatArray, shape: tuple[int, int, int, int], feedthrough: bool, intercept: bool
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, list[FloatArray]]:
-    n, m, p, n_exp = shape
-    sizes = [n * n, n * m, p * n, p * m if feedthrough else 0, p if intercept else 0]
+    theta: FloatArray, shape: tuple[int, int, int], feedthrough: bool, intercept: bool
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``(A, B, C, D, offset)`` from the refinement's parameter vector."""
+    n, m, p = shape
+    sizes = [n * n, n * m, p * n, p * m if feedthrough else 0]
     parts = np.split(theta, np.cumsum(sizes))
     a, b, c = parts[0].reshape(n, n), parts[1].reshape(n, m), parts[2].reshape(p, n)
     d = parts[3].reshape(p, m) if feedthrough else np.zeros((p, m))
     offset = parts[4] if intercept else np.zeros(p)
-    x0s = list(parts[5].reshape(n_exp, n))
-    return a, b, c, d, offset, x0s
+    return a, b, c, d, offset
 
 
 def refine_free_run(
     model: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray],
-    x0s: Sequence[FloatArray],
     experiments: Sequence[tuple[FloatArray, FloatArray]],
     feedthrough: bool,
     intercept: bool,
     max_iter: int,
-) -> tuple[tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray], list[FloatArray]]:
-    """All matrices, the offset and the initial states refined on the free-run error.
+    n_initial: int,
+    radius: float = 1.0 - STABILITY_MARGIN,
+    output_scale: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """All matrices and the offset refined on the free-run error, runs from their first samples.
 
-    ``scipy.optimize.least_squares`` (Levenberg–Marquardt, exact Jacobian by the forward
-    sensitivities of :func:`_columns`) over the full parametrisation, from the subspace
-    estimate. A step whose ``A`` is unstable gets a large
-    residual; the result is kept only if it is stable and lowers the sum of squares, otherwise
-    the estimate comes back unchanged.
+    ``scipy.optimize.least_squares`` (Levenberg–Marquardt) over the full parametrisation, from
+    the subspace estimate. Each run starts, as in use, from the least-squares state of its
+    first ``n_initial`` samples under the current matrices, and its error counts from there
+    on. The Jacobian is that of the forward sensitivities (:func:`_columns`) with the initial
+    state's share taken out (:func:`_after_initial`), the derivative of ``pinv(O_m)`` times
+    the residual of the first samples left out (Kaufman's 1975 approximation in variable
+    projection). A step whose ``A`` has an eigenvalue beyond ``radius`` (unstable, or slower
+    than the records show settling, :func:`slowest_mode_radius`) gets a large residual; the
+    result is kept only if it stays within ``radius`` and lowers the sum of squares, otherwise
+    the estimate comes back unchanged. ``output_scale``: see :func:`initial_state_solver`.
     """
+    limit = radius * (1.0 + 1e-9)  # the start may sit on the circle bound_modes moved it to
     a, b, c, d, offset = model
     n, m, p = a.shape[0], b.shape[1], c.shape[0]
-    shape = (n, m, p, len(experiments))
+    shape = (n, m, p)
     parts = [a.ravel(), b.ravel(), c.ravel()]
     parts += [d.ravel()] if feedthrough else []
     parts += [offset] if intercept else []
-    theta0 = np.concatenate([*parts, *x0s])
-    y_all = np.concatenate([y.ravel() for _, y in experiments])
+    theta0 = np.concatenate(parts)
+    y_all = np.concatenate([y[n_initial:].ravel() for _, y in experiments])
     penalty = 1e3 * (1.0 + float(np.max(np.abs(y_all))))
 
     def residual(theta: FloatArray) -> FloatArray:
-        a_, b_, c_, d_, o_, x0_ = _unpack(theta, shape, feedthrough, intercept)
-        if spectral_radius(a_) >= 1.0:
+        matrices = _unpack(theta, shape, feedthrough, intercept)
+        if spectral_radius(matrices[0]) > limit:
             return np.full(y_all.size, penalty)
         with np.errstate(all="ignore"):
+            starts = initial_states(matrices, experiments, n_initial, output_scale)
             runs = [
-                state_space_run(a_, b_, c_, d_, o_, u, x)[0].ravel()
-                for (u, _), x in zip(experiments, x0_, strict=True)
+                state_space_run(*matrices, u, x)[0][n_initial:].ravel()
+                for (u, _), x in zip(experiments, starts, strict=True)
             ]
         error = np.concatenate(runs) - y_all
         return np.clip(np.nan_to_num(error, nan=penalty), -penalty, penalty)
 
     def jacobian(theta: FloatArray) -> FloatArray:
-        a_, b_, c_, _, _, x0_ = _unpack(theta, shape, feedthrough, intercept)
-        eye, none = np.eye(n), np.zeros((n, m))
+        matrices = _unpack(theta, shape, feedthrough, intercept)
+        a_, b_, c_ = matrices[:3]
+        eye, none, skip = np.eye(n), np.zeros((n, m)), n_initial * p
+        blocks = []
         with np.errstate(all="ignore"):
-            states = [
-                state_space_run(a_, b_, eye, none, np.zeros(n), u, x)[0]
-                for (u, _), x in zip(experiments, x0_, strict=True)
-            ]
-            columns = _columns(a_, c_, experiments, (feedthrough, intercept), states)
-        return np.nan_to_num(columns, nan=0.0, posinf=penalty, neginf=-penalty)
+            solver = initial_state_solver(a_, c_, n_initial, output_scale)
+            starts = initial_states(matrices, experiments, n_initial, output_scale)
+            for (u, _), x in zip(experiments, starts, strict=True):
+                states = state_space_run(a_, b_, eye, none, np.zeros(n), u, x)[0]
+                columns = _columns(a_, c_, u, (feedthrough, intercept), states)
+                free = _free_response(a_, c_, u.shape[0]).reshape(-1, n)
+                blocks.append(_after_initial(columns, free, solver, skip))
+        return np.nan_to_num(np.vstack(blocks), nan=0.0, posinf=penalty, neginf=-penalty)
 
     start = float(np.sum(residual(theta0) ** 2))
     fitted = least_squares(
         residual, theta0, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_iter
     )
-    a1, b1, c1, d1, o1, x1 = _unpack(fitted.x, shape, feedthrough, intercept)
-    if spectral_radius(a1) < 1.0 - STABILITY_MARGIN and 2.0 * fitted.cost < start:
-        return (a1, b1, c1, d1, o1), x1
-    return model, list(x0s)
+    refined = _unpack(fitted.x, shape, feedthrough, intercept)
+    inside = spectral_radius(refined[0]) <= min(limit, 1.0 - STABILITY_MARGIN)
+    if inside and 2.0 * fitted.cost < start:
+        return refined
+    return model
 
 
 # ============================================================================ initial state
@@ -557,15 +682,14 @@ def estimate_state(
     """The state after ``len(y_rows)`` samples, from those outputs and inputs (least squares).
 
     ``x(0)`` solves ``y(k) − y_u(k) = C A^k x(0)``, ``k = 0 … m−1`` (``y_u`` the free run from
-    ``x = 0``) in the least-squares sense (minimum norm where unobservable); the model then
+    ``x = 0``) in the least-squares sense (minimum norm where unobservable,
+    :func:`initial_state_solver`: the state the fit gave each training run); the model then
     runs ``m`` samples from it: ``x(m) = A^m x(0) + x_u(m)``.
     """
     a, b, c, d, offset = model
     n, m = a.shape[0], y_rows.shape[0]
     forced, x_forced = state_space_run(a, b, c, d, offset, u_rows, np.zeros(n))
-    free = _free_response(a, c, m).reshape(-1, n)
-    solution = np.linalg.lstsq(free, (y_rows - forced).reshape(-1), rcond=None)[0]
-    x0 = np.asarray(solution, dtype=np.float64)
+    x0 = np.asarray(initial_state_solver(a, c, m) @ (y_rows - forced).reshape(-1))
     none = np.zeros((m, 0))
     p = c.shape[0]
     moved = state_space_run(a, np.zeros((n, 0)), c, np.zeros((p, 0)), np.zeros(p), none, x0)[1]

@@ -11,7 +11,7 @@ their training range, outputs to zero mean and unit standard deviation, each sta
 1]`` of its range over the start's training free run. Outside that box widened by
 ``hold_margin`` the monomials hold their value (the linear terms go on), as in the polynomial
 NARX. The start is the linear ``ss`` model (:class:`~neckid.models.linear.SubspaceStateSpace`,
-``E = F = 0``); ``scipy.optimize.least_squares`` then minimises the free-run error with the
+not refined: the free-run fit refines every linear matrix itself; ``E = F = 0``); ``scipy.optimize.least_squares`` then minimises the free-run error with the
 exact Jacobian of the forward sensitivity recursion (:mod:`._kernels`). A trial step whose free
 run on the training data leaves the divergence envelope is stopped there with a large error,
 so it is rejected; the fitted model never runs away on its training data.
@@ -77,7 +77,7 @@ class PolynomialStateSpace(Estimator):
         Beyond the training box ``[-1, 1]`` of each scaled state and input, widened by this
         fraction of its width on each side, the monomials hold their value.
     max_iter : int, default 100
-        Largest number of free runs of the nonlinear fit (and of the ``ss`` refinement).
+        Largest number of free runs of the nonlinear fit.
 
     Attributes
     ----------
@@ -164,7 +164,7 @@ class PolynomialStateSpace(Estimator):
             order=self.order,
             horizon=self.horizon,
             feedthrough=bool(self.feedthrough),
-            max_iter=int(self.max_iter),
+            refine=False,
         ).fit(experiments)
         self._set_units(experiments)
         internal = [self._internal(d) for d in experiments]
