@@ -263,8 +263,8 @@ def benchmark(
         None,
         "--methods",
         help=(
-            "Comma-separated registry names: arx, poly, sm, sm-linear, sm-parallel,"
-            " sm-parallel-poly, nn, scheduled, and the peer sysidentpy-frols (SysIdentPy's"
+            "Comma-separated registry names: arx, ss, pnlss, greybox-neck, poly, sm, sm-linear,"
+            " sm-parallel, sm-parallel-poly, nn, scheduled, and the peer sysidentpy-frols (SysIdentPy's"
             " FROLS; pip install 'neckid[peers]'). Default: every neckid method; the peer runs"
             " when named."
         ),
@@ -303,7 +303,7 @@ def benchmark(
     soft neck deg) next to the published figures; wall time of each method.
 
     With --scheduler, the hyper-parameter candidates are fitted on the workers of a Dask cluster
-    (the final fit and the test simulations stay here); the table is that of a local run.
+    (the final fits and the test simulations too); the table is that of a local run.
     """
     from neckid.experiments.benchmark import DEFAULT_METHODS, PEER_METHODS, run_benchmark
 

@@ -1,8 +1,9 @@
 """Benchmark the identification methods on real data, next to published figures of merit.
 
-:func:`run_benchmark` runs the methods of the registry (:func:`neckid.methods`: ``arx``, ``sm``,
-``sm-linear``, ``sm-parallel``, ``nn``, on the public benchmarks ``poly`` and ``sm-parallel-poly``,
-on the soft-neck logs ``scheduled``) and, when installed, the peer ``sysidentpy-frols`` on
+:func:`run_benchmark` runs the methods of the registry (:func:`neckid.methods`: ``arx``, the
+state models ``ss`` and ``pnlss``, ``sm``, ``sm-linear``, ``sm-parallel``, ``nn``, on the public
+benchmarks ``poly`` and ``sm-parallel-poly``, on the soft-neck logs ``scheduled`` and
+``greybox-neck``) and, when named and installed, the peer ``sysidentpy-frols`` on
 
 - the four public benchmarks of :mod:`neckid.datasets.benchmarks`, with the official protocol of
   each (train on the training record, free-run simulation of every test record, the number of
@@ -19,6 +20,8 @@ Hyper-parameters (lags, noise bounds, ...) are chosen per method on the training
 training record every candidate is fitted on its first 75 % and ranked by free-run RMSE on the
 last 25 %; on several training runs, by leave-one-run-out free-run RMSE. The best one is then
 refitted on all the training data. Test records are never looked at before the final simulation.
+The candidates, final fits and test runs of all data sets and methods share the local cores (or a
+Dask cluster), and a fit that several grids need is done once (:mod:`.shared`).
 
 The package reads as the benchmark is built:
 
@@ -26,7 +29,11 @@ The package reads as the benchmark is built:
   :func:`softneck_protocol`, quick subsets);
 - :mod:`~neckid.experiments.benchmark.settings`: per-data-set lag grids and per-method candidate
   grids, as tables; every candidate is made by the method registry;
-- :mod:`~neckid.experiments.benchmark.runner`: selection, fit, free run, :class:`BenchmarkReport`;
+- :mod:`~neckid.experiments.benchmark.runner`: :func:`run_benchmark`: selection, fit, free run;
+- :mod:`~neckid.experiments.benchmark.plans`: one method on one data set through its stages, and
+  the stage loop over all of them; :mod:`~neckid.experiments.benchmark.stages`: the work units;
+  :mod:`~neckid.experiments.benchmark.shared`: the fits a run shares;
+- :mod:`~neckid.experiments.benchmark.report`: :class:`BenchmarkReport`, its files and tables;
 - :mod:`~neckid.experiments.benchmark.published`: the published figures, read from
   ``published.json`` (package data) with their sources;
 - :mod:`~neckid.experiments.benchmark.peers`: another toolkit's model on the same split and
@@ -37,7 +44,7 @@ Examples
 --------
 >>> from neckid.experiments.benchmark import BENCHMARK_METHODS, BENCHMARKS
 >>> BENCHMARK_METHODS
-('arx', 'sm', 'sm-linear', 'sm-parallel', 'sm-parallel-poly', 'poly', 'nn', 'scheduled')
+('arx', 'ss', 'pnlss', 'sm', 'sm-linear', 'sm-parallel', 'sm-parallel-poly', 'poly', 'nn', 'scheduled', 'greybox-neck')
 >>> BENCHMARKS
 ('softneck', 'softneck-payload', 'softneck-controller', 'cascaded_tanks', 'silverbox', 'bouc_wen', 'robot_arm')
 """
@@ -59,7 +66,8 @@ from neckid.experiments.benchmark.published import (
     published_table,
     published_units,
 )
-from neckid.experiments.benchmark.runner import BenchmarkReport, run_benchmark
+from neckid.experiments.benchmark.report import BenchmarkReport
+from neckid.experiments.benchmark.runner import run_benchmark
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
     CROSS_RUN_BENCHMARKS,

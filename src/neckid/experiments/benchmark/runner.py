@@ -3,7 +3,9 @@
 For every data set found (:mod:`~neckid.experiments.benchmark.datasets`) and every method
 (:mod:`~neckid.experiments.benchmark.settings`), :func:`run_benchmark`
 
-1. lists the method's candidates on that data set;
+1. lists the method's candidates on that data set (after the fits its grid shares with others,
+   :func:`~neckid.experiments.benchmark.settings.shared_fits`, and, for a method of
+   :data:`~neckid.experiments.benchmark.settings.BUILDS_ON`, on the lags its base method chose);
 2. fits each on the first :data:`~neckid.experiments.benchmark.settings.SELECTION_FRACTION` of
    the training record and ranks them by free-run RMSE on the rest, or, given several training
    experiments, on held-out experiments (:func:`neckid.selection.score_candidates`); a candidate
@@ -11,204 +13,51 @@ For every data set found (:mod:`~neckid.experiments.benchmark.datasets`) and eve
    outputs is out (its RMSE is infinite);
 3. refits the best one on the whole training record and simulates every test record once, in free
    run (:func:`neckid.selection.free_run`, with the protocol's initial samples).
+
+The work of all data sets and methods runs together (:func:`~.plans.run_plans`): at each stage,
+every unit that can start (a shared fit, a candidate, a final fit with its test runs) goes to the
+workers, longest first; a fit several grids need is done once (:mod:`~.shared`).
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-import numpy as np
 import pandas as pd
-from numpy.typing import NDArray
-from sklearn.base import clone
+from joblib import delayed
 
-from neckid._parallel import check_backend
+from neckid._parallel import check_backend, run_jobs
 from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
-from neckid.experiments.benchmark.peers import peer_candidates, peer_unavailable
+from neckid.experiments.benchmark.peers import peer_unavailable
+from neckid.experiments.benchmark.plans import MethodPlan, choose, run_plans
 from neckid.experiments.benchmark.published import published_frame
+from neckid.experiments.benchmark.report import TABLE_COLUMNS, BenchmarkReport
 from neckid.experiments.benchmark.settings import (
     BENCHMARK_METHODS,
+    BUILDS_ON,
     DEFAULT_METHODS,
     PEER_METHODS,
     SELECTION_FOLDS,
     SELECTION_FRACTION,
     Candidate,
-    candidates,
     runs_on,
 )
-from neckid.metrics import fit_percent, rmse
-from neckid.outputs import StagedFolder, output_folder
+from neckid.experiments.benchmark.shared import SharedFits
+from neckid.experiments.benchmark.stages import score_unit
+from neckid.outputs import output_folder
 from neckid.registry import DEPRECATED_NAMES, get_method
-from neckid.selection import free_run, score_candidates
 
 __all__ = ["TABLE_COLUMNS", "BenchmarkReport", "run_benchmark"]
 
 logger = logging.getLogger(__name__)
-
-#: Columns of :attr:`BenchmarkReport.table`.
-TABLE_COLUMNS = (
-    "benchmark",
-    "test",
-    "method",
-    "rmse",
-    "rmse_unit",
-    "fit_percent",
-    "n_initial",
-    "train_time_s",
-    "simulate_time_s",
-    "settings",
-    "note",
-)
-
-
-# ---------------------------------------------------------------------------- the report
-@dataclass(frozen=True)
-class BenchmarkReport:
-    """What :func:`run_benchmark` measured.
-
-    Attributes
-    ----------
-    table : pandas.DataFrame
-        One row per (benchmark, test, method) with columns ``benchmark``, ``test``, ``method``
-        (the registry name: ``"sm-linear"``), ``rmse`` (free run, in ``rmse_unit``),
-        ``rmse_unit``, ``fit_percent`` (NRMSE fit), ``n_initial`` (initial samples skipped),
-        ``train_time_s`` (selection and final fit), ``simulate_time_s``, ``settings`` (the chosen
-        hyper-parameters) and ``note``. On the soft-neck logs a row with ``test == "mean"`` holds
-        the mean over the validation logs.
-    published : pandas.DataFrame
-        The published figures next to which the table is read: ``benchmark``, ``test``,
-        ``method``, ``rmse``, ``rmse_unit``, ``source``.
-    details : dict
-        JSON-serialisable extras: the command settings, the selection scores of every candidate,
-        per benchmark the protocol text, and for the soft-neck logs the per-log difference
-        ``fit(method) - fit(arx)`` (``"<method>_minus_arx"``).
-    """
-
-    table: pd.DataFrame
-    published: pd.DataFrame
-    details: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The whole report as a JSON-serialisable dict (``table`` and ``published`` as records)."""
-        return {
-            "table": _records(self.table),
-            "published": _records(self.published),
-            "details": self.details,
-        }
-
-    def comparison(self) -> pd.DataFrame:
-        """Our RMSE beside the published ones: one row per (benchmark, test, method)."""
-        ours = self.table[["benchmark", "test", "method", "rmse", "rmse_unit"]].assign(
-            source="neckid"
-        )
-        return pd.concat([ours, self.published], ignore_index=True)
-
-    def write(self, output_dir: str | Path, *, force: bool = False) -> dict[str, Path]:
-        """Write ``benchmark.csv``, ``published.csv`` and ``benchmark.json`` into a folder.
-
-        The folder is locked while it is written and the files move in together
-        (:func:`neckid.outputs.output_folder`); a folder that holds files already is refused
-        unless ``force``.
-
-        Returns
-        -------
-        dict of str to Path
-            The files written, by kind (``"table"``, ``"published"``, ``"json"``).
-        """
-        with output_folder(output_dir, force=force) as staged:
-            return self.write_into(staged)
-
-    def write_into(self, staged: StagedFolder) -> dict[str, Path]:
-        """Write the three files into a staged output folder; return their final paths."""
-        names = {"table": "benchmark.csv", "published": "published.csv", "json": "benchmark.json"}
-        self.table.to_csv(staged.path(names["table"]), index=False)
-        self.published.to_csv(staged.path(names["published"]), index=False)
-        staged.path(names["json"]).write_text(
-            json.dumps(self.to_dict(), indent=2, default=_json_default)
-        )
-        return {kind: staged.final(name) for kind, name in names.items()}
-
-    def rich_table(self) -> Any:
-        """A :class:`rich.table.Table` of the results, for the CLI to print.
-
-        One row per (data set, test, method), narrow enough for an 80-column terminal: the
-        published figures are in :meth:`published_rich_table`, the wall times and settings in the
-        written files.
-        """
-        from rich.markup import escape
-        from rich.table import Table
-
-        table = Table(title="neckid benchmark: free run (RMSE in each data set's unit)")
-        table.add_column("data set / test", overflow="fold")
-        table.add_column("method", no_wrap=True)
-        table.add_column("RMSE", justify="right", no_wrap=True)
-        table.add_column("fit [%]", justify="right", no_wrap=True)
-        table.add_column("train [s]", justify="right", no_wrap=True)
-        table.add_column("note", overflow="fold")
-        previous = None
-        for row in self.table.itertuples(index=False):
-            where = f"{row.benchmark} / {row.test}"
-            table.add_row(
-                where if where != previous else "",
-                str(row.method),
-                _fmt(row.rmse, f" {row.rmse_unit!s}" if row.rmse_unit else ""),
-                _fmt(row.fit_percent, digits=3),
-                _fmt(row.train_time_s, digits=2),
-                escape(str(row.note or "")),  # a note may hold brackets: neckid[peers]
-                end_section=False,
-            )
-            previous = where
-        return table
-
-    def published_rich_table(self) -> Any:
-        """The published free-run RMSE next to which the results are read (a rich table)."""
-        from rich.table import Table
-
-        table = Table(title="published free-run RMSE (same split)")
-        for column in ("data set / test", "method", "RMSE"):
-            table.add_column(column, overflow="fold")
-        for row in self.published.itertuples(index=False):
-            table.add_row(
-                f"{row.benchmark} / {row.test}",
-                str(row.method),
-                _fmt(row.rmse, f" {row.rmse_unit}"),
-            )
-        return table
-
-
-def _fmt(value: Any, suffix: str = "", digits: int = 4) -> str:
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return "-"
-    return f"{float(value):.{digits}g}{suffix}"
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.floating):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    return str(value)
-
-
-def _records(frame: pd.DataFrame) -> list[dict[str, Any]]:
-    return [
-        {
-            str(k): (None if isinstance(v, float) and not math.isfinite(v) else v)
-            for k, v in record.items()
-        }
-        for record in frame.to_dict(orient="records")
-    ]
 
 
 # ---------------------------------------------------------------------------- selection
@@ -235,64 +84,28 @@ def _select(
     One training record: fitted on its first :data:`SELECTION_FRACTION`, scored on the rest. A
     list of two or more experiments: scored on held-out experiments (:data:`SELECTION_FOLDS`,
     leave-one-experiment-out by default), by the mean RMSE over the folds; each score then also
-    says the scheme and the worst fold's RMSE. ``sweep`` says where the fits run.
+    says the scheme and the worst fold's RMSE. ``sweep`` says where the fits run. The same
+    units and rule as :func:`run_benchmark` (:func:`~.stages.score_unit`, :func:`~.plans.choose`).
     """
     if not options:
         raise ValueError("the method has no candidate on this data set")
     if len(options) == 1:
         return options[0], []
-    experiments = as_experiments(train, "train")
-    if len(experiments) > 1:
-        table = score_candidates(
-            options,
-            experiments,
-            None,
-            criteria=("simulation",),
-            n_initial=n_initial,
-            folds=SELECTION_FOLDS,
-            **(sweep or _Sweep()).options(),
+    sweep = sweep or _Sweep()
+    units = (
+        delayed(score_unit)(
+            name, estimator, train, n_initial, fraction=SELECTION_FRACTION, folds=SELECTION_FOLDS
         )
-    else:
-        fit_part, check_part = experiments[0].split(SELECTION_FRACTION)
-        table = score_candidates(
-            options,
-            fit_part,
-            check_part,
-            criteria=("simulation",),
-            n_initial=n_initial,
-            **(sweep or _Sweep()).options(),
-        )
-    values = table["rmse_simulation"].to_numpy(dtype=np.float64)
-    worst = table["rmse_simulation_worst"].to_numpy(dtype=np.float64)
-    scores: list[dict[str, Any]] = []
-    for row, value, fold in zip(table.itertuples(index=False), values, worst, strict=True):
-        score: dict[str, Any] = {"settings": str(row.name), "holdout_rmse": float(value)}
-        if row.scheme != "validation":
-            score.update(scheme=str(row.scheme), worst_fold_rmse=float(fold))
-        if row.error:
-            score["error"] = str(row.error)
-        scores.append(score)
-    if np.isinf(values).all():
-        raise ValueError(f"every candidate failed or diverged on the held-out end: {scores}")
-    return options[int(np.argmin(values))], scores
+        for name, estimator in options
+    )
+    outcomes = run_jobs(units, total=len(options), **sweep.options())
+    for outcome in outcomes:
+        if outcome.error is not None:
+            raise outcome.error
+    return choose(options, [outcome.value for outcome in outcomes])
 
 
-# ---------------------------------------------------------------------------- evaluation
-def _first_non_finite(y: NDArray[np.float64], skip: int) -> int | None:
-    """Index of the first non-finite simulated sample after ``skip``, or None."""
-    bad = np.flatnonzero(~np.isfinite(y[skip:]).all(axis=1))
-    return int(bad[0]) + skip if bad.size else None
-
-
-def _first_runaway(model: Any, y: NDArray[np.float64], skip: int) -> int | None:
-    """The first sample after ``skip`` that is not finite or leaves the model's envelope."""
-    first = _first_non_finite(y, skip)
-    away = model.first_runaway(y, skip) if hasattr(model, "first_runaway") else None
-    if away is not None and (first is None or away[0] < first):
-        first = away[0]
-    return first
-
-
+# ---------------------------------------------------------------------------- rows
 def _row(bench: BenchmarkData, test: str, method: str, **values: Any) -> dict[str, Any]:
     row: dict[str, Any] = {
         "benchmark": bench.name,
@@ -311,49 +124,67 @@ def _row(bench: BenchmarkData, test: str, method: str, **values: Any) -> dict[st
     return row
 
 
-def _run_method(
-    method: str, bench: BenchmarkData, quick: bool, seed: int, sweep: _Sweep | None = None
-) -> tuple[list[dict[str, Any]], dict[str, Any]]:
-    """Select, fit and simulate one method on one data set; return table rows and details."""
-    start = time.perf_counter()
-    if method in PEER_METHODS:
-        options = peer_candidates(method, bench.name, quick)
-    else:
-        options = candidates(method, bench.name, bench.train, quick=quick, seed=seed)
-    (settings, estimator), scores = _select(options, bench.train, bench.n_initial, sweep)
-    model = clone(estimator).fit(bench.train)
-    train_time = time.perf_counter() - start
+def _plan_rows(plan: MethodPlan) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The table rows and details of a plan that ran."""
+    bench, method = plan.bench, plan.method
+    if plan.error is not None or plan.final is None or plan.chosen is None:
+        error = plan.error or RuntimeError("the plan did not finish")
+        note = f"failed: {type(error).__name__}: {error}"
+        rows = [_row(bench, test, method, note=note) for test in bench.tests]
+        return rows, {"error": f"{type(error).__name__}: {error}"}
+    settings = plan.chosen[0]
+    train_time = (
+        plan.seconds.get("grid", 0.0)
+        + plan.seconds.get("shared_fits", 0.0)
+        + sum(plan.seconds.get("candidates", []))
+        + plan.final.fit_time_s
+    )
     rows = []
-    for test, record in bench.tests.items():
-        t0 = time.perf_counter()
-        y, skip = free_run(model, record, bench.n_initial, diverged="keep")
-        sim_time = time.perf_counter() - t0
-        diverged = _first_runaway(model, y, skip)
-        if diverged is None:
-            error = float(rmse(record.y, y, skip=skip)[0]) * bench.rmse_scale
-            fit = float(fit_percent(record.y, y, skip=skip)[0])
-            note = ""
-        else:
-            error, fit = math.inf, -math.inf
+    for run in plan.final.tests:
+        note = ""
+        if run.diverged_at is not None:
             note = (
-                f"free run diverged at sample {diverged} (not finite, or beyond the training"
-                " outputs' divergence envelope)"
+                f"free run diverged at sample {run.diverged_at} (not finite, or beyond the"
+                " training outputs' divergence envelope)"
             )
         rows.append(
             _row(
                 bench,
-                test,
+                run.test,
                 method,
-                rmse=error,
-                fit_percent=fit,
-                n_initial=skip,
+                rmse=run.rmse,
+                fit_percent=run.fit_percent,
+                n_initial=run.n_initial,
                 train_time_s=train_time,
-                simulate_time_s=sim_time,
+                simulate_time_s=run.simulate_time_s,
                 settings=settings,
                 note=note,
             )
         )
-    return rows, {"selection": scores, "chosen": settings}
+    return rows, {"selection": plan.scores, "chosen": settings}
+
+
+def _plan_timings(plan: MethodPlan) -> dict[str, Any]:
+    """Seconds of work of a plan's grid, shared fits, candidates, final fit and free runs."""
+    times: dict[str, Any] = {
+        "grid_s": plan.seconds.get("grid", 0.0),
+        "shared_fits_s": plan.seconds.get("shared_fits", 0.0),
+        "selection_s": float(sum(plan.seconds.get("candidates", []))),
+        "final_fit_s": plan.final.fit_time_s if plan.final is not None else math.nan,
+        "simulate_s": (
+            float(sum(r.simulate_time_s for r in plan.final.tests))
+            if plan.final is not None
+            else math.nan
+        ),
+        "cpu_s": plan.seconds.get("cpu", 0.0),
+        "n_candidates": len(plan.options or []),
+    }
+    if plan.options and len(plan.options) > 1:
+        times["candidates_s"] = {
+            name: seconds
+            for (name, _), seconds in zip(plan.options, plan.seconds["candidates"], strict=True)
+        }
+    return times
 
 
 def _mean_over_tests(
@@ -424,10 +255,11 @@ def run_benchmark(
         (listed in ``details["missing"]``).
     methods : str or sequence of str, optional
         Registry names (:func:`neckid.methods`) among
-        :data:`~neckid.experiments.benchmark.settings.BENCHMARK_METHODS`: ``"arx"``, ``"sm"``,
-        ``"sm-linear"``, ``"sm-parallel"``, ``"sm-parallel-poly"``, ``"poly"``, ``"nn"``,
-        ``"scheduled"`` (the scheduled model runs on the soft-neck logs only, the polynomial ones
-        on the public benchmarks only: ``ONLY_ON``), and the peer ``"sysidentpy-frols"``
+        :data:`~neckid.experiments.benchmark.settings.BENCHMARK_METHODS`: ``"arx"``, ``"ss"``,
+        ``"pnlss"``, ``"sm"``, ``"sm-linear"``, ``"sm-parallel"``, ``"sm-parallel-poly"``,
+        ``"poly"``, ``"nn"``, ``"scheduled"``, ``"greybox-neck"`` (the scheduled model and the
+        grey-box neck run on the soft-neck logs only, the polynomial NARX ones on the public
+        benchmarks only: ``ONLY_ON``), and the peer ``"sysidentpy-frols"``
         (:mod:`~neckid.experiments.benchmark.peers`, public benchmarks only; a row that says it
         was skipped when SysIdentPy is not installed); default all of them
         (:data:`~neckid.experiments.benchmark.settings.DEFAULT_METHODS`). The spellings of the
@@ -451,20 +283,22 @@ def run_benchmark(
     force : bool, default False
         Replace the files of an ``output_dir`` that holds some already.
     n_jobs : int or None, default None
-        Parallel workers (joblib) over the hyper-parameter candidates and folds of a method;
-        ``None`` means 1 unless inside a ``joblib.parallel_config`` context, or every worker of
-        the cluster with ``backend="dask"``.
+        Parallel workers (joblib) over the work units of every data set and method (shared
+        fits, candidates, final fits with their test runs; :mod:`~.plans`); ``None`` means 1
+        unless inside a ``joblib.parallel_config`` context, or every worker of the cluster with
+        ``backend="dask"``; -1 every local core (the command line's default).
     backend : str or None, default None
-        The joblib backend the candidates are fitted on: ``None`` is the active
-        ``joblib.parallel_config`` (joblib's default outside one); ``"dask"`` the cluster of
-        the active ``distributed.Client`` (``pip install neckid[dask]``). The report is the
-        same as a run on this machine but for the wall times.
+        The joblib backend the units run on: ``None`` is the active ``joblib.parallel_config``
+        (joblib's default outside one); ``"dask"`` the cluster of the active
+        ``distributed.Client`` (``pip install neckid[dask]``). The table and details are the
+        same as a run on this machine with any ``n_jobs`` (every unit runs with one BLAS
+        thread); only the times differ.
 
     Returns
     -------
     BenchmarkReport
-        The table (free-run RMSE in each benchmark's unit, NRMSE fit, wall times), the published
-        figures, and details.
+        The table (free-run RMSE in each benchmark's unit, NRMSE fit, seconds of work), the
+        published figures, details, and timings (where the time went).
 
     Raises
     ------
@@ -481,8 +315,11 @@ def run_benchmark(
     Protocols: see ``docs/benchmarks.md``. RMSE and fit skip the protocol's initial samples
     (Silverbox: 50) or, where the protocol gives none, the model's own ``max_lag_`` samples.
     Hyper-parameters are chosen on the training record only; test records are simulated once.
-    Wall times are measured with :func:`time.perf_counter` on whatever machine runs this; they
-    include the hyper-parameter selection.
+    Fits that several grids need are done once per run (:mod:`~.shared`), and SM on the
+    polynomial runs on the lags the polynomial's selection chose
+    (:data:`~neckid.experiments.benchmark.settings.BUILDS_ON`). Times are measured with
+    :func:`time.perf_counter` on whatever machine runs this: a unit's seconds of work;
+    ``train_time_s`` sums those of a method's grid, shared fits, candidates and final fit.
     """
     check_backend(backend)  # before the output folder is locked and any data is read
     arguments = (data_dir, methods, benchmarks, quick, seed, errors, _Sweep(n_jobs, backend))
@@ -494,6 +331,35 @@ def run_benchmark(
     return report
 
 
+def _plans(
+    loaded: dict[str, BenchmarkData], names: list[str], quick: bool, seed: int
+) -> tuple[list[MethodPlan], dict[str, list[dict[str, Any]]], dict[str, dict[str, Any]]]:
+    """A plan per (data set, method) that runs; the rows of the peers that are not installed.
+
+    A method of :data:`BUILDS_ON` whose base method was not asked for gets the base as a hidden
+    plan (its choice is needed; it gives no rows).
+    """
+    plans: list[MethodPlan] = []
+    skipped_rows: dict[str, list[dict[str, Any]]] = {}
+    skipped: dict[str, dict[str, Any]] = {}
+    for name, bench in loaded.items():
+        wanted = [m for m in names if runs_on(m, name)]
+        for method in wanted:
+            reason = peer_unavailable(method) if method in PEER_METHODS else None
+            if reason is not None:  # a peer that is not installed: say so in its rows
+                skipped_rows.setdefault(name, []).extend(
+                    _row(bench, test, method, note=reason) for test in bench.tests
+                )
+                skipped.setdefault(name, {})[method] = {"skipped": reason}
+                continue
+            plans.append(MethodPlan(bench, method, quick=quick, seed=seed))
+        for method in wanted:
+            base = BUILDS_ON.get(method)
+            if base is not None and base not in wanted and runs_on(base, name):
+                plans.append(MethodPlan(bench, base, quick=quick, seed=seed, hidden=True))
+    return plans, skipped_rows, skipped
+
+
 def _run(
     data_dir: str | Path,
     methods: str | Sequence[str] | None,
@@ -503,6 +369,7 @@ def _run(
     errors: Literal["record", "raise"],
     sweep: _Sweep,
 ) -> BenchmarkReport:
+    start = time.perf_counter()
     root = Path(data_dir)
     if not root.is_dir():
         raise FileNotFoundError(f"data_dir {root} is not a folder")
@@ -514,19 +381,6 @@ def _run(
     if errors not in ("record", "raise"):
         raise ValueError(f"errors must be 'record' or 'raise'; got {errors!r}")
 
-    rows: list[dict[str, Any]] = []
-    details: dict[str, Any] = {
-        "settings": {
-            "data_dir": str(root),
-            "methods": names,
-            "quick": quick,
-            "seed": seed,
-            "selection_fraction": SELECTION_FRACTION,
-        },
-        "missing": [],
-        "benchmarks": {},
-    }
-    ran: list[str] = []
     # Every data set is read before any method runs: a file that cannot be read (a missing
     # optional reader, a damaged file) stops the run at once, not after an hour of fits.
     loaded = {name: load_benchmark(name, root, quick=quick) for name in datasets}
@@ -535,51 +389,99 @@ def _run(
             f"nothing to run: none of the data sets {', '.join(datasets)} is under {root} (it"
             " should hold softneck/ and benchmarks/NAME/; see docs/benchmarks.md)"
         )
-    for name in datasets:
-        bench = loaded[name]
-        if bench is None:
-            details["missing"].append(name)
-            continue
-        ran.append(name)
-        n_train = sum(r.n_samples for r in as_experiments(bench.train, "train"))
+    found = {name: bench for name, bench in loaded.items() if bench is not None}
+    plans, skipped_rows, skipped = _plans(found, names, quick, seed)
+    for plan in plans:
+        if not plan.hidden:
+            n_train = sum(r.n_samples for r in as_experiments(plan.bench.train, "train"))
+            logger.info(
+                "benchmark %s: %s planned (%d training samples)",
+                plan.bench.name,
+                plan.method,
+                n_train,
+            )
+    shared = SharedFits()
+    stages = run_plans(plans, shared, n_jobs=sweep.n_jobs, backend=sweep.backend, errors=errors)
+    rows, details, timings = _assemble(found, names, plans, skipped_rows, skipped)
+    details = {
+        "settings": {
+            "data_dir": str(root),
+            "methods": names,
+            "quick": quick,
+            "seed": seed,
+            "selection_fraction": SELECTION_FRACTION,
+        },
+        "missing": [name for name in datasets if loaded[name] is None],
+        "benchmarks": details,
+    }
+    report_timings = {
+        "wall_time_s": time.perf_counter() - start,
+        "n_jobs": sweep.n_jobs,
+        "backend": sweep.backend,
+        "stages": stages,
+        "benchmarks": timings,
+        "shared": dict(shared.reused),
+    }
+    return BenchmarkReport(
+        table=pd.DataFrame(rows, columns=list(TABLE_COLUMNS)),
+        published=published_frame(list(found)),
+        details=details,
+        timings=report_timings,
+    )
+
+
+def _assemble(
+    found: dict[str, BenchmarkData],
+    names: list[str],
+    plans: list[MethodPlan],
+    skipped_rows: dict[str, list[dict[str, Any]]],
+    skipped: dict[str, dict[str, Any]],
+) -> tuple[list[dict[str, Any]], dict[str, Any], dict[str, Any]]:
+    """Rows, details and timings per data set, methods in the order asked for."""
+    rows: list[dict[str, Any]] = []
+    details: dict[str, Any] = {}
+    timings: dict[str, Any] = {}
+    for name, bench in found.items():
+        by_method = {p.method: p for p in plans if p.bench is bench and not p.hidden}
         bench_details: dict[str, Any] = {
             "description": bench.description,
             "citation": bench.citation,
-            "n_train": n_train,
+            "n_train": sum(r.n_samples for r in as_experiments(bench.train, "train")),
             "tests": {k: v.n_samples for k, v in bench.tests.items()},
             "methods": {},
         }
         bench_rows: list[dict[str, Any]] = []
+        bench_timings: dict[str, Any] = {}
         for method in names:
-            if not runs_on(method, name):
-                continue
-            skipped = peer_unavailable(method) if method in PEER_METHODS else None
-            if skipped is not None:  # a peer that is not installed: say so in its rows
-                bench_rows.extend(_row(bench, test, method, note=skipped) for test in bench.tests)
-                bench_details["methods"][method] = {"skipped": skipped}
-                continue
-            logger.info("benchmark %s: %s (%d training samples)", name, method, n_train)
-            try:
-                method_rows, method_details = _run_method(method, bench, quick, seed, sweep)
-            except Exception as exc:  # a failing method must not stop the others
-                if errors == "raise":
-                    raise
-                logger.warning("%s on %s failed: %s", method, name, exc, exc_info=True)
-                note = f"failed: {type(exc).__name__}: {exc}"
-                method_rows = [_row(bench, test, method, note=note) for test in bench.tests]
-                method_details = {"error": f"{type(exc).__name__}: {exc}"}
-            bench_rows.extend(method_rows)
-            bench_details["methods"][method] = method_details
+            if method in skipped.get(name, {}):
+                bench_rows += [r for r in skipped_rows[name] if r["method"] == method]
+                bench_details["methods"][method] = skipped[name][method]
+            elif method in by_method:
+                method_rows, method_details = _plan_rows(by_method[method])
+                bench_rows += method_rows
+                bench_details["methods"][method] = method_details
+                bench_timings[method] = _plan_timings(by_method[method])
+        hidden = [p for p in plans if p.bench is bench and p.hidden]
+        for plan in hidden:
+            bench_timings[f"{plan.method} (for {', '.join(BUILDS_ON)})"] = _plan_timings(plan)
         finished = [r for r in bench_rows if not math.isnan(r["fit_percent"])]
         if PROTOCOLS[name].mean_over_tests and finished:
             summary, margins = _mean_over_tests(bench, finished)
             bench_rows.extend(summary)
             bench_details.update(margins)
         rows.extend(bench_rows)
-        details["benchmarks"][name] = bench_details
-    report = BenchmarkReport(
-        table=pd.DataFrame(rows, columns=list(TABLE_COLUMNS)),
-        published=published_frame(ran),
-        details=details,
-    )
-    return report
+        details[name] = bench_details
+        timings[name] = {
+            "work_s": float(
+                sum(
+                    t["grid_s"]
+                    + t["shared_fits_s"]
+                    + t["selection_s"]
+                    + (0.0 if math.isnan(t["final_fit_s"]) else t["final_fit_s"])
+                    + (0.0 if math.isnan(t["simulate_s"]) else t["simulate_s"])
+                    for t in bench_timings.values()
+                )
+            ),
+            "methods": bench_timings,
+        }
+    return rows, details, timings

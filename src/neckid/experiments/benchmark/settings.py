@@ -3,18 +3,20 @@
 Everything here is a table. A candidate is a ``(settings, estimator)`` pair: a text that names
 its hyper-parameters (it goes into the report) and an unfitted estimator made by the method
 registry, ``neckid.methods()[name].make(lags, quick=..., **params)``. :data:`CANDIDATE_GRIDS`
-maps a registry name to the small function that lists its candidates on one data set; the
-benchmark runs the methods that have one (:data:`BENCHMARK_METHODS`).
+maps a registry name to the small function that lists its candidates on one data set (from a
+:class:`GridInput`); the benchmark runs the methods that have one (:data:`BENCHMARK_METHODS`).
 
 The candidates are ranked on the training record only (:data:`SELECTION_FRACTION`, see
-:mod:`neckid.experiments.benchmark.runner`).
+:mod:`neckid.experiments.benchmark.runner`). Two tables say what a run may share or skip:
+:data:`BUILDS_ON` (a method whose lag grid is cut to the lags another method's selection chose)
+and :func:`shared_fits` (fits several candidates share, done once per run).
 """
 
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
@@ -22,12 +24,13 @@ import numpy as np
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.experiments.benchmark.datasets import SOFTNECK_STAIR_EDGES
-from neckid.metrics import rmse
+from neckid.experiments.benchmark.shared import SharedFits
 from neckid.registry import methods
 from neckid.regressors import Lags
 
 __all__ = [
     "BENCHMARK_METHODS",
+    "BUILDS_ON",
     "CANDIDATE_GRIDS",
     "CROSS_RUN_BENCHMARKS",
     "DEFAULT_METHODS",
@@ -37,6 +40,8 @@ __all__ = [
     "ONLY_ON",
     "OPT_IN_METHODS",
     "PEER_METHODS",
+    "PNLSS_MAX_WORK",
+    "PNLSS_SAMPLES_PER_PARAMETER",
     "POLYNOMIAL_DEGREE",
     "PUBLIC_BENCHMARKS",
     "SCHEDULED_LAGS",
@@ -52,11 +57,16 @@ __all__ = [
     "SM_PARALLEL_POLY_OPTIONS",
     "SM_PARALLEL_POLY_REGRESSORS",
     "SM_PARALLEL_REGRESSORS",
+    "STATE_MODEL_LABELS",
+    "STATE_MODEL_PARAMS",
     "Candidate",
+    "GridInput",
     "arx_error_scale",
     "candidates",
     "lag_grid",
+    "pnlss_order",
     "runs_on",
+    "shared_fits",
 ]
 
 #: A hyper-parameter setting of a method: its description and an unfitted estimator.
@@ -192,18 +202,48 @@ SCHEDULED_LAGS = Lags(outputs=[1], inputs={"motor_displacement": [1]})
 #: The public benchmarks (one training record each).
 PUBLIC_BENCHMARKS = frozenset({"cascaded_tanks", "silverbox", "bouc_wen", "robot_arm"})
 
+#: The soft-neck protocols: the single log and the two cross-run splits.
+SOFTNECK_BENCHMARKS = frozenset({"softneck"}) | CROSS_RUN_BENCHMARKS
+
 #: Methods that run on some data sets only. The polynomial NARX's simulation fit costs 1-3 min on
 #: a large record; on the soft-neck protocols, whose selection refits every candidate per run
 #: left out (30 fits of 15,000 rows on the payload split), that is most of an hour, so it runs
-#: on the public benchmarks only.
+#: on the public benchmarks only. The grey-box neck (tendon slack and hysteresis) is a model of
+#: the soft neck. A user-defined grey box of another plant (e.g. a cascaded-tanks ODE) joins as
+#: one line here with its data sets and one in :data:`CANDIDATE_GRIDS`
+#: (``_state_model_grid("<its registry name>")``).
 ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType(
     {
-        "scheduled": frozenset({"softneck"}) | CROSS_RUN_BENCHMARKS,
+        "scheduled": SOFTNECK_BENCHMARKS,
         "poly": PUBLIC_BENCHMARKS,
         "sm-parallel-poly": PUBLIC_BENCHMARKS,
+        "greybox-neck": SOFTNECK_BENCHMARKS,
         "sysidentpy-frols": PUBLIC_BENCHMARKS,
     }
 )
+
+#: Methods whose lag grid is cut to the lags another method's selection chose on the same
+#: training data (when the grid holds more than one): SM on the parallel polynomial sits on the
+#: polynomial that ``poly``'s own selection picked. Measured on 2026-11-27 with the full grid
+#: (``docs/benchmarks.md``): the full grid chose those lags on all four public data sets.
+BUILDS_ON: Mapping[str, str] = MappingProxyType({"sm-parallel-poly": "poly"})
+
+#: Hyper-parameters of the state models beside the registry's: one candidate each, the order
+#: from the training data (the singular values of the subspace step), not from a lag grid.
+STATE_MODEL_PARAMS: Mapping[str, Mapping[str, Any]] = MappingProxyType(
+    {"ss": MappingProxyType({}), "greybox-neck": MappingProxyType({})}
+)
+
+#: Largest ``samples × outputs × parameters²`` of the polynomial state-space model (the work of
+#: one least-squares step on its free-run Jacobian, which is what its fit time grows with): its
+#: order is the ``ss`` model's, lowered until the model fits under it (:func:`pnlss_order`).
+#: Measured on 2026-11-27 (2-core machine, load 8-10): Bouc-Wen order 3 (0.7e9) 104 s, Silverbox
+#: order 3 (1.2e9) 186 s, the robot arm's ``ss`` order 8 on 512 samples (2.0e9) over 5 min.
+PNLSS_MAX_WORK = 1.0e9
+
+#: Fewest training samples (times outputs) per parameter of the polynomial state-space model: an
+#: order whose model has more parameters than that is lowered too (:func:`pnlss_order`).
+PNLSS_SAMPLES_PER_PARAMETER = 10
 
 
 def lag_grid(benchmark: str, quick: bool = False) -> list[Lags]:
@@ -220,30 +260,95 @@ def runs_on(method: str, benchmark: str) -> bool:
     return method not in ONLY_ON or benchmark in ONLY_ON[method]
 
 
-def arx_error_scale(lags: Lags, train: IOData | Sequence[IOData], free_run: bool = False) -> float:
+def arx_error_scale(
+    lags: Lags,
+    train: IOData | Sequence[IOData],
+    free_run: bool = False,
+    *,
+    shared: SharedFits | None = None,
+) -> float:
     """RMS error of a linear ARX with these lags on the training record (or records, pooled).
 
-    The one-step residual by default; with ``free_run``, the free-run error.
+    The one-step residual by default; with ``free_run``, the free-run error. ``shared`` keeps it
+    for the other grids of a run (:meth:`SharedFits.arx_scale`).
 
     Raises
     ------
     ValueError
         With ``free_run``, when the ARX's free run diverges on the training record.
     """
-    experiments = as_experiments(train, "train")
-    model = methods()["arx"].make(lags).fit(experiments)
-    measured, modelled = [], []
-    for record in experiments:
-        result = model.simulate(record) if free_run else model.predict(record)
-        measured.append(record.y[result.n_initial :])
-        modelled.append(result.y[result.n_initial :])
-    value = float(rmse(np.vstack(measured), np.vstack(modelled))[0])
-    if free_run and not math.isfinite(value):
-        raise ValueError(f"the linear ARX with {lags!r} diverges on the training record")
-    return value
+    return (shared or SharedFits()).arx_scale(lags, train, free_run)
+
+
+def pnlss_order(ss_order: int, n_samples: int, n_inputs: int, n_outputs: int) -> int:
+    """The order of the polynomial state-space model on a training set of this size.
+
+    The ``ss`` model's order (the largest gap of its singular values on the training data),
+    lowered until ``n_samples × n_outputs × n_parameters²`` (the work of one least-squares step
+    on its free-run Jacobian) is at most :data:`PNLSS_MAX_WORK` and the training data give
+    :data:`PNLSS_SAMPLES_PER_PARAMETER` samples per parameter; at least 1.
+
+    Examples
+    --------
+    >>> pnlss_order(6, 40_960, 1, 1), pnlss_order(6, 65_062, 1, 1), pnlss_order(8, 512, 1, 1)
+    (3, 2, 1)
+    """
+    from neckid.models.pnlss.fitting import Layout
+
+    for order in range(max(int(ss_order), 1), 1, -1):
+        layout = Layout(order, n_inputs, n_outputs, POLYNOMIAL_DEGREE, False)
+        size = sum(rows * columns for rows, columns in layout.shapes())
+        rows = n_samples * n_outputs
+        if rows * size**2 <= PNLSS_MAX_WORK and rows >= PNLSS_SAMPLES_PER_PARAMETER * size:
+            return order
+    return 1
 
 
 # ---------------------------------------------------------------------------- candidate grids
+@dataclass(frozen=True)
+class GridInput:
+    """What a candidate grid reads: the data set, its training data and the run's settings.
+
+    Attributes
+    ----------
+    benchmark : str
+        A key of :data:`LAG_GRIDS` or :data:`CROSS_RUN_BENCHMARKS`.
+    train : IOData or sequence of IOData
+        The training record or runs (the Set Membership noise bounds scale with an ARX's error
+        on them).
+    quick : bool
+        One candidate and the registry's smoke-run settings.
+    seed : int
+        ``random_state`` of the neural networks.
+    lags : tuple of Lags, optional
+        The lag sets to try; ``None`` is :func:`lag_grid` (a :data:`BUILDS_ON` method gets the
+        lags its base method chose).
+    shared : SharedFits
+        The run's shared fits (ARX error scales, fitted polynomials and ``ss`` models).
+    """
+
+    benchmark: str
+    train: Training
+    quick: bool = False
+    seed: int = 0
+    lags: tuple[Lags, ...] | None = None
+    shared: SharedFits = field(default_factory=SharedFits)
+
+    def lag_sets(self, quick: bool | None = None) -> list[Lags]:
+        """:attr:`lags`, or :func:`lag_grid` (of a quick run when ``quick``)."""
+        if self.lags is not None:
+            return list(self.lags)
+        return lag_grid(self.benchmark, self.quick if quick is None else quick)
+
+    def state_lags(self) -> Lags | None:
+        """The lags a state model reads (their conditions only): the payload across runs."""
+        return lag_grid(self.benchmark)[0] if self.benchmark in CROSS_RUN_BENCHMARKS else None
+
+    def n_train(self) -> int:
+        """Training samples, over every run."""
+        return sum(r.n_samples for r in as_experiments(self.train, "train"))
+
+
 def _epsilon(factor: float | None, scale: float) -> tuple[float | None, str]:
     """The noise bound ``factor × scale`` and its label (``None`` and ``"knee"`` for the rule)."""
     if factor is None:
@@ -251,31 +356,35 @@ def _epsilon(factor: float | None, scale: float) -> tuple[float | None, str]:
     return factor * scale, f"{factor:g} x {scale:.3g}"
 
 
-def _arx_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
+def _arx_grid(g: GridInput) -> list[Candidate]:
     make = methods()["arx"].make
-    return [(f"lags={lags!r}", make(lags, quick=quick)) for lags in lag_grid(benchmark, quick)]
+    return [(f"lags={lags!r}", make(lags, quick=g.quick)) for lags in g.lag_sets()]
 
 
 def _set_membership_grid(
     name: str, input_weights: tuple[float, ...]
-) -> Callable[[str, Training, bool, int], list[Candidate]]:
+) -> Callable[[GridInput], list[Candidate]]:
     """The grid of ``"sm"`` or ``"sm-linear"``: lags × ε × ``input_weights`` (1 when quick)."""
     method = methods()[name]
 
-    def grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
-        full = SM_EPSILON_FACTORS_LARGE if benchmark in LARGE_RECORDS else SM_EPSILON_FACTORS
-        factors: tuple[float | None, ...] = (None,) if quick else full
-        weights = (1.0,) if quick else input_weights
+    def grid(g: GridInput) -> list[Candidate]:
+        full = SM_EPSILON_FACTORS_LARGE if g.benchmark in LARGE_RECORDS else SM_EPSILON_FACTORS
+        factors: tuple[float | None, ...] = (None,) if g.quick else full
+        weights = (1.0,) if g.quick else input_weights
         out: list[Candidate] = []
-        for lags in lag_grid(benchmark, quick):
-            noise = arx_error_scale(lags, train)
+        for lags in g.lag_sets():
+            noise = g.shared.arx_scale(lags, g.train)
             for factor, weight in itertools.product(factors, weights):
                 epsilon, label = _epsilon(factor, noise)
                 out.append(
                     (
                         f"lags={lags!r}, epsilon={label}, input_weight={weight:g}",
                         method.make(
-                            lags, quick=quick, epsilon=epsilon, input_weight=weight, progress=False
+                            lags,
+                            quick=g.quick,
+                            epsilon=epsilon,
+                            input_weight=weight,
+                            progress=False,
                         ),
                     )
                 )
@@ -318,61 +427,63 @@ def _parallel_candidates(
     return out
 
 
-def _parallel_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
+def _parallel_grid(g: GridInput) -> list[Candidate]:
     make = methods()["sm-parallel"].make
-    regressors = SM_PARALLEL_REGRESSORS[1:2] if quick else SM_PARALLEL_REGRESSORS
+    regressors = SM_PARALLEL_REGRESSORS[1:2] if g.quick else SM_PARALLEL_REGRESSORS
     factors: tuple[float | None, ...] = (
         (None,)
-        if quick
+        if g.quick
         else SM_PARALLEL_EPSILON_FACTORS[1:]
-        if benchmark in LARGE_RECORDS
+        if g.benchmark in LARGE_RECORDS
         else SM_PARALLEL_EPSILON_FACTORS
     )
     out: list[Candidate] = []
-    for lags in lag_grid(benchmark, quick):
+    for lags in g.lag_sets():
         try:
-            scale = arx_error_scale(lags, train, free_run=True)
+            scale = g.shared.arx_scale(lags, g.train, free_run=True)
         except ValueError:
             continue  # an unstable linear model cannot run in parallel
-        out += _parallel_candidates(make, lags, quick, regressors, factors, scale, "")
+        out += _parallel_candidates(make, lags, g.quick, regressors, factors, scale, "")
     return out
 
 
-def _polynomial_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
+def _polynomial(lags: Lags) -> Any:
+    """The polynomial NARX that ``poly`` ranks and ``sm-parallel-poly`` runs in parallel."""
+    return methods()["poly"].make(lags, degree=POLYNOMIAL_DEGREE)
+
+
+def _polynomial_grid(g: GridInput) -> list[Candidate]:
     make = methods()["poly"].make
-    params = {} if quick else {"degree": POLYNOMIAL_DEGREE}
+    params = {} if g.quick else {"degree": POLYNOMIAL_DEGREE}
     out: list[Candidate] = []
-    for lags in lag_grid(benchmark, quick):
-        model = make(lags, quick=quick, **params)
+    for lags in g.lag_sets():
+        model = make(lags, quick=g.quick, **params)
         out.append((f"lags={lags!r}, degree={model.degree}, fit_for={model.fit_for}", model))
     return out
 
 
-def _parallel_polynomial_grid(
-    benchmark: str, train: Training, quick: bool, seed: int
-) -> list[Candidate]:
+def _parallel_polynomial_grid(g: GridInput) -> list[Candidate]:
     """SM on a parallel polynomial NARX: lags × SM regressor × ε (× the polynomial's own error)."""
     method = methods()["sm-parallel-poly"]
-    regressors = SM_PARALLEL_POLY_REGRESSORS[:1] if quick else SM_PARALLEL_POLY_REGRESSORS
+    regressors = SM_PARALLEL_POLY_REGRESSORS[:1] if g.quick else SM_PARALLEL_POLY_REGRESSORS
     out: list[Candidate] = []
     factors: tuple[float | None, ...] = (None,)
-    for lags in lag_grid(benchmark, quick):
-        if quick:
+    for lags in g.lag_sets():
+        if g.quick:
             scale = 0.0
         else:
-            polynomial = methods()["poly"].make(lags, degree=POLYNOMIAL_DEGREE)
             try:
-                polynomial.fit(train)
+                polynomial = g.shared.fitted(_polynomial(lags), g.train)
             except ValueError:
                 continue  # too few rows for the monomials of this regressor
             scale = float(np.sqrt(np.mean(np.square(polynomial.fit_report_["rmse"]))))
             factors = SM_PARALLEL_POLY_EPSILON_FACTORS
-        degree = method.make(lags, quick=quick).parallel_degree  # the registry's (2 when quick)
-        for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if quick else SM_PARALLEL_POLY_ESTIMATES:
+        degree = method.make(lags, quick=g.quick).parallel_degree  # the registry's (2 when quick)
+        for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if g.quick else SM_PARALLEL_POLY_ESTIMATES:
             out += _parallel_candidates(
                 method.make,
                 lags,
-                quick,
+                g.quick,
                 regressors,
                 factors,
                 scale,
@@ -382,42 +493,85 @@ def _parallel_polynomial_grid(
     return out
 
 
-def _neural_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
+def _neural_grid(g: GridInput) -> list[Candidate]:
     make = methods()["nn"].make
-    params = {} if quick else dict(NEURAL_PARAMS)
+    params = {} if g.quick else dict(NEURAL_PARAMS)
     out: list[Candidate] = []
     # Across runs, leave-one-run-out over 6-8 runs would train an ensemble per lags and run left
     # out (most of an hour): one regressor there, fixed in advance (the grid's second, that of
     # docs/nn_seed_spread.py).
-    for lags in lag_grid(benchmark, quick or benchmark in CROSS_RUN_BENCHMARKS):
-        model = make(lags, quick=quick, random_state=seed, **params)
+    for lags in g.lag_sets(g.quick or g.benchmark in CROSS_RUN_BENCHMARKS):
+        model = make(lags, quick=g.quick, random_state=g.seed, **params)
         out.append((f"lags={lags!r}, hidden={tuple(model.hidden_layer_sizes)}", model))
     return out
 
 
-def _scheduled_grid(benchmark: str, train: Training, quick: bool, seed: int) -> list[Candidate]:
-    params = {**SCHEDULED_PARAMS, "window": 50 if quick else SCHEDULED_PARAMS["window"]}
+def _scheduled_grid(g: GridInput) -> list[Candidate]:
+    params = {**SCHEDULED_PARAMS, "window": 50 if g.quick else SCHEDULED_PARAMS["window"]}
     label = (
         f"form={params['form']}, forgetting_factor={params['forgetting_factor']:g},"
         f" skip={params['skip']}, window={params['window']}"
     )
-    return [(label, methods()["scheduled"].make(SCHEDULED_LAGS, quick=quick, **params))]
+    return [(label, methods()["scheduled"].make(SCHEDULED_LAGS, quick=g.quick, **params))]
 
 
-#: Registry name -> ``grid(benchmark, train, quick, seed)`` listing its candidates.
-CANDIDATE_GRIDS: Mapping[str, Callable[[str, Training, bool, int], list[Candidate]]] = (
-    MappingProxyType(
-        {
-            "arx": _arx_grid,
-            "sm": _set_membership_grid("sm", (1.0,)),
-            "sm-linear": _set_membership_grid("sm-linear", SM_INPUT_WEIGHTS),
-            "sm-parallel": _parallel_grid,
-            "sm-parallel-poly": _parallel_polynomial_grid,
-            "poly": _polynomial_grid,
-            "nn": _neural_grid,
-            "scheduled": _scheduled_grid,
-        }
+def _state_label(g: GridInput, text: str) -> str:
+    lags = g.state_lags()
+    return f"{text}, conditions={list(lags.conditions)}" if lags is not None else text
+
+
+#: How the settings column names a state model's one candidate (beside its own parameters).
+STATE_MODEL_LABELS: Mapping[str, str] = MappingProxyType(
+    {"ss": "order from the singular values", "greybox-neck": "tendon slack and hysteresis"}
+)
+
+
+def _state_model_grid(name: str) -> Callable[[GridInput], list[Candidate]]:
+    """One candidate of state model ``name`` (registry settings and :data:`STATE_MODEL_PARAMS`)."""
+
+    def grid(g: GridInput) -> list[Candidate]:
+        params = dict(STATE_MODEL_PARAMS.get(name, {}))
+        model = methods()[name].make(g.state_lags(), quick=g.quick, **params)
+        shown = [STATE_MODEL_LABELS.get(name, name), "registry settings"]
+        shown += [f"{k}={v}" for k, v in sorted(params.items())]
+        return [(_state_label(g, ", ".join(shown)), model)]
+
+    return grid
+
+
+def _ss_for_pnlss(g: GridInput) -> Any:
+    """The ``ss`` model whose order the polynomial state-space model starts from."""
+    return methods()["ss"].make(g.state_lags(), quick=g.quick)
+
+
+def _pnlss_grid(g: GridInput) -> list[Candidate]:
+    """The polynomial state space: one candidate, its order by :func:`pnlss_order`."""
+    method = methods()["pnlss"]
+    ss = g.shared.fitted(_ss_for_pnlss(g), g.train)
+    n_outputs = int(ss.n_outputs_)
+    order = pnlss_order(int(ss.order_), g.n_train(), int(ss.n_inputs_), n_outputs)
+    model = method.make(g.state_lags(), quick=g.quick, order=order)
+    label = (
+        f"order={order} (ss order {ss.order_}), degree={model.degree}, max_iter={model.max_iter}"
     )
+    return [(_state_label(g, label), model)]
+
+
+#: Registry name -> ``grid(GridInput)`` listing its candidates.
+CANDIDATE_GRIDS: Mapping[str, Callable[[GridInput], list[Candidate]]] = MappingProxyType(
+    {
+        "arx": _arx_grid,
+        "ss": _state_model_grid("ss"),
+        "pnlss": _pnlss_grid,
+        "sm": _set_membership_grid("sm", (1.0,)),
+        "sm-linear": _set_membership_grid("sm-linear", SM_INPUT_WEIGHTS),
+        "sm-parallel": _parallel_grid,
+        "sm-parallel-poly": _parallel_polynomial_grid,
+        "poly": _polynomial_grid,
+        "nn": _neural_grid,
+        "scheduled": _scheduled_grid,
+        "greybox-neck": _state_model_grid("greybox-neck"),
+    }
 )
 
 #: The registry methods the benchmark can run, in the registry's order.
@@ -437,6 +591,24 @@ PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols",)
 DEFAULT_METHODS: tuple[str, ...] = tuple(m for m in BENCHMARK_METHODS if m not in OPT_IN_METHODS)
 
 
+def shared_fits(method: str, g: GridInput) -> list[tuple[Any, bool]]:
+    """Fits the grid or the candidates of ``method`` share, to be done once per run before them.
+
+    Returns
+    -------
+    list of (estimator, bool)
+        An unfitted estimator, and whether it is also fitted on every selection fit part (the
+        candidates refit it there) besides the whole training data (which the grid reads):
+        for ``sm-parallel-poly`` the polynomial of every lag set, for ``pnlss`` the ``ss``
+        model whose order it starts from.
+    """
+    if method == "sm-parallel-poly" and not g.quick:
+        return [(_polynomial(lags), True) for lags in g.lag_sets()]
+    if method == "pnlss":
+        return [(_ss_for_pnlss(g), False)]
+    return []
+
+
 def candidates(
     method: str,
     benchmark: str,
@@ -444,6 +616,8 @@ def candidates(
     *,
     quick: bool = False,
     seed: int = 0,
+    lags: Sequence[Lags] | None = None,
+    shared: SharedFits | None = None,
 ) -> list[Candidate]:
     """The hyper-parameter candidates of registry method ``method`` on data set ``benchmark``.
 
@@ -460,6 +634,10 @@ def candidates(
         One candidate and the registry's smoke-run settings.
     seed : int, default 0
         ``random_state`` of the neural networks.
+    lags : sequence of Lags, optional
+        The lag sets to try instead of :func:`lag_grid` (lag-free methods ignore it).
+    shared : SharedFits, optional
+        Fits shared with the other grids of a run; a new store by default.
 
     Returns
     -------
@@ -473,4 +651,12 @@ def candidates(
     """
     if method not in CANDIDATE_GRIDS:
         raise ValueError(f"method must be one of {list(BENCHMARK_METHODS)}; got {method!r}")
-    return CANDIDATE_GRIDS[method](benchmark, train, quick, seed)
+    grid_input = GridInput(
+        benchmark,
+        train,
+        quick=quick,
+        seed=seed,
+        lags=None if lags is None else tuple(lags),
+        shared=shared or SharedFits(),
+    )
+    return CANDIDATE_GRIDS[method](grid_input)
