@@ -370,22 +370,8 @@ def test_the_state_map_steps_as_the_free_run() -> None:
 
 
 def test_the_fit_reports_each_least_squares_run_from_its_starts() -> None:
+    from _progress_recorder import Recorder
     from neckid.progress import reporting
-
-    class Recorder:
-        def __init__(self) -> None:
-            self.started: list[tuple[str, float | None]] = []
-            self.steps = 0.0
-
-        def start(self, label: str, total: float | None) -> Recorder:
-            self.started.append((label, total))
-            return self
-
-        def advance(self, steps: float = 1.0) -> None:
-            self.steps += steps
-
-        def stop(self) -> None:
-            pass
 
     recorder = Recorder()
     with reporting(recorder):

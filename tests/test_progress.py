@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 
+from _progress_recorder import Recorder
 from _synthetic import arx_system
 from neckid import Lags, NeuralNARX
 from neckid.progress import LineReporter, active, counting, reporting, task
@@ -55,22 +56,7 @@ def test_a_short_task_says_nothing() -> None:
 
 
 def test_the_network_reports_each_member_it_trains() -> None:
-    class Counting:
-        def __init__(self) -> None:
-            self.started: list[tuple[str, float | None]] = []
-            self.steps = 0.0
-
-        def start(self, label: str, total: float | None) -> Counting:
-            self.started.append((label, total))
-            return self
-
-        def advance(self, steps: float = 1.0) -> None:
-            self.steps += steps
-
-        def stop(self) -> None:
-            pass
-
-    counting = Counting()
+    counting = Recorder()
     data = arx_system(300, 0)
     model = NeuralNARX(Lags.arx(2, 2, 3), hidden_layer_sizes=(4,), n_networks=3, max_iter=5)
     with reporting(counting), warnings.catch_warnings():
@@ -110,24 +96,6 @@ def test_a_long_set_membership_free_run_reports_its_blocks_and_is_the_same(monke
     assert started == [("Set Membership free run", 1496)] and steps == [400, 400, 400, 296]
     np.testing.assert_array_equal(blocks.y, whole.y)
     np.testing.assert_array_equal(blocks.lower, whole.lower)
-
-
-class Recorder:
-    """A reporter that keeps what it was told."""
-
-    def __init__(self) -> None:
-        self.started: list[tuple[str, float | None]] = []
-        self.steps = 0.0
-
-    def start(self, label: str, total: float | None) -> Recorder:
-        self.started.append((label, total))
-        return self
-
-    def advance(self, steps: float = 1.0) -> None:
-        self.steps += steps
-
-    def stop(self) -> None:
-        pass
 
 
 def test_counting_advances_once_per_call_and_returns_the_value() -> None:
