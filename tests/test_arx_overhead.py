@@ -2,10 +2,25 @@
 
 The single-output free run used to call ``scipy.signal.lfilter`` twice (the FIR of each input,
 then the all-pole filter from ``lfiltic``'s state), and the result's checks each made a pass of
-their own over the samples. Now one compiled pass (``neckid.models.linear._arx_kernels``) runs
-the FIR with ``np.convolve``'s arithmetic, the all-pole filter with ``lfilter``'s, and counts what
-the checks look for. The references below: the previous filter, kept verbatim, and the general
-path every other model takes (``Estimator._result`` making its own passes).
+their own over the samples. Now one compiled pass (``neckid.models.linear._arx_kernels``) sums
+the FIR of each input tap by tap and runs the all-pole filter in ``lfilter``'s direct form II
+transposed, and counts what the checks look for.
+
+Two kinds of reference, two kinds of assertion (issue 39):
+
+* **bit for bit** against references this file computes itself in a fixed order
+  (:func:`reference_fir`, elementwise NumPy operations, each one correctly rounded on every
+  CPU; :func:`reference_all_pole`, a Python loop): the kernels' arithmetic, on any machine;
+* **a bound in units of the last place** against other libraries whose summation order depends
+  on the CPU or on the BLAS: ``np.convolve`` (OpenBLAS's ``ddot`` adds short vectors one by one
+  on some cores and in SIMD blocks on others: AVX-512 from 12 taps) and ``lfilter``. The bound
+  is the textbook one for a sum of ``n`` products in any order (Higham, *Accuracy and Stability
+  of Numerical Algorithms*, 2nd ed., §3.1): ``|error| ≤ γ_n · Σ|products|``,
+  ``γ_n = n·u / (1 − n·u)``, ``u = 2⁻⁵³``, once for each of the two sums compared.
+
+``make test`` runs this file a second time with NumPy's SIMD dispatch narrowed to its baseline
+and OpenBLAS forced to another core (``make pytest-narrow``), so that a CPU-dependent assertion
+fails on any machine rather than only on the one whose CPU differs.
 """
 
 from __future__ import annotations
@@ -28,9 +43,67 @@ from neckid.models.linear.arx import _linear_free_run, linear_free_run
 from neckid.models.results import ModelResult
 from neckid.regressors import ResolvedLags
 
+pytestmark = pytest.mark.cpu_dependent
 
-def previous_free_run(resolved: ResolvedLags, coef, intercept, u, y_initial) -> np.ndarray:
-    """The single-output branch of ``linear_free_run`` before issue 33."""
+UNIT_ROUNDOFF = 2.0**-53
+
+
+def gamma(n: int) -> float:
+    """Higham's γ_n: the relative error bound of a sum of ``n`` products in any order."""
+    return n * UNIT_ROUNDOFF / (1.0 - n * UNIT_ROUNDOFF)
+
+
+def reference_fir(numerator: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``np.convolve(numerator, u)[: len(u)]`` summed tap by tap from the highest lag.
+
+    ``Σ_k u[t − (width − 1) + k] · numerator[width − 1 − k]`` for ``k = 0 … width − 1``, each
+    step an elementwise product and sum (correctly rounded, so the same floats on every CPU),
+    starting from ``+0.0``: the order of :func:`fir_block`.
+    """
+    width = numerator.shape[0]
+    padded = np.r_[np.zeros(width - 1), u]
+    total = np.zeros(u.shape[0])
+    for k in range(width):
+        total = total + padded[k : k + u.shape[0]] * numerator[width - 1 - k]
+    return total
+
+
+def fir_magnitude(numerator: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``Σ|products|`` of each output of :func:`reference_fir` (the scale of its rounding)."""
+    return np.convolve(np.abs(numerator), np.abs(u))[: u.shape[0]]
+
+
+def reference_all_pole(
+    denominator: np.ndarray, x: np.ndarray, state: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``lfilter([1.0], denominator, x, zi=state)`` in SciPy's direct form II transposed.
+
+    Term by term in the order of SciPy's ``_linear_filter`` (and of :func:`all_pole_block`),
+    the products with the padded numerator's zeros included; a Python loop, so a fixed order.
+    """
+    order = denominator.shape[0] - 1
+    z = [float(v) for v in state]
+    d = [float(v) for v in denominator]
+    out = np.empty(x.shape[0])
+    for k, xn in enumerate(x.tolist()):
+        yn = z[0] + 1.0 * xn if order else xn
+        for i in range(order - 1):
+            z[i] = z[i + 1] + xn * 0.0 - yn * d[i + 1]
+        if order:
+            z[order - 1] = xn * 0.0 - yn * d[order]
+        out[k] = yn
+    return out, np.array(z)
+
+
+def previous_free_run(
+    resolved: ResolvedLags, coef, intercept, u, y_initial, fir=reference_fir, all_pole=None
+) -> np.ndarray:
+    """The single-output branch of ``linear_free_run`` before issue 33, FIR and IIR swappable.
+
+    With the defaults the sums are this file's fixed-order references (what the kernels must
+    give bit for bit); with ``fir=np.convolve``-based and ``all_pole=lfilter`` it is the
+    previous code verbatim (what the kernels must give to within rounding).
+    """
     u_arr = np.asarray(u, dtype=np.float64)
     y = np.array(y_initial, dtype=np.float64, order="C", ndmin=2)
     coef_arr = np.asarray(coef, dtype=np.float64).reshape(resolved.n_terms, -1)
@@ -42,7 +115,7 @@ def previous_free_run(resolved: ResolvedLags, coef, intercept, u, y_initial) -> 
         terms = np.flatnonzero((resolved.source == 1) & (resolved.channel == channel))
         numerator = np.zeros(int(resolved.lag[terms].max()) + 1)
         np.add.at(numerator, resolved.lag[terms], coef_arr[terms, 0])
-        forcing += signal.lfilter(numerator, [1.0], u_arr[:, channel])[m:]
+        forcing += fir(numerator, u_arr[:, channel])[m:]
     if outputs.size == 0:
         y[m:, 0] = forcing
         return y
@@ -52,8 +125,19 @@ def previous_free_run(resolved: ResolvedLags, coef, intercept, u, y_initial) -> 
     np.subtract.at(denominator, resolved.lag[outputs], coef_arr[outputs, 0])
     past = y[m - order : m, 0][::-1]
     state = signal.lfiltic([1.0], denominator, past)
-    y[m:, 0] = signal.lfilter([1.0], denominator, forcing, zi=state)[0]
+    if all_pole is None:
+        y[m:, 0] = reference_all_pole(denominator, forcing, state)[0]
+    else:
+        y[m:, 0] = all_pole(denominator, forcing, state)
     return y
+
+
+def scipy_fir(numerator: np.ndarray, u: np.ndarray) -> np.ndarray:
+    return signal.lfilter(numerator, [1.0], u)  # np.convolve inside: a CPU-dependent order
+
+
+def scipy_all_pole(denominator: np.ndarray, x: np.ndarray, state: np.ndarray) -> np.ndarray:
+    return signal.lfilter([1.0], denominator, x, zi=state)[0]
 
 
 def bits(a: np.ndarray) -> np.ndarray:
@@ -71,38 +155,115 @@ def random_filter(
     return resolved, data, coef, rng.normal(size=1), data.y * 10.0 ** rng.uniform(-2, 2)
 
 
-@pytest.mark.parametrize("seed", range(40))
-def test_single_output_free_run_is_bit_for_bit_the_previous_one(seed: int) -> None:
+def longest_fir(resolved: ResolvedLags) -> int:
+    inputs = resolved.source == 1
+    return int(resolved.lag[inputs].max()) + 1 if np.any(inputs) else 0
+
+
+def free_run_bound(resolved: ResolvedLags, coef, intercept, u, y_initial) -> np.ndarray:
+    """What two free runs that sum the same terms in different orders may differ by, per row.
+
+    First order in the rounding: each FIR output may differ by ``2·γ_w · Σ|products|`` (both
+    sums rounded, ``w`` taps), each recursion step adds ``2·γ_(p+2) · (|x| + Σ|d_i||y|)`` (the
+    direct form's ``p + 2`` terms), and the recursion carries both through its impulse
+    response: bounded by the ℓ1 norm of the filter run on the magnitudes.
+    """
+    u_arr = np.asarray(u, dtype=np.float64)
+    coef_arr = np.asarray(coef, dtype=np.float64).reshape(resolved.n_terms, -1)
+    y0 = np.asarray(y_initial, dtype=np.float64).reshape(-1)
+    m = resolved.max_lag
+    local = np.full(u_arr.shape[0] - m, abs(float(np.asarray(intercept).reshape(()))))
+    forcing_error = np.zeros_like(local)
+    for channel in np.unique(resolved.channel[resolved.source == 1]):
+        terms = np.flatnonzero((resolved.source == 1) & (resolved.channel == channel))
+        numerator = np.zeros(int(resolved.lag[terms].max()) + 1)
+        np.add.at(numerator, resolved.lag[terms], coef_arr[terms, 0])
+        magnitude = fir_magnitude(numerator, u_arr[:, channel])[m:]
+        local += magnitude
+        forcing_error += 2.0 * gamma(numerator.shape[0] + 1) * magnitude
+    outputs = np.flatnonzero(resolved.source == 0)
+    order = int(resolved.lag[outputs].max()) if outputs.size else 0
+    poles = np.zeros(order + 1)
+    np.add.at(poles, resolved.lag[outputs], np.abs(coef_arr[outputs, 0]))
+    # |y| run on magnitudes bounds every |y(t)|; the local rounding of each step scales with it
+    magnitude_run = np.empty_like(local)
+    past = list(np.abs(y0[m - order : m][::-1])) if order else []
+    for t in range(local.shape[0]):
+        value = local[t] + sum(poles[i + 1] * past[i] for i in range(order))
+        magnitude_run[t] = value
+        past = [value, *past[:-1]] if order else []
+    step_error = forcing_error + 2.0 * gamma(order + 2) * 2.0 * magnitude_run
+    propagated = np.empty_like(step_error)
+    past = [0.0] * order
+    for t in range(step_error.shape[0]):
+        value = step_error[t] + sum(poles[i + 1] * past[i] for i in range(order))
+        propagated[t] = value
+        past = [value, *past[:-1]] if order else []
+    bound = np.zeros(u_arr.shape[0])
+    bound[m:] = propagated
+    return bound
+
+
+def assert_within(new: np.ndarray, other: np.ndarray, bound: np.ndarray) -> None:
+    new, other = np.asarray(new).reshape(-1), np.asarray(other).reshape(-1)
+    finite = np.isfinite(other)
+    assert np.array_equal(np.isfinite(new), finite)
+    excess = np.abs(new[finite] - other[finite]) - bound.reshape(-1)[finite]
+    assert np.all(excess <= 0.0), f"beyond the rounding bound by {excess.max():.3g}"
+
+
+def random_case(seed: int) -> tuple[ResolvedLags, IOData, np.ndarray, np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     n_inputs = int(rng.integers(1, 4))
     outputs = sorted(set(rng.integers(1, 7, size=int(rng.integers(0, 5))).tolist()))
     inputs = sorted(set(rng.integers(0, 6, size=int(rng.integers(1, 5))).tolist()))
     n = int(rng.integers(20, 2 * BLOCK + 400))
-    resolved, data, coef, intercept, y0 = random_filter(
-        rng, Lags(outputs=outputs, inputs=inputs), n, n_inputs
-    )
+    return random_filter(rng, Lags(outputs=outputs, inputs=inputs), n, n_inputs)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_single_output_free_run_is_bit_for_bit_the_fixed_order_reference(seed: int) -> None:
+    resolved, data, coef, intercept, y0 = random_case(seed)
     with np.errstate(over="ignore", invalid="ignore"):
         new = linear_free_run(resolved, coef, intercept, data.u, y0)
         old = previous_free_run(resolved, coef, intercept, data.u, y0)
     np.testing.assert_array_equal(bits(new), bits(old))
 
 
+@pytest.mark.parametrize("seed", range(40))
+def test_single_output_free_run_is_the_previous_lfilter_one_to_rounding(seed: int) -> None:
+    resolved, data, coef, intercept, y0 = random_case(seed)
+    with np.errstate(over="ignore", invalid="ignore"):
+        new = linear_free_run(resolved, coef, intercept, data.u, y0)
+        old = previous_free_run(resolved, coef, intercept, data.u, y0, scipy_fir, scipy_all_pole)
+        bound = free_run_bound(resolved, coef, intercept, data.u, y0)
+    assert_within(new, old, bound)
+
+
 @pytest.mark.parametrize("longest", [MAX_FIR_TAPS - 2, MAX_FIR_TAPS - 1, MAX_FIR_TAPS, 16, 23])
-def test_long_input_filters_are_bit_for_bit_the_previous_one(longest: int) -> None:
-    """Up to MAX_FIR_TAPS taps the compiled sum, from 16 on ``np.convolve``: the same floats."""
+def test_long_input_filters(longest: int) -> None:
+    """Up to MAX_FIR_TAPS taps the compiled sum (bit for bit the fixed-order reference), from
+    16 on ``np.convolve`` itself (bit for bit the previous code on the same machine); both
+    within the rounding bound of the previous code."""
     rng = np.random.default_rng(longest)
     lags = Lags(outputs=[1, 2], inputs={"u1": [0, 3, longest - 1], "u2": [1, 2]})
     resolved, data, coef, intercept, y0 = random_filter(rng, lags, 2 * BLOCK + 77, 2)
     new = linear_free_run(resolved, coef, intercept, data.u, y0)
-    np.testing.assert_array_equal(
-        bits(new), bits(previous_free_run(resolved, coef, intercept, data.u, y0))
-    )
+    assert longest_fir(resolved) == longest
+    if longest <= MAX_FIR_TAPS:
+        same = previous_free_run(resolved, coef, intercept, data.u, y0)
+    else:
+        same = previous_free_run(resolved, coef, intercept, data.u, y0, scipy_fir)
+    np.testing.assert_array_equal(bits(new), bits(same))
+    previous = previous_free_run(resolved, coef, intercept, data.u, y0, scipy_fir, scipy_all_pole)
+    assert_within(new, previous, free_run_bound(resolved, coef, intercept, data.u, y0))
 
 
 @pytest.mark.parametrize("width", range(1, MAX_FIR_TAPS + 1))
 @pytest.mark.parametrize("n_inputs", [1, 3])
-def test_fir_block_is_np_convolve_bit_for_bit(width: int, n_inputs: int) -> None:
-    """One input and three (taken channel by channel), rows padded at the high lags."""
+def test_fir_block_sums_in_a_fixed_order(width: int, n_inputs: int) -> None:
+    """One input and three (taken channel by channel), rows padded at the high lags: bit for
+    bit the fixed-order reference, and ``np.convolve`` to within 2·γ_w · Σ|products|."""
     rng = np.random.default_rng(width)
     u = rng.normal(size=(600, n_inputs)) * 10.0 ** rng.uniform(-3, 3, size=(600, n_inputs))
     numerator = np.zeros((n_inputs, MAX_FIR_TAPS))
@@ -111,28 +272,41 @@ def test_fir_block_is_np_convolve_bit_for_bit(width: int, n_inputs: int) -> None
     start, begin = MAX_FIR_TAPS, 100
     x, partial = np.empty(300), np.empty(BLOCK)
     fir_block(channels_of(u), channel, numerator, np.empty(0), 0.25, start, begin, x, partial)
-    expected = np.full(300, 0.25)
+    fixed = np.full(300, 0.25)
+    convolved = np.full(300, 0.25)
+    bound = np.zeros(300)
     for c in range(n_inputs):
-        expected += np.convolve(numerator[c, :width], u[:, c])[begin : begin + 300]
-    np.testing.assert_array_equal(bits(x), bits(expected))
+        window = slice(begin, begin + 300)
+        fixed = fixed + reference_fir(numerator[c], u[:, c])[window]
+        convolved = convolved + np.convolve(numerator[c, :width], u[:, c])[window]
+        bound += 2.0 * gamma(MAX_FIR_TAPS + 1) * fir_magnitude(numerator[c], u[:, c])[window]
+    bound += 2.0 * gamma(n_inputs + 1) * (0.25 + bound / (2.0 * gamma(MAX_FIR_TAPS + 1)))
+    np.testing.assert_array_equal(bits(x), bits(fixed))
+    assert_within(x, convolved, bound)
 
 
-@pytest.mark.parametrize("order", [1, 2, 3, 4, 5, 8])
-def test_all_pole_block_is_lfilter_bit_for_bit(order: int) -> None:
-    """Block by block, the state carried over, against one ``lfilter`` call."""
+@pytest.mark.parametrize("order", [0, 1, 2, 3, 4, 5, 8])
+def test_all_pole_block_is_the_fixed_order_direct_form(order: int) -> None:
+    """Block by block, the state carried over: bit for bit the Python direct form, and one
+    ``lfilter`` call to within the recursion's rounding bound."""
     rng = np.random.default_rng(order)
-    denominator = np.r_[1.0, 0.4 * rng.normal(size=order) / order]
+    denominator = np.r_[1.0, 0.4 * rng.normal(size=order) / max(order, 1)]
     x = rng.normal(size=5000) * 10.0 ** rng.uniform(-3, 3, size=5000)
-    state = signal.lfiltic([1.0], denominator, rng.normal(size=order))
-    expected = signal.lfilter([1.0], denominator, x, zi=state)[0]
+    state = signal.lfiltic([1.0], denominator, rng.normal(size=order)) if order else np.empty(0)
+    expected, expected_state = reference_all_pole(denominator, x, state)
     out = np.empty_like(x)
     moving = state.copy()
     for begin, stop in ((0, 1), (1, 8), (8, 8 + BLOCK), (8 + BLOCK, 5000)):
         all_pole_block(denominator, x[begin:stop], moving, out, begin)
     np.testing.assert_array_equal(bits(out), bits(expected))
-    np.testing.assert_array_equal(
-        bits(moving), bits(signal.lfilter([1.0], denominator, x, zi=state)[1])
-    )
+    np.testing.assert_array_equal(bits(moving), bits(expected_state))
+    if order:
+        # the recursion on magnitudes bounds |y|; its impulse response's ℓ1 norm carries the
+        # local rounding 2·γ_(p+2)·(|x| + Σ|d||y|) of each step
+        magnitude = signal.lfilter([1.0], np.r_[1.0, -np.abs(denominator[1:])], np.abs(x))
+        local = 2.0 * gamma(order + 2) * (np.abs(x) + 2.0 * magnitude + np.abs(state).sum())
+        bound = signal.lfilter([1.0], np.r_[1.0, -np.abs(denominator[1:])], local)
+        assert_within(out, signal.lfilter([1.0], denominator, x, zi=state)[0], bound)
 
 
 class GeneralPathARX(LinearARX):

@@ -1,7 +1,7 @@
 """The compiled single-output free run of :mod:`neckid.models.linear.arx`, checks included.
 
 One pass over the samples, a block of :data:`~neckid.models._domain_kernels.BLOCK` rows at a
-time: the FIR part of each input (the arithmetic of ``np.convolve``), the all-pole part
+time: the FIR part of each input (summed tap by tap, a fixed order), the all-pole part
 (``scipy.signal.lfilter``'s direct form II transposed), and, while the block is in the cache,
 what every free run checks (the time stamps of the result, the channels and regressor terms
 outside their training ranges, the first non-finite output, the first output outside the
@@ -20,10 +20,11 @@ from neckid.models._domain_kernels import BLOCK, box_block, count_outside
 
 __all__ = ["MAX_FIR_TAPS", "all_pole_block", "checked_free_run", "fir_block"]
 
-#: Most taps of one input's FIR filter the compiled run sums itself. ``np.convolve`` takes each
-#: output as a dot product (OpenBLAS's ``ddot``), which adds fewer than 16 products one by one,
-#: in the order :func:`fir_block` does, and 16 or more in SIMD blocks, in another order: with
-#: more taps the caller convolves (the same floats as before either way; tested bit for bit).
+#: Most taps of one input's FIR filter the compiled run sums itself, in a fixed order (the same
+#: floats on every CPU). ``np.convolve`` takes each output as a dot product (OpenBLAS's
+#: ``ddot``), whose order depends on the core: one by one for short vectors on some, SIMD
+#: blocks from 12 products on AVX-512. The two agree to rounding (tested with the bound in
+#: ``tests/test_arx_overhead.py``); with more taps the caller convolves.
 MAX_FIR_TAPS = 15
 
 
@@ -38,13 +39,14 @@ def fir_block(
     begin: int,
     x: FloatArray,
     partial: FloatArray,
-) -> None:  # pragma: no cover - compiled; tested bit for bit against lfilter and np.convolve
+) -> None:  # pragma: no cover - compiled; tested against a fixed-order reference and np.convolve
     """``x[k]`` for ``t = begin + k``: ``forcing[t − start]`` (or ``intercept``) plus each FIR.
 
     Input ``i`` adds ``Σ_k inputs[channel_i, t − width + 1 + k] · numerator[i, width − 1 − k]``,
-    summed in ``partial`` from ``k = 0`` up: what ``np.convolve(numerator[i], u[:, channel_i])[t]``
-    gives for fewer than 16 taps (rows padded with zeros at the high lags give the same floats:
-    the sum starts at ``+0.0`` and stays there until the first real tap).
+    summed in ``partial`` from ``k = 0`` up, a fixed order: ``np.convolve(numerator[i],
+    u[:, channel_i])[t]`` to rounding (bit for bit where its ``ddot`` adds one by one). Rows
+    padded with zeros at the high lags give the same floats: the sum starts at ``+0.0`` and
+    stays there until the first real tap.
     """
     count, width = x.shape[0], numerator.shape[1]
     for j in range(count):  # loops rather than slice assignments: quicker to compile

@@ -1,8 +1,8 @@
 """LinearARX: the batch least-squares ARX baseline over any :class:`~neckid.Lags` regressor.
 
 Its free run (:func:`linear_free_run`) is a linear filter, not a per-sample Python loop: for one
-output the FIR part of each input (``np.convolve``'s arithmetic) and the all-pole part
-(``lfilter``'s) in one compiled pass, :mod:`neckid.models.linear._arx_kernels`, which in
+output the FIR part of each input (summed tap by tap in a fixed order) and the all-pole part
+(``lfilter``'s direct form II transposed) in one compiled pass, :mod:`neckid.models.linear._arx_kernels`, which in
 ``LinearARX.simulate`` also counts what every free run checks (channels and regressor terms
 outside their training ranges, non-finite outputs, the divergence envelope); a small compiled
 loop (:func:`_linear_free_run_kernel`) when several outputs feed back into each other. The
@@ -112,10 +112,13 @@ def linear_free_run(
 
     With one output the input part ``x(t) = c + Σ_l B_l u(t − l)`` does not feed back: it is a
     FIR filter per input, and ``y`` is the IIR filter ``1 / (1 − Σ_l a_l z^{-l})`` applied to
-    ``x``, both as :func:`scipy.signal.lfilter` runs them (the FIR as ``np.convolve`` sums it,
-    the IIR in direct form II transposed), here in one compiled pass over the samples: the same
-    floats without its overhead (``np.convolve`` itself for an input with more than
-    ``MAX_FIR_TAPS`` taps, where its sum takes another order). The IIR filter
+    ``x``, as :func:`scipy.signal.lfilter` runs them (the IIR in direct form II transposed),
+    here in one compiled pass over the samples without its overhead. The FIR is summed tap by
+    tap in a fixed order, the same floats on every CPU; ``np.convolve`` (inside ``lfilter``)
+    sums in an order that depends on the CPU's SIMD and the BLAS core, so the two agree to
+    rounding (``2·γ_w·Σ|products|`` for ``w`` taps), and bit for bit only where that order
+    happens to be the same (``np.convolve`` itself for an input with more than
+    ``MAX_FIR_TAPS`` taps). The IIR filter
     starts from the state that :func:`scipy.signal.lfiltic` builds from the last ``L`` initial
     outputs, so that its first output is ``x(m) + Σ_l a_l y(m − l)`` exactly as in the loop
     ([1]_, sections 6.5 and 6.6). With several outputs the ``A_l`` couple them and the whole
