@@ -29,7 +29,7 @@ import pandas as pd
 
 from neckid import IOData, LinearARX, SetMembership
 from neckid.models.neural.narx import NeuralNARX
-from neckid.selection import LagSelection, lag_grid, select_lags
+from neckid.selection.lags import LagSelection, lag_grid, select_lags
 
 
 def make_data(n: int, seed: int = 0) -> IOData:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 
 class Recorder:
-    """Implements ``neckid.progress.Reporter`` and its handle: ``started`` and ``steps``."""
+    """Implements ``neckid.utils.progress.Reporter`` and its handle: ``started`` and ``steps``."""
 
     def __init__(self) -> None:
         self.started: list[tuple[str, float | None]] = []

@@ -28,7 +28,7 @@ from neckid.experiments.benchmark import (
     softneck_protocol,
 )
 from neckid.registry import DEPRECATED_NAMES
-from neckid.selection import free_run, score_candidates, select_lags
+from neckid.selection.lags import free_run, score_candidates, select_lags
 
 #: The shared data folder, beside the repository (``../shared/data`` from its root).
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"

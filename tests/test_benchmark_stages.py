@@ -2,7 +2,7 @@
 
 Every test writes its own small data (a cascaded-tanks file, a soft-neck log) and compares the
 staged run with a plain reference: each method's candidates scored by
-:func:`neckid.selection.score_candidates`, the best refitted and run, one method at a time.
+:func:`neckid.selection.lags.score_candidates`, the best refitted and run, one method at a time.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from neckid.experiments.benchmark.stages import final_unit, fit_unit, score_unit
 from neckid.models.cache import ResultCache, use_caches
 from neckid.models.pnlss.fitting import Layout
 from neckid.models.polynomial.narx import PolynomialNARX
-from neckid.selection import free_run, score_candidates
+from neckid.selection.lags import free_run, score_candidates
 
 #: Wall-time columns: the only ones a run on other workers may change.
 WALL_TIMES = ["train_time_s", "simulate_time_s"]

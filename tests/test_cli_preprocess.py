@@ -242,7 +242,7 @@ def test_tilt_combines_with_map(tmp_path: Path) -> None:
 def test_an_old_tilt_model_still_validates_with_tilt_and_map(tmp_path: Path) -> None:
     """A model without stored steps (older files): --tilt --map reads the renamed columns."""
     from neckid import Lags, LinearARX
-    from neckid.workflow import read_log
+    from neckid.cli.workflow import read_log
 
     _sensor_csv(tmp_path / "train.csv", seed=1)
     maps = {"inclination_sensor": "inclination", "orientation_sensor": "orientation"}
@@ -307,7 +307,7 @@ def test_the_cli_alone_reproduces_the_benchmark_single_log_arx_figures(tmp_path:
 
 
 def test_read_log_maps_before_the_pipeline_and_keeps_conditions(tmp_path: Path) -> None:
-    from neckid.workflow import read_log
+    from neckid.cli.workflow import read_log
 
     IOData(
         np.arange(5.0) + 2, np.arange(5.0), ts=0.1, input_names=["pos"], output_names=["incl"]

@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 from _synthetic import arx_system
 from neckid import IOData, load_model
 from neckid.cli import app
-from neckid.workflow import format_lags, parse_order_grid, parse_orders
+from neckid.cli.workflow import format_lags, parse_order_grid, parse_orders
 
 runner = CliRunner()
 

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 import neckid
 from neckid import IOData, Lags, LinearARX
 from neckid.cli import app
-from neckid.comparison import compare, select_safely, stretched, time_blocks
+from neckid.selection.comparison import compare, select_safely, stretched, time_blocks
 
 
 def _run(seed: int, n: int = 900) -> IOData:
@@ -140,7 +140,7 @@ def test_the_stress_check_reaches_as_far_as_the_test_inputs() -> None:
     train, test = _run(1), _run(3)
     wide = test.replace(u=3.0 * test.u)  # the test inputs go well beyond the training range
     result = compare([train], [wide], methods=["arx"], lags=Lags.arx(1, 1))
-    reach = neckid.comparison.input_reach([train], [wide])
+    reach = neckid.selection.comparison.input_reach([train], [wide])
     assert reach > 1.0
     assert any(f"stretched {reach:.0%}" in r for r in result.reasons)
     two = [Lags.arx(1, 1), Lags.arx(2, 2)]
@@ -153,7 +153,7 @@ def test_the_stress_check_reaches_as_far_as_the_test_inputs() -> None:
 
 
 def test_a_periodic_record_is_averaged_and_folded_within_one_period() -> None:
-    from neckid.folds import fold_records, input_period
+    from neckid.data.folds import fold_records, input_period
 
     one = _run(5, 300)
     u = np.tile(one.u[:, 0], 4)

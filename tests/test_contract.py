@@ -111,7 +111,7 @@ def test_a_bad_hyper_parameter_is_refused_at_fit_naming_it(name: str) -> None:
     cls = neckid.methods()[name].estimator_class()
     model = neckid.methods()[name].make(LAGS, quick=True)
     # The first declared numeric parameter with an interval, set below its range.
-    from neckid.validation import Interval
+    from neckid.utils.checks import Interval
 
     numeric = [
         (key, c)

@@ -21,11 +21,11 @@ from typer.testing import CliRunner
 
 from _synthetic import arx_system
 from neckid import LinearARX
-from neckid._parallel import check_backend, run_jobs
 from neckid.cli import app
 from neckid.experiments.benchmark import run_benchmark
 from neckid.models.neural.narx import NeuralNARX
-from neckid.selection import lag_grid, score_candidates, select_lags
+from neckid.selection.lags import lag_grid, score_candidates, select_lags
+from neckid.utils.parallel import check_backend, run_jobs
 
 SKIP_REASON = "the Dask tests need the distributed package: pip install neckid[dask]"
 

@@ -8,7 +8,7 @@ import pytest
 from scipy.io import savemat
 
 from neckid.data.iodata import IOData, as_experiments
-from neckid.validation import check_uniform_time
+from neckid.utils.checks import check_uniform_time
 
 
 @pytest.fixture

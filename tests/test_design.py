@@ -37,7 +37,7 @@ from neckid.design import (
     tustin_integrator,
 )
 from neckid.design.loop_shaping import loop_margins, phase_slope
-from neckid.interop import to_iosystem
+from neckid.export.control import to_iosystem
 from neckid.loops.controllers import LabFractionalController, LabPI, grunwald_letnikov_weights
 from neckid.loops.controllers.tuner import iso_damping_tuning
 from neckid.plant import SoftNeck, closed_loop

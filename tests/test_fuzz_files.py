@@ -750,17 +750,17 @@ def test_mat_variables_larger_than_memory_are_refused_before_reading(
     """Their shapes come from the variables' headers (``whosmat``): nothing is read first."""
     from scipy.io import savemat
 
-    import neckid._memory
+    import neckid.utils.memory
     from neckid.data import readers
 
     path = folder / "large.mat"
     savemat(path, {"cmd": np.arange(400.0), "incl": np.arange(400.0), "other": np.ones(10**5)})
-    monkeypatch.setattr(neckid._memory, "available_bytes", lambda: 10_000)
+    monkeypatch.setattr(neckid.utils.memory, "available_bytes", lambda: 10_000)
     with pytest.raises(ValueError, match=r"^large\.mat: reading the variables \['cmd', 'incl'\]"
                        r" \(800 values\) needs about 6\.2 KB of memory, and this machine has 9\.8 KB"
                        " available"):  # fmt: skip
         readers._mat_variables_here(path, ["cmd", "incl"])
-    monkeypatch.setattr(neckid._memory, "available_bytes", lambda: 20_000)
+    monkeypatch.setattr(neckid.utils.memory, "available_bytes", lambda: 20_000)
     variables = readers._mat_variables_here(path, ["cmd", "incl"])  # 'other' is not read
     assert isinstance(variables["other"], readers._Unreadable) and variables["cmd"].size == 400
 
@@ -794,12 +794,12 @@ def test_parquet_column_names_repeated_are_refused_by_name(folder: Path) -> None
 def test_parquet_rows_beyond_memory_are_refused_before_reading(
     folder: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import neckid._memory
+    import neckid.utils.memory
 
     path = folder / "rows.parquet"
     neckid.IOData(np.ones(1000), np.arange(1000.0), ts=0.1, input_names=["cmd"],
                   output_names=["incl"]).to_parquet(path)  # fmt: skip
-    monkeypatch.setattr(neckid._memory, "available_bytes", lambda: 100_000)
+    monkeypatch.setattr(neckid.utils.memory, "available_bytes", lambda: 100_000)
     with pytest.raises(ValueError, match=r"^rows\.parquet: reading 3 column\(s\) of 1000 rows"
                        r" needs about 70\.3 KB of memory, and this machine has 97\.7 KB available"):  # fmt: skip
         neckid.IOData.from_parquet(path, ["cmd"], ["incl"])

@@ -371,7 +371,7 @@ def test_the_state_map_steps_as_the_free_run() -> None:
 
 def test_the_fit_reports_each_least_squares_run_from_its_starts() -> None:
     from _progress_recorder import Recorder
-    from neckid.progress import reporting
+    from neckid.utils.progress import reporting
 
     recorder = Recorder()
     with reporting(recorder):

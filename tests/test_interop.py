@@ -1,7 +1,7 @@
 """python-control interop: transfer functions of the linear models, I/O systems of every model.
 
-Two code paths must agree: python-control simulating what :func:`neckid.interop.to_control` and
-:func:`neckid.interop.to_iosystem` export, and neckid's own ``simulate`` / ``closed_loop``.
+Two code paths must agree: python-control simulating what :func:`neckid.export.control.to_control` and
+:func:`neckid.export.control.to_iosystem` export, and neckid's own ``simulate`` / ``closed_loop``.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import pytest
 
 import neckid
 from neckid import GainScheduledModel, IOData, Lags, LinearARX, NotFittedError, RecursiveARX
-from neckid.interop import initial_state, output_offset, to_control, to_iosystem
+from neckid.export.control import initial_state, output_offset, to_control, to_iosystem
 from neckid.loops.model_in_loop import VelocityDrive
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.signals import multisine, sine

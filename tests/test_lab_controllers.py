@@ -170,7 +170,7 @@ def test_a_failed_read_holds_the_command_and_leaves_the_state() -> None:
 
 def test_the_controllers_run_in_closed_loop_and_export_to_python_control() -> None:
     control = pytest.importorskip("control")
-    from neckid.interop import to_iosystem
+    from neckid.export.control import to_iosystem
     from neckid.plant import SoftNeck, closed_loop
 
     ref = np.full(200, 10.0)

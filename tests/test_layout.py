@@ -49,33 +49,28 @@ FORBIDDEN = {
     "neckid.design": ("neckid.experiments", "neckid.report", "neckid.cli"),
     "neckid.report": ("neckid.experiments", "neckid.cli"),
     "neckid.experiments": ("neckid.cli",),
-}
-
-#: Aliases of the old module paths (one release): they import from the new homes, nothing
-#: imports them.
-DEPRECATED_ALIASES = {
-    "neckid.conditions",
-    "neckid.data_files",
-    "neckid.data_rosbag",
-    "neckid.experiments.adaptive",
-    "neckid.experiments.model_in_loop",
-    "neckid.experiments.operating_points",
-    "neckid.models.arx",
-    "neckid.models.ls_statistics",
-    "neckid.models.rls",
-    "neckid.models.rls_kernels",
-    "neckid.models.scheduled_points",
-    "neckid.models.scheduled_simulator",
-    "neckid.models.sm_metric",
-    "neckid.models.sm_multistep",
-    "neckid.models.sm_parallel",
-    "neckid.models.sm_prior",
-    "neckid.models.sm_training",
-    "neckid.models.sm_update",
+    "neckid.selection": (
+        "neckid.loops",
+        "neckid.design",
+        "neckid.experiments",
+        "neckid.report",
+        "neckid.cli",
+    ),
+    "neckid.export": (
+        "neckid.loops",
+        "neckid.design",
+        "neckid.experiments",
+        "neckid.report",
+        "neckid.cli",
+    ),
 }
 
 #: The model families: each a subpackage of neckid.models with its private names.
-FAMILIES = ("linear", "neural", "polynomial", "scheduled", "set_membership")
+FAMILIES = ("greybox", "linear", "neural", "pnlss", "polynomial", "scheduled", "set_membership")
+
+#: The only modules directly under src/neckid/: the vocabulary a user imports (issue 41).
+TOP_LEVEL = {"__init__", "_version", "metrics", "registry", "regressors", "systems"}
+MAX_TOP_LEVEL = 7
 
 
 def _module_name(path: Path) -> str:
@@ -220,11 +215,11 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 def test_the_import_walker_sees_lazy_and_type_only_imports() -> None:
     graph = _graph()
     # workflow imports the registry inside a function only.
-    assert "neckid.registry" in graph["neckid.workflow"]
+    assert "neckid.registry" in graph["neckid.cli.workflow"]
     # the sidecar reader imports IOData under TYPE_CHECKING only.
     assert "neckid.data.iodata" in graph["neckid.data.sidecar"]
     # importing a family's module runs the family's __init__ (from outside the family).
-    assert "neckid.models.scheduled" in graph["neckid.interop"]
+    assert "neckid.models.scheduled" in graph["neckid.export.control"]
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 
@@ -366,18 +361,40 @@ def test_private_names_stay_in_their_family() -> None:
     )
 
 
-def test_every_family_is_a_subpackage_and_the_old_paths_are_only_aliases() -> None:
+def test_every_family_is_a_subpackage() -> None:
     models = PACKAGE / "models"
     for family in FAMILIES:
         assert (models / family / "__init__.py").exists(), family
+    found = {p.name for p in models.iterdir() if (p / "__init__.py").exists()}
+    assert found == set(FAMILIES), found
+
+
+def test_the_top_level_holds_vocabulary_only() -> None:
+    """At most ``MAX_TOP_LEVEL`` modules directly under ``src/neckid/`` (the rest in packages)."""
+    modules = {p.stem for p in PACKAGE.glob("*.py")}
+    assert len(modules) <= MAX_TOP_LEVEL
+    assert modules == TOP_LEVEL
+
+
+def test_utils_imports_nothing_of_neckid() -> None:
     graph = _graph()
-    users = {
-        m: sorted(a for a in targets if a in DEPRECATED_ALIASES) for m, targets in graph.items()
+    offences = {
+        m: sorted(t for t in targets if not t.startswith("neckid.utils"))
+        for m, targets in graph.items()
+        if m.startswith("neckid.utils")
     }
-    assert {m: a for m, a in users.items() if a and m not in DEPRECATED_ALIASES} == {}
-    for alias in DEPRECATED_ALIASES:
-        path = PACKAGE.parent / Path(*alias.split("."))
-        assert "DeprecationWarning" in path.with_suffix(".py").read_text(encoding="utf-8"), alias
+    assert {m: t for m, t in offences.items() if t} == {}
+
+
+def test_no_alias_modules() -> None:
+    """0.1.0 was never released: no module re-exports another one's names under an old path."""
+    aliases = [
+        _module_name(p)
+        for p in PACKAGE.rglob("*.py")
+        if "DeprecationWarning" in p.read_text(encoding="utf-8")
+        and "moved to" in p.read_text(encoding="utf-8").lower()
+    ]
+    assert aliases == []
 
 
 def test_array_aliases_are_defined_once() -> None:
@@ -389,7 +406,7 @@ def test_array_aliases_are_defined_once() -> None:
         for target in (node.targets if isinstance(node, ast.Assign) else [node.target])
         if isinstance(target, ast.Name) and target.id in {"FloatArray", "IntArray", "BoolArray"}
     ]
-    assert sorted(set(defined)) == ["neckid._typing"]
+    assert sorted(set(defined)) == ["neckid.utils.types"]
 
 
 def test_formatting_exceptions_are_rare() -> None:

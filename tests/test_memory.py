@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import neckid
-import neckid._memory
+import neckid.utils.memory
 from _synthetic import arx_system
 from neckid import Lags, LinearARX, NeuralNARX
 
@@ -14,7 +14,7 @@ from neckid import Lags, LinearARX, NeuralNARX
 @pytest.fixture
 def small_machine(monkeypatch: pytest.MonkeyPatch) -> None:
     """A machine with 2 MB available."""
-    monkeypatch.setattr(neckid._memory, "available_bytes", lambda: 2 * 1024**2)
+    monkeypatch.setattr(neckid.utils.memory, "available_bytes", lambda: 2 * 1024**2)
 
 
 def test_a_regressor_too_large_for_the_machine_is_refused(small_machine: None) -> None:
@@ -36,10 +36,10 @@ def test_a_network_too_large_for_the_machine_is_refused(small_machine: None) -> 
 
 
 def test_the_available_memory_is_read() -> None:
-    available = neckid._memory.available_bytes()
+    available = neckid.utils.memory.available_bytes()
     assert available is None or available > 0
-    assert neckid._memory.describe_bytes(512) == "512 B"
-    assert np.isclose(float(neckid._memory.describe_bytes(1.5 * 1024**2).split()[0]), 1.5)
+    assert neckid.utils.memory.describe_bytes(512) == "512 B"
+    assert np.isclose(float(neckid.utils.memory.describe_bytes(1.5 * 1024**2).split()[0]), 1.5)
 
 
 def test_set_membership_refuses_more_terms_than_rows() -> None:

@@ -196,9 +196,9 @@ def test_a_zip_bomb_is_refused_before_it_inflates(files: dict[str, Path], tmp_pa
 def test_arrays_larger_than_the_memory_available_are_refused(
     files: dict[str, Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import neckid._memory
+    import neckid.utils.memory
 
-    monkeypatch.setattr(neckid._memory, "available_bytes", lambda: 2000)
+    monkeypatch.setattr(neckid.utils.memory, "available_bytes", lambda: 2000)
     _refused(
         files["sm"],
         r": reading its arrays \(entry 'x_train' alone .*\) needs about .* of memory, and this"

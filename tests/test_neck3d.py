@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from neckid.cli import app
+from neckid.data.tilt import from_tilt
 from neckid.experiments.neck3d import (
     METHODS_3D,
     TESTS_3D,
@@ -18,7 +19,6 @@ from neckid.experiments.neck3d import (
     orientation_error,
     run_demo3d,
 )
-from neckid.tilt import from_tilt
 
 
 def test_the_excitation_keeps_the_pretension_and_bends_every_way() -> None:

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 import neckid
-from neckid._numba_setup import choose_cache_dir
+from neckid.utils.numba_cache import choose_cache_dir
 
 SOURCE = Path(neckid.__file__).resolve().parent
 

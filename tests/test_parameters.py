@@ -1,6 +1,6 @@
 """Each hyper-parameter is declared in ``_parameter_constraints`` and taken by ``__init__`` alike.
 
-The constraints are what ``fit`` checks (:func:`neckid.validation.validate_parameters`) and what
+The constraints are what ``fit`` checks (:func:`neckid.utils.checks.validate_parameters`) and what
 ``get_params`` / ``set_params`` and the CLI's ``--param`` read; a parameter in one and not the
 other would be accepted without a check, or checked without being settable.
 """

@@ -9,6 +9,13 @@ import numpy as np
 import pytest
 
 from neckid import IOData, Lags, LinearARX, load_model
+from neckid.cli.workflow import (
+    describe_model,
+    fit_model,
+    map_channels,
+    prepare_log,
+    read_log,
+)
 from neckid.data.preprocess import (
     STEPS,
     LowPass,
@@ -20,15 +27,8 @@ from neckid.data.preprocess import (
     Step,
     Tilt,
 )
+from neckid.data.tilt import tilt_log
 from neckid.models.io import read_model_file, write_model_file
-from neckid.tilt import tilt_log
-from neckid.workflow import (
-    describe_model,
-    fit_model,
-    map_channels,
-    prepare_log,
-    read_log,
-)
 
 SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 SOFTNECK = SHARED_DATA / "softneck"

@@ -10,7 +10,7 @@ import numpy as np
 from _progress_recorder import Recorder
 from _synthetic import arx_system
 from neckid import Lags, NeuralNARX
-from neckid.progress import LineReporter, active, counting, reporting, task
+from neckid.utils.progress import LineReporter, active, counting, reporting, task
 
 
 class Clock:

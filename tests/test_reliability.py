@@ -371,7 +371,7 @@ def _demo_negative_seed(tmp: Path) -> None:
 
 
 def _demo_folder_in_use(tmp: Path) -> None:
-    from neckid.outputs import output_folder
+    from neckid.utils.files import output_folder
 
     with output_folder(tmp / "demo"):
         refused(tmp, "demo", "--quick", "--out", tmp / "demo", match="another neckid run")
@@ -428,7 +428,7 @@ def _benchmark_failures(tmp: Path) -> None:
 
 
 def _output_written_whole(tmp: Path) -> None:
-    from neckid.outputs import atomic_path
+    from neckid.utils.files import atomic_path
 
     target = tmp / "model.npz"
     target.write_text("old")
@@ -499,7 +499,7 @@ def _concurrent_saves(tmp: Path) -> None:
 def _locked_output(tmp: Path) -> None:
     from filelock import FileLock
 
-    from neckid.outputs import lock_path
+    from neckid.utils.files import lock_path
 
     log = _log(tmp)
     save = tmp / "m.npz"
@@ -550,7 +550,7 @@ def _terminated(tmp: Path) -> None:
 
 
 def _stale_temporaries(tmp: Path) -> None:
-    from neckid.outputs import output_folder
+    from neckid.utils.files import output_folder
 
     log = _log(tmp)
     model = _model(tmp, log)
@@ -573,7 +573,7 @@ def _degenerate_names(tmp: Path) -> None:
     for name in ("", ".", ".."):
         refused(tmp, "simulate", model, log, "--out", name, "--force", match="names no file")
         refused(tmp, "validate", model, log, "--plot", name, "--force", match="names no file")
-    from neckid.outputs import output_name
+    from neckid.utils.files import output_name
 
     with pytest.raises(FileExistsError, match=r"--save '\.\.' names no file"):
         output_name("..", ".npz")
@@ -886,11 +886,11 @@ def _model_file_structure(tmp: Path) -> None:
 
 
 def _model_file_memory(tmp: Path) -> None:
-    import neckid._memory
+    import neckid.utils.memory
 
     model = _model(tmp, _log(tmp))
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(neckid._memory, "available_bytes", lambda: 4096)
+        patch.setattr(neckid.utils.memory, "available_bytes", lambda: 4096)
         with pytest.raises(
             ValueError,
             match=r"reading its arrays \(entry .* alone .*\) needs about"
@@ -954,13 +954,13 @@ def _parquet_page_checksum(tmp: Path) -> None:
 def _logs_beyond_memory(tmp: Path) -> None:
     from scipy.io import savemat
 
-    import neckid._memory
+    import neckid.utils.memory
 
     data = IOData.from_csv(_log(tmp), ["command"], ["inclination"])
     data.to_parquet(tmp / "log.parquet")
     savemat(tmp / "log.mat", {"command": data.u[:, 0], "inclination": data.y[:, 0]})
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(neckid._memory, "available_bytes", lambda: 10_000)
+        patch.setattr(neckid.utils.memory, "available_bytes", lambda: 10_000)
         with pytest.raises(
             ValueError,
             match=r"^log\.parquet: reading 3 column\(s\) of 400 rows"
@@ -1073,18 +1073,18 @@ def _info_other_formats(tmp: Path) -> None:
 
 
 def _too_much_memory(tmp: Path) -> None:
-    import neckid._memory
+    import neckid.utils.memory
 
     data = IOData.from_csv(_log(tmp, n=4000), ["command"], ["inclination"])
-    original = neckid._memory.available_bytes
-    neckid._memory.available_bytes = lambda: 1024**2  # type: ignore[assignment]
+    original = neckid.utils.memory.available_bytes
+    neckid.utils.memory.available_bytes = lambda: 1024**2  # type: ignore[assignment]
     try:
         with pytest.raises(
             ValueError, match=r"needs about .* of memory, and this machine has 1.0 MB"
         ):
             neckid.LinearARX(Lags.arx(40, 40)).fit(data)
     finally:
-        neckid._memory.available_bytes = original  # type: ignore[assignment]
+        neckid.utils.memory.available_bytes = original  # type: ignore[assignment]
 
 
 def _label_not_seen(tmp: Path) -> None:

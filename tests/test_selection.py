@@ -16,7 +16,7 @@ from neckid.metrics import fit_percent
 from neckid.models.neural.narx import NeuralNARX
 from neckid.models.results import DivergenceError
 from neckid.report.selection_plots import plot_lipschitz_index
-from neckid.selection import (
+from neckid.selection.lags import (
     LagSelection,
     lag_grid,
     lipschitz_quotients,

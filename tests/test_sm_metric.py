@@ -75,7 +75,7 @@ def test_the_parallel_model_passes_the_metric_to_its_sm_map():
     assert not np.allclose(model.sm_.weights_, std.sm_.weights_)
     assert np.isfinite(model.simulate(train).y).all()
     # `neckid info` says which distance and estimate a model file holds.
-    from neckid.workflow import describe_model
+    from neckid.cli.workflow import describe_model
 
     described = describe_model(model.set_params(estimate="projection"))
     assert described["distance"] == "gradient" and described["estimate"] == "projection"

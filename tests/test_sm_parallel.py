@@ -281,7 +281,7 @@ def test_a_base_with_a_state_of_its_own_gives_state_functions_that_run_as_the_si
     # As a python-control system: the free run of model.simulate.
     import control
 
-    from neckid.interop import initial_state, to_iosystem
+    from neckid.export.control import initial_state, to_iosystem
 
     window = test[: m + 60]
     response = control.input_output_response(

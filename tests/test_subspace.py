@@ -16,7 +16,7 @@ import scipy.linalg
 
 import neckid
 from neckid import IOData
-from neckid.interop import to_control, to_iosystem
+from neckid.export.control import to_control, to_iosystem
 from neckid.models.linear import SubspaceStateSpace
 from neckid.models.linear.subspace_steps import bound_modes, spectral_radius
 
@@ -317,14 +317,14 @@ def test_the_iosystem_runs_on_the_model_state(noisy_model) -> None:
     m = noisy_model.max_lag_
     system = to_iosystem(noisy_model)
     assert system.state_labels == ["x1", "x2", "x3", "x4"]
-    x0 = neckid.interop.initial_state(noisy_model, test.y[:m], test.u[:m])
+    x0 = neckid.export.control.initial_state(noisy_model, test.y[:m], test.u[:m])
     time = TS * np.arange(test.n_samples - m)
     response = control.input_output_response(system, time, test.u[m:].T, X0=x0)
     np.testing.assert_array_equal(response.outputs.T, noisy_model.simulate(test).y[m:])
 
 
 def test_info_shows_the_order_and_the_values_it_was_chosen_from() -> None:
-    from neckid.workflow import describe_model
+    from neckid.cli.workflow import describe_model
 
     data, _ = _record(3, n=1500)
     model = SubspaceStateSpace(refine=False).fit(data)

@@ -1,4 +1,4 @@
-"""The tilt representations of the 3-D neck (neckid.tilt): round trips, wrap and zero inclination."""
+"""The tilt representations of the 3-D neck (neckid.data.tilt): round trips, wrap and zero inclination."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from neckid import IOData
-from neckid.tilt import from_pitch_roll, from_tilt, polar_log, tilt_log, to_pitch_roll, to_tilt
+from neckid.data.tilt import from_pitch_roll, from_tilt, polar_log, tilt_log, to_pitch_roll, to_tilt
 
 inclinations = st.floats(0.0, 80.0, allow_nan=False)
 orientations = st.floats(-720.0, 720.0, allow_nan=False)

@@ -7,7 +7,7 @@ inclination, ``Lags(outputs=[1, 2], inputs=[0, 1])``; the state models use only 
 conditions, none here) and is chosen as :func:`neckid.compare` chooses: on the training logs
 only with :func:`neckid.select_safely` (leave one log out, runaways rejected, the stress check
 reaching as far as the test inputs go beyond the training range, one standard error toward the
-simpler model by :data:`neckid.comparison.COMPLEXITY`), then one free run per test log. A
+simpler model by :data:`neckid.selection.comparison.COMPLEXITY`), then one free run per test log. A
 method is a registry name (:func:`neckid.methods`), with settings after colons
 (``pnlss:order=2``), or ``sm-parallel[BASE]``: Set Membership on the registry model ``BASE`` run
 in parallel (``ParallelSetMembership(base=BASE)``, ranked as ``sm-parallel``); ``compare``
@@ -34,9 +34,9 @@ from sklearn.base import clone
 
 import neckid
 from neckid import Lags, ParallelSetMembership
-from neckid.comparison import COMPLEXITY, input_reach
 from neckid.experiments.benchmark.datasets import load_softneck_cross_run
 from neckid.metrics import fit_percent
+from neckid.selection.comparison import COMPLEXITY, input_reach
 
 #: Every method measured in ``docs/compare.md`` ("Measured on the real neck").
 DEFAULT_METHODS = (

@@ -41,7 +41,7 @@ from neckid.experiments.benchmark.runner import _select
 from neckid.loops.adaptive import ADAPT_MODES, adaptive_free_run
 from neckid.metrics import fit_percent
 from neckid.registry import methods
-from neckid.selection import free_run
+from neckid.selection.lags import free_run
 
 VARIANTS = {
     "central-std": {},

@@ -34,7 +34,7 @@ import numpy as np
 
 from neckid import IOData, Lags, ParallelSetMembership, PolynomialNARX, SetMembership
 from neckid.experiments.benchmark.datasets import load_benchmark
-from neckid.selection import free_run
+from neckid.selection.lags import free_run
 
 
 def split(data: Path, name: str) -> tuple[IOData, IOData, Any]:

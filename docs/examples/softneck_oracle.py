@@ -24,7 +24,7 @@ import numpy as np
 from neckid import Lags, LinearARX, ParallelSetMembership
 from neckid.experiments.benchmark import load_softneck_benchmark
 from neckid.metrics import fit_percent
-from neckid.selection import free_run
+from neckid.selection.lags import free_run
 
 #: The regressor the benchmark's selection chose for the ARX on the training log.
 ARX_LAGS = Lags(outputs=[1, 2], inputs=[0, 1])

@@ -6,14 +6,14 @@ The public API, re-exported here:
 - the method registry: :func:`methods` (name -> :class:`Method`), :func:`get_method`
 - models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
   :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
-- exports for other tools (MATLAB, JSON): :func:`export_model`, :func:`write_export`
+- exports for other tools (MATLAB, JSON): :func:`export_model`, :func:`write_export`;
+  python-control systems: :func:`to_control`, :func:`to_iosystem`
 - controllers designed from models: :mod:`neckid.design`, :func:`load_controller`
 - regressor choice: :func:`select_lags`, :func:`lag_grid`, :func:`lipschitz_quotients`
 - which model, how far to trust it: :func:`compare` (safe selection on the training logs, one
   free run per test log), :func:`select_safely`
 - the operating-point protocol: :func:`identify_operating_points`, :func:`operating_points_from_logs`
-- modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`,
-  :mod:`neckid.interop` (python-control)
+- modules: :mod:`neckid.signals`, :mod:`neckid.metrics`, :mod:`neckid.plant`, :mod:`neckid.datasets`
 
 Notes
 -----
@@ -28,19 +28,19 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING
 
-from neckid import _numba_setup
 from neckid._version import __version__
+from neckid.utils import numba_cache as _numba_cache
 
 # Before any kernel module imports numba: a read-only install caches its kernels in the user's
-# cache folder (neckid._numba_setup); a writable one, or NUMBA_CACHE_DIR, is left as it is.
-_numba_setup.configure_numba_cache()
+# cache folder (neckid.utils.numba_cache); a writable one, or NUMBA_CACHE_DIR, is left as it is.
+_numba_cache.configure_numba_cache()
 
 if TYPE_CHECKING:
-    from neckid import datasets, design, interop, metrics, plant, signals
-    from neckid.comparison import Comparison, SafeSelection, compare, select_safely
+    from neckid import datasets, design, metrics, plant, signals
     from neckid.data.iodata import IOData, as_experiments
     from neckid.design.files import load_controller
     from neckid.export import export_model, write_export
+    from neckid.export.control import to_control, to_iosystem
     from neckid.loops.operating_points import (
         OperatingPointResult,
         identify_operating_points,
@@ -58,7 +58,8 @@ if TYPE_CHECKING:
     from neckid.models.set_membership.parallel import ParallelSetMembership
     from neckid.registry import Method, get_method, methods
     from neckid.regressors import Lags
-    from neckid.selection import LagSelection, lag_grid, lipschitz_quotients, select_lags
+    from neckid.selection.comparison import Comparison, SafeSelection, compare, select_safely
+    from neckid.selection.lags import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
 __all__ = [
     "Comparison",
@@ -88,7 +89,6 @@ __all__ = [
     "gamma_curve",
     "get_method",
     "identify_operating_points",
-    "interop",
     "lag_grid",
     "lipschitz_quotients",
     "load_controller",
@@ -102,21 +102,25 @@ __all__ = [
     "select_lags",
     "select_safely",
     "signals",
+    "to_control",
+    "to_iosystem",
     "write_export",
 ]
 
 # Public submodules, and the module each other public name lives in (the same imports as above).
-_SUBMODULES = frozenset({"datasets", "design", "interop", "metrics", "plant", "signals"})
+_SUBMODULES = frozenset({"datasets", "design", "metrics", "plant", "signals"})
 _NAME_TO_MODULE = {
-    "Comparison": "neckid.comparison",
-    "SafeSelection": "neckid.comparison",
-    "compare": "neckid.comparison",
-    "select_safely": "neckid.comparison",
+    "Comparison": "neckid.selection.comparison",
+    "SafeSelection": "neckid.selection.comparison",
+    "compare": "neckid.selection.comparison",
+    "select_safely": "neckid.selection.comparison",
     "IOData": "neckid.data.iodata",
     "as_experiments": "neckid.data.iodata",
     "load_controller": "neckid.design.files",
     "export_model": "neckid.export",
     "write_export": "neckid.export",
+    "to_control": "neckid.export.control",
+    "to_iosystem": "neckid.export.control",
     "OperatingPointResult": "neckid.loops.operating_points",
     "identify_operating_points": "neckid.loops.operating_points",
     "operating_points_from_logs": "neckid.loops.operating_points",
@@ -139,10 +143,10 @@ _NAME_TO_MODULE = {
     "Method": "neckid.registry",
     "get_method": "neckid.registry",
     "methods": "neckid.registry",
-    "LagSelection": "neckid.selection",
-    "lag_grid": "neckid.selection",
-    "lipschitz_quotients": "neckid.selection",
-    "select_lags": "neckid.selection",
+    "LagSelection": "neckid.selection.lags",
+    "lag_grid": "neckid.selection.lags",
+    "lipschitz_quotients": "neckid.selection.lags",
+    "select_lags": "neckid.selection.lags",
 }
 
 

@@ -12,8 +12,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
-from neckid._typing import FloatArray
-from neckid.validation import check_number, check_vector
+from neckid.utils.checks import check_number, check_vector
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "CorrelationTest",

@@ -16,9 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid._memory import check_allocation
 from neckid.data.iodata import IOData, as_experiments
-from neckid.validation import check_lag_list
+from neckid.utils.checks import check_lag_list
+from neckid.utils.memory import check_allocation
 
 __all__ = ["Lags", "ResolvedLags"]
 

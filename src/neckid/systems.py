@@ -14,7 +14,7 @@ methods fits, with no base class to inherit):
   and an update function of a packed state vector ``x``, both pure,
   ``y[k] = output(x[k], u[k])`` and ``x[k+1] = update(x[k], u[k])``
   (:class:`StateFunctions`). A system that can give its own (:class:`HasStateMap`) has one
-  method, ``state_map(bounds=False)``; :func:`neckid.interop.to_iosystem` talks to that method
+  method, ``state_map(bounds=False)``; :func:`neckid.export.control.to_iosystem` talks to that method
   and to nothing else. :class:`StateMap` is the base class of every implementation (it caches
   the last evaluations), :class:`HistoryMap` the map of any simulator whose state is its last
   outputs and inputs (the NARX models).
@@ -32,8 +32,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
-from neckid.validation import check_finite
+from neckid.utils.checks import check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "BoundedSimulator",
@@ -176,7 +176,7 @@ class HasStateMap(Protocol):
     Every neckid model (:meth:`neckid.models.base.Estimator.state_map`), the loop's controller
     (:meth:`neckid.plant.InclinationController.state_map`) and the motor drive
     (:meth:`neckid.loops.model_in_loop.VelocityDrive.state_map`) have it;
-    :func:`neckid.interop.to_iosystem` turns any of them into a python-control system.
+    :func:`neckid.export.control.to_iosystem` turns any of them into a python-control system.
     """
 
     def state_map(self, bounds: bool = False) -> StateFunctions:  # pragma: no cover - protocol

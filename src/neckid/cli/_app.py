@@ -198,8 +198,8 @@ def handled(command: Command) -> Command:
     half written (status 128 + the signal: 130, 143, 129); anything else prints one line with
     the error's type and the hint to rerun with ``--debug`` (status 1), or the traceback with
     ``--debug``. A closed standard output (``| head``) is not an error. Long work inside shows
-    its progress (:mod:`neckid.progress`). The outputs the command
-    claimed (:func:`neckid.outputs.check_output_file`) are released when it ends.
+    its progress (:mod:`neckid.utils.progress`). The outputs the command
+    claimed (:func:`neckid.utils.files.check_output_file`) are released when it ends.
     """
 
     @functools.wraps(command)
@@ -207,8 +207,8 @@ def handled(command: Command) -> Command:
         from rich.markup import escape
 
         from neckid.models.base import ExtrapolationWarning
-        from neckid.outputs import release_outputs
-        from neckid.progress import default_reporter, reporting
+        from neckid.utils.files import release_outputs
+        from neckid.utils.progress import default_reporter, reporting
 
         _Stdout.closed = False
         try:
@@ -332,7 +332,7 @@ def _check_ts_option(value: float | None) -> float | None:
     """``--ts``: a positive finite number of seconds, at most 1e6 (refused by the option)."""
     if value is None:
         return None
-    from neckid.validation import check_ts
+    from neckid.utils.checks import check_ts
 
     try:
         return check_ts(value)
@@ -414,7 +414,7 @@ def _on_scheduler(address: str | None) -> Iterator[None]:
         return
     from joblib import parallel_config
 
-    from neckid._parallel import DASK_INSTALL_HINT
+    from neckid.utils.parallel import DASK_INSTALL_HINT
 
     try:
         from distributed import Client

@@ -48,7 +48,7 @@ def _training_logs(logs: Sequence[Path], **options: Any) -> tuple[list[Any], Any
     ``time``, ``ts``, ``layout``, ``sep``, ``channels``, ``conditions``, ``maps``, ``tilt`` and
     the preprocessing ones: ``relative``, ``offsets``, ``lowpass``, ``resample``, ``restamp``).
     """
-    from neckid.workflow import parse_mapping, pipeline_from_options, read_log
+    from neckid.cli.workflow import parse_mapping, pipeline_from_options, read_log
 
     refuse_repeated_paths(logs)
     pipeline = pipeline_from_options(
@@ -85,8 +85,8 @@ def _regressor(
 
     Neither: ``--orders 2,2,1``, or the scheduled model's own first-order regressor.
     """
+    from neckid.cli.workflow import lone_lag_note, parse_lags, parse_orders
     from neckid.regressors import Lags
-    from neckid.workflow import lone_lag_note, parse_lags, parse_orders
 
     if lags is not None and orders is not None:
         raise ValueError(f"give the regressor once: --lags {lags} or --orders {orders}, not both")
@@ -106,7 +106,7 @@ def _regressor(
 
 def _regressor_text(model: Any) -> str:
     """The fitted model's regressor in the --lags syntax when it has one shape, else its repr."""
-    from neckid.workflow import format_lags
+    from neckid.cli.workflow import format_lags
 
     resolved = getattr(model, "lags_", None)
     return format_lags(resolved) if resolved is not None else "-"

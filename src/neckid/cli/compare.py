@@ -94,8 +94,8 @@ def _write_plot(comparison: Any, tests: list[Any], path: Path) -> None:
 def _write_report(comparison: Any, tests: list[Any], folder: Path, force: bool) -> None:
     import pandas as pd
 
-    from neckid.outputs import output_folder
     from neckid.report.html import Figure, Report
+    from neckid.utils.files import output_folder
 
     with output_folder(folder, force=force) as staged:
         report = Report("neckid compare")
@@ -189,10 +189,10 @@ def compare(
     --map and the preprocessing options (--relative, --offset, --lowpass, --resample, --restamp,
     --tilt) apply to the training and the test logs alike.
     """
-    from neckid.comparison import compare as run_compare
-    from neckid.outputs import check_output_file, write_json
+    from neckid.cli.workflow import parse_lags
     from neckid.regressors import Lags
-    from neckid.workflow import parse_lags
+    from neckid.selection.comparison import compare as run_compare
+    from neckid.utils.files import check_output_file, write_json
 
     given = [*train, *test]
     for path, option in ((json_out, "--json"), (plot, "--plot")):

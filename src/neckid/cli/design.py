@@ -209,7 +209,7 @@ def design(
 
     from neckid.design import controller_document, model_description, save_controller
     from neckid.models.io import load_model
-    from neckid.outputs import check_output_file, output_folder
+    from neckid.utils.files import check_output_file, output_folder
 
     check_output_file(out, force=force, inputs=[model_path], option="--out", suffixes=[".json"])
     if command_limit is not None and not (math.isfinite(command_limit) and command_limit > 0):

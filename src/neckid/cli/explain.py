@@ -195,8 +195,8 @@ def _save_panels(panels: list[tuple[Any, dict[str, Any], str, Any]], path: Any) 
     """One panel per log, stacked: ``(log data, {label: run}, title, samples outside or None)``."""
     import matplotlib.pyplot as plt
 
-    from neckid.outputs import atomic_path
     from neckid.report.plots import plot_simulation
+    from neckid.utils.files import atomic_path
 
     fig, axes = plt.subplots(
         len(panels), 1, figsize=(10, 3.4 * len(panels)), layout="constrained", squeeze=False

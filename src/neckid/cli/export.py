@@ -47,7 +47,7 @@ def export(
     """
     from neckid.export import EXPORT_SUFFIXES, write_export
     from neckid.models.io import load_model
-    from neckid.outputs import check_output_file
+    from neckid.utils.files import check_output_file
 
     if to not in EXPORT_SUFFIXES:
         raise ValueError(f"--to must be one of {', '.join(EXPORT_SUFFIXES)}; got {to!r}")

@@ -45,7 +45,7 @@ def _headerless(path: Path, sep: str) -> bool:
 
 
 def _read(path: Path, model: Any, options: dict[str, Any]) -> Any:
-    from neckid.workflow import read_log
+    from neckid.cli.workflow import read_log
 
     sep = _sep(options["sep"])
     softneck = options["layout"] == "softneck" or (
@@ -173,7 +173,7 @@ def validate_in_loop(
     """
     from neckid.loops.lab_loop import in_loop_on_log
     from neckid.models.io import load_model
-    from neckid.outputs import write_json
+    from neckid.utils.files import write_json
 
     model = load_model(model_path)
     chosen, parameters = _controller(controller)

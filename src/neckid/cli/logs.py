@@ -66,9 +66,9 @@ def bandwidth(
     """
     import numpy as np
 
-    from neckid.outputs import atomic_path, check_output_file
+    from neckid.cli.workflow import read_log
     from neckid.signals import bandwidth_from_chirp, paper_chirp_frequency
-    from neckid.workflow import read_log
+    from neckid.utils.files import atomic_path, check_output_file
 
     if plot is not None:
         check_output_file(plot, force=force, inputs=[log], option="--plot")
@@ -152,7 +152,7 @@ def info(
     --condition). A model file: method, regressor, channels, sampling period, the conditions it
     takes, its preprocessing, the Set Membership prior, the training range of each channel.
     """
-    from neckid.workflow import describe_log, parse_mapping
+    from neckid.cli.workflow import describe_log, parse_mapping
 
     if path is None:
         from neckid.report.html import library_versions
@@ -212,8 +212,8 @@ def info(
 
 def _info_model(path: Path, as_json: bool) -> None:
     """``neckid info MODEL``: what the model is, its conditions, its preprocessing, its schedule."""
+    from neckid.cli.workflow import describe_model
     from neckid.models.io import load_model
-    from neckid.workflow import describe_model
 
     model = load_model(path)
     described = describe_model(model)
@@ -323,8 +323,8 @@ def _as_model_reads_it(
     conditions: list[str],
 ) -> dict[str, Any]:
     """The log as a model reads it: its channels (through --map and the model's preprocessing)."""
+    from neckid.cli.workflow import read_log_for_model
     from neckid.models.io import load_model
-    from neckid.workflow import read_log_for_model
 
     model = load_model(model_path)
     data, pipeline = read_log_for_model(

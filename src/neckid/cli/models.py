@@ -126,10 +126,10 @@ def identify(
     Preprocessing (--restamp, --tilt, --relative, --offset, --lowpass, --resample, in that order)
     is stored in the model and applied again by validate, simulate and info --model.
     """
-    from neckid.outputs import check_output_file, output_name
-    from neckid.workflow import (
+    from neckid.cli.workflow import (
         make_estimator,
     )
+    from neckid.utils.files import check_output_file, output_name
 
     save = output_name(save, ".npz", option="--save")
     check_output_file(save, force=force, inputs=list(logs), option="--save")
@@ -197,7 +197,7 @@ def identify(
     console.print(f"regressor: {_regressor_text(estimator)} ({chosen_by})", markup=False)
     console.print(f"model saved to {path}")
     if json_out is not None:
-        from neckid.outputs import write_json
+        from neckid.utils.files import write_json
 
         document = _identify_summary(path, method, estimator, chosen_by, options, pipeline, records)
         write_json(json_out, document)
@@ -257,7 +257,7 @@ def _read_for_model(
     tilt: bool = False,
 ) -> Any:
     """The log as the model reads it: its channels, renamed by --map, through its preprocessing."""
-    from neckid.workflow import parse_mapping, read_log_for_model
+    from neckid.cli.workflow import parse_mapping, read_log_for_model
 
     data, pipeline = read_log_for_model(
         model,
@@ -360,8 +360,8 @@ def _validation_plot(model: Any, runs: list[tuple[Path, Any, Any, Any]], plot: P
     else:
         import matplotlib.pyplot as plt
 
-        from neckid.outputs import atomic_path
         from neckid.report.plots import plot_simulation
+        from neckid.utils.files import atomic_path
 
         log, data, result, domain = runs[0]
         fig = plot_simulation(
@@ -413,7 +413,7 @@ def validate(
     A free run that diverges is reported as such (exit status 3, after the other logs).
     With --in-loop: the model in the loop of each closed-loop log instead (docs/in_loop.md).
     """
-    from neckid.outputs import check_output_file, write_json
+    from neckid.utils.files import check_output_file, write_json
 
     given = [*logs, model_path]
     for path, option in ((plot, "--plot"), (json_out, "--json")):
@@ -480,7 +480,7 @@ def simulate(
     unless --keep-diverged.
     """
     from neckid.models.base import DivergenceError
-    from neckid.outputs import atomic_path, check_output_file
+    from neckid.utils.files import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
     if json_out is not None:
@@ -504,7 +504,7 @@ def simulate(
     console.print(f"{result.n_samples} samples written to {out}")
     _report_extrapolation(result)
     if json_out is not None:
-        from neckid.outputs import write_json
+        from neckid.utils.files import write_json
 
         write_json(json_out, _simulation_summary(model_path, log, out, data, result, diverged))
         console.print(f"summary written to {json_out}")

@@ -215,7 +215,7 @@ def _in_loop_benchmark(
     """The softneck-in-loop protocol: its rankings printed, its tables written into ``out``."""
     from neckid.experiments.benchmark import PEER_METHODS
     from neckid.experiments.benchmark.in_loop import run_in_loop_benchmark
-    from neckid.outputs import output_folder
+    from neckid.utils.files import output_folder
 
     with output_folder(out, force=force) as staged:
         report = run_in_loop_benchmark(

@@ -40,7 +40,7 @@ DEFAULT_GRID = "1-3,1-3,0-3"
 
 def _candidates(orders: str | None, lags: list[str] | None) -> list[Any]:
     """The candidates: the --orders grid and every --lags; the default grid when neither."""
-    from neckid.workflow import parse_lags, parse_order_grid
+    from neckid.cli.workflow import parse_lags, parse_order_grid
 
     grid = parse_order_grid(orders) if orders is not None else []
     for text in lags or []:
@@ -52,7 +52,7 @@ def _candidates(orders: str | None, lags: list[str] | None) -> list[Any]:
 
 def _ranking_rows(selection: Any, data: Any, limit: int) -> list[dict[str, Any]]:
     """One printed row per candidate (best mean fold fit first), at most ``limit``."""
-    from neckid.workflow import format_lags
+    from neckid.cli.workflow import format_lags
 
     column = selection.column
     rows = []
@@ -200,9 +200,9 @@ def select(
     fails or diverges in a fold is out; the fewest terms within one standard error of the best
     mean fit is chosen. The test logs you keep for the end are not given here.
     """
-    from neckid.outputs import check_output_file, output_name, write_json
-    from neckid.selection import select_lags
-    from neckid.workflow import format_lags, make_estimator
+    from neckid.cli.workflow import format_lags, make_estimator
+    from neckid.selection.lags import select_lags
+    from neckid.utils.files import check_output_file, output_name, write_json
 
     if criterion not in ("simulation", "prediction"):
         raise ValueError(f"--criterion must be simulation or prediction; got {criterion!r}")

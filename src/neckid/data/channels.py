@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
+from neckid.utils.types import FloatArray
 
 __all__ = ["as_2d", "channel_names", "channel_units"]
 

@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.channels import as_2d, channel_names, channel_units
 from neckid.data.conditions import (
     ConditionValue,
@@ -23,7 +22,8 @@ from neckid.data.conditions import (
     check_conditions,
     label_indicators,
 )
-from neckid.validation import check_finite, check_ts
+from neckid.utils.checks import check_finite, check_ts
+from neckid.utils.types import FloatArray
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -467,9 +467,9 @@ class IOData:
         """Inclination and orientation outputs replaced by a wrap-free pair (3-D neck).
 
         ``"vector"`` gives ``tilt_x``, ``tilt_y`` [deg], ``"pitch_roll"`` gives ``pitch``,
-        ``roll`` [deg]; see :func:`neckid.tilt.tilt_log`, and :meth:`with_polar` for the way back.
+        ``roll`` [deg]; see :func:`neckid.data.tilt.tilt_log`, and :meth:`with_polar` for the way back.
         """
-        from neckid.tilt import tilt_log
+        from neckid.data.tilt import tilt_log
 
         return tilt_log(
             self,
@@ -480,7 +480,7 @@ class IOData:
 
     def with_polar(self, representation: str = "vector") -> IOData:
         """The inverse of :meth:`with_tilt`: outputs ``inclination`` and ``orientation`` [deg]."""
-        from neckid.tilt import polar_log
+        from neckid.data.tilt import polar_log
 
         return polar_log(self, representation=representation)  # type: ignore[arg-type]
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import pandas as pd
 
-from neckid._memory import check_allocation
+from neckid.utils.memory import check_allocation
 
 __all__ = ["BYTES_PER_VALUE", "read_parquet_columns"]
 

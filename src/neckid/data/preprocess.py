@@ -5,7 +5,7 @@ benchmark's motor *displacement* (the motor position minus its first sample, bec
 zero and the tendon slack differ between runs) is one case. A :class:`Pipeline` of steps says what
 was done; it is plain JSON (:meth:`Pipeline.to_list`), stored in the model file and applied again
 to every new log (``neckid validate``, ``simulate``, ``info --model``;
-:func:`neckid.workflow.prepare_log` in Python).
+:func:`neckid.cli.workflow.prepare_log` in Python).
 
 The steps (channels are named as the model names them, after any ``--map``; time in seconds):
 
@@ -15,7 +15,7 @@ The steps (channels are named as the model names them, after any ``--map``; time
 - :class:`Resample`: linear interpolation onto another sampling period;
 - :class:`Restamp`: what to do with repeated time stamps when a log is read;
 - :class:`Tilt`: the wrap-free tilt vector from inclination and orientation outputs
-  (:func:`neckid.tilt.tilt_log`).
+  (:func:`neckid.data.tilt.tilt_log`).
 
 Every step is immutable, returns a new log and never changes the one it is given.
 
@@ -45,8 +45,8 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar, overload
 
 import numpy as np
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
+from neckid.utils.types import FloatArray
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -402,7 +402,7 @@ class Restamp(Step):
     r"""What to do with repeated time stamps when a log is read (a table's time column).
 
     An :class:`~neckid.IOData` is uniform by construction, so :meth:`apply` changes nothing; the
-    step acts where a table is read (:func:`neckid.workflow.read_log` with a pipeline holding it,
+    step acts where a table is read (:func:`neckid.cli.workflow.read_log` with a pipeline holding it,
     ``neckid identify --restamp``), before the stamps are checked, through :meth:`stamps`:
 
     - ``keep="first"``: of each run of equal stamps :math:`t_k = t_{k-1} = \ldots` only the first
@@ -461,7 +461,7 @@ class Restamp(Step):
 
 @dataclass(frozen=True)
 class Tilt(Step):
-    r"""The tilt vector from inclination and orientation outputs [deg] (:func:`neckid.tilt.tilt_log`).
+    r"""The tilt vector from inclination and orientation outputs [deg] (:func:`neckid.data.tilt.tilt_log`).
 
     ``representation="vector"``: outputs ``tilt_x`` :math:`= i\cos\varphi` and ``tilt_y``
     :math:`= i\sin\varphi` [deg] in place of the two; ``"pitch_roll"``: ``pitch``, ``roll`` [deg].
@@ -485,7 +485,7 @@ class Tilt(Step):
 
     def apply(self, data: IOData) -> IOData:
         """The log with the two outputs replaced by the wrap-free pair."""
-        from neckid.tilt import tilt_log
+        from neckid.data.tilt import tilt_log
 
         return tilt_log(
             data,
@@ -496,7 +496,7 @@ class Tilt(Step):
 
     def sources(self, names: Sequence[str]) -> list[str]:
         """``tilt_x``/``tilt_y`` (or ``pitch``/``roll``) come from the two polar outputs."""
-        from neckid.tilt import NAMES
+        from neckid.data.tilt import NAMES
 
         first, second = NAMES[self.representation]
         polar = {first: self.inclination, second: self.orientation}

@@ -8,7 +8,7 @@ module does not import the container, so the dependency runs one way.
 
 A table has one row per sample, a column per channel and, optionally, a column of time stamps in
 seconds that must be sorted, distinct and uniform within 5 %
-(:func:`~neckid.validation.check_uniform_time`). Units travel in ``DataFrame.attrs["units"]``.
+(:func:`~neckid.utils.checks.check_uniform_time`). Units travel in ``DataFrame.attrs["units"]``.
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from neckid._memory import check_allocation
-from neckid._typing import FloatArray
-from neckid.validation import check_uniform_time
+from neckid.utils.checks import check_uniform_time
+from neckid.utils.memory import check_allocation
+from neckid.utils.types import FloatArray
 
 __all__ = ["file_fields", "frame_fields", "not_text_message"]
 

@@ -26,7 +26,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid.validation import check_ts
+from neckid.utils.checks import check_ts
 
 __all__ = ["GAP_FACTOR", "ROSBAGS_MISSING", "RosbagChannel", "rosbag_fields"]
 

@@ -3,7 +3,7 @@
 A 3-D neck bench logs one row per sample with the three motors' encoder positions, the
 inclination and orientation the IMU reports on the top platform, and perhaps the payload mass.
 :func:`load_three_motor_log` reads such a CSV by column names and returns the log with the tilt
-as a wrap-free pair (:mod:`neckid.tilt`), ready for identification: the orientation's wrap at
+as a wrap-free pair (:mod:`neckid.data.tilt`), ready for identification: the orientation's wrap at
 0/360° and its undefined value at zero inclination never reach a model.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from neckid.data.iodata import IOData
-from neckid.tilt import Representation
+from neckid.data.tilt import Representation
 
 __all__ = ["load_three_motor_log"]
 
@@ -52,8 +52,8 @@ def load_three_motor_log(
     motor_unit : str, default "rad"
         Unit of the encoder columns.
     representation : {"vector", "pitch_roll"}, default "vector"
-        Outputs ``tilt_x``, ``tilt_y`` [deg] (:func:`neckid.tilt.to_tilt`) or ``pitch``,
-        ``roll`` [deg] (:func:`neckid.tilt.to_pitch_roll`).
+        Outputs ``tilt_x``, ``tilt_y`` [deg] (:func:`neckid.data.tilt.to_tilt`) or ``pitch``,
+        ``roll`` [deg] (:func:`neckid.data.tilt.to_pitch_roll`).
     sep : str, default ","
         Column separator.
 

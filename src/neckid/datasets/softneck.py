@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from neckid.data.iodata import IOData
-from neckid.validation import check_ts, check_uniform_time
+from neckid.utils.checks import check_ts, check_uniform_time
 
 __all__ = [
     "CHANNELS",
@@ -200,7 +200,7 @@ def _regularise_time(
     """Check the time column; return (rows to keep, ts, t0).
 
     Steps must be one sample period (within 5 %) or zero (a repeated stamp); anything else
-    (time going back, a gap) is refused with the row (:func:`~neckid.validation.check_uniform_time`).
+    (time going back, a gap) is refused with the row (:func:`~neckid.utils.checks.check_uniform_time`).
     """
     ts_checked = None if ts is None else check_ts(ts)
     try:

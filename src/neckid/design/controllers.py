@@ -4,7 +4,7 @@ r"""Designed controllers as objects: :math:`c_k = k_p e_k + k_f v_k`, :math:`v =
 ``step(reference, measurement) -> command``) like the simulated neck's PI and the lab's
 controllers, so it runs in :func:`neckid.plant.closed_loop`,
 :func:`neckid.loops.model_in_loop.model_in_the_loop` and, through ``state_map()``, in
-:func:`neckid.interop.to_iosystem` (python-control's ``NonlinearIOSystem``, saturation and
+:func:`neckid.export.control.to_iosystem` (python-control's ``NonlinearIOSystem``, saturation and
 schedule included). :meth:`DesignedController.to_control` gives the linear controller from the
 error to the command as a ``control.StateSpace``, exactly (no saturation; a scheduled
 controller at one inclination): the operator's state space (:mod:`neckid.design.operators`)
@@ -35,10 +35,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.design.operators import DiscreteOperator
 from neckid.loops.controllers.lab import LabControllerStateMap
-from neckid.validation import check_number
+from neckid.utils.checks import check_number
+from neckid.utils.types import FloatArray
 
 __all__ = ["DesignedController", "DesignedStateMap", "GainSchedule"]
 
@@ -296,7 +296,7 @@ class DesignedController:
         )
 
     def state_map(self, bounds: bool = False) -> DesignedStateMap:
-        """The controller's state functions, for :func:`neckid.interop.to_iosystem`.
+        """The controller's state functions, for :func:`neckid.export.control.to_iosystem`.
 
         Parameters
         ----------

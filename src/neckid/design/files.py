@@ -29,7 +29,7 @@ design         everything else the design recorded (the plant's transfer functio
 the gains, order and discretisation (the taps are recomputed and checked against the stored
 ones): it runs in :func:`neckid.plant.closed_loop`, converts with
 :meth:`~neckid.design.controllers.DesignedController.to_control` and
-:func:`neckid.interop.to_iosystem`. No code is ever loaded from the file.
+:func:`neckid.export.control.to_iosystem`. No code is ever loaded from the file.
 """
 
 from __future__ import annotations
@@ -161,7 +161,7 @@ def save_controller(controller: DesignedController, path: str | Path) -> Path:
     -------
     Path
     """
-    from neckid.outputs import write_json
+    from neckid.utils.files import write_json
 
     if not isinstance(controller, DesignedController):
         raise TypeError(f"controller must be a DesignedController; got {type(controller).__name__}")

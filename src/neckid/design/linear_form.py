@@ -19,7 +19,7 @@ out.
 
 Which models have a linear form: :class:`~neckid.LinearARX`, :class:`~neckid.RecursiveARX`
 (its final estimate) and :class:`~neckid.models.linear.subspace.SubspaceStateSpace`
-(:func:`neckid.interop.to_control`); :class:`~neckid.GainScheduledModel` frozen at an
+(:func:`neckid.export.control.to_control`); :class:`~neckid.GainScheduledModel` frozen at an
 inclination; a python-control ``TransferFunction`` / ``StateSpace`` of command to inclination;
 and any NARX model (Set Membership, neural, polynomial) *linearised* at an inclination
 (:func:`neckid.design.linearise.linearise`). Anything else is refused with a message.
@@ -38,7 +38,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.design.linearise import (
     COMMAND,
     POSITION_CHANNELS,
@@ -46,7 +45,8 @@ from neckid.design.linearise import (
     NoLinearFormError,
     linearise,
 )
-from neckid.validation import check_number, check_ts
+from neckid.utils.checks import check_number, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = ["LinearForm", "linear_form"]
 
@@ -239,7 +239,7 @@ def linear_form(
     """
     import control
 
-    from neckid.interop import to_control
+    from neckid.export.control import to_control
     from neckid.models.linear.arx import LinearARX
     from neckid.models.linear.rls import RecursiveARX
     from neckid.models.linear.subspace import SubspaceStateSpace

@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from neckid._typing import FloatArray
-from neckid.validation import check_number
+from neckid.utils.checks import check_number
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "COMMAND",

@@ -57,7 +57,6 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.design.controllers import DesignedController
 from neckid.design.linear_form import LinearForm
 from neckid.design.operators import (
@@ -69,7 +68,8 @@ from neckid.design.operators import (
     oustaloup_operator,
     tustin_integrator,
 )
-from neckid.validation import check_number
+from neckid.utils.checks import check_number
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "Design",

@@ -22,11 +22,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.design.controllers import DesignedController, GainSchedule
 from neckid.design.linear_form import linear_form
 from neckid.design.loop_shaping import Design, design_fractional, design_pi
-from neckid.validation import check_vector
+from neckid.utils.checks import check_vector
+from neckid.utils.types import FloatArray
 
 __all__ = ["ScheduledDesign", "design_scheduled"]
 

@@ -32,7 +32,6 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.design.controllers import DesignedController
 from neckid.design.linear_form import LinearForm
@@ -40,6 +39,7 @@ from neckid.design.loop_shaping import closed_loop_stable, loop_margins
 from neckid.models.base import NarxSimulator
 from neckid.signals import sine, staircase, step
 from neckid.systems import Controller
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "PAPER_TESTS",

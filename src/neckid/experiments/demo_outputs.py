@@ -13,8 +13,8 @@ from neckid.data.iodata import IOData
 from neckid.experiments.demo_settings import EXPERIMENTS, OUTPUT, PAPER_LAGS, DemoSettings
 from neckid.models.base import ModelResult
 from neckid.models.scheduled.model import GainScheduledModel
-from neckid.outputs import StagedFolder
 from neckid.regressors import Lags
+from neckid.utils.files import StagedFolder
 
 if TYPE_CHECKING:
     from neckid.report.html import Link, Report

@@ -19,7 +19,7 @@ for its next step and as its 3-D sequel does on the real neck (Quevedo et al. 20
    taut (the share of slack samples is reported). One identification record and one validation
    record with other phases.
 3. **Tilt vector.** Inclination and orientation become ``tilt_x``, ``tilt_y`` [deg]
-   (:mod:`neckid.tilt`): no wrap at 0/360°, no undefined direction at zero inclination.
+   (:mod:`neckid.data.tilt`): no wrap at 0/360°, no undefined direction at zero inclination.
 4. **Regressor.** Chosen on the identification record only: it is cut in two halves, a linear
    ARX is fitted on one and free-run on the other for each candidate of a small grid (both
    ways, mean fit over the two outputs), the best wins.
@@ -58,6 +58,7 @@ import numpy as np
 import pandas as pd
 
 from neckid.data.iodata import IOData
+from neckid.data.tilt import from_tilt
 from neckid.experiments.demo_settings import quiet_smoke_run
 from neckid.experiments.neck3d_settings import (
     METHODS_3D,
@@ -67,14 +68,13 @@ from neckid.experiments.neck3d_settings import (
     Demo3DSettings,
 )
 from neckid.models.base import ModelResult
-from neckid.outputs import StagedFolder
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.plant.calibration import paper_chirp, paper_chirp_frequency
 from neckid.registry import methods
 from neckid.regressors import Lags
-from neckid.selection import lag_grid, select_lags
+from neckid.selection.lags import lag_grid, select_lags
 from neckid.signals import BandwidthResult, bandwidth_from_chirp, multisine
-from neckid.tilt import from_tilt
+from neckid.utils.files import StagedFolder
 
 __all__ = [
     "METHODS_3D",
@@ -314,11 +314,11 @@ def run_demo3d(
 
     Raises
     ------
-    neckid.outputs.OutputError
+    neckid.utils.files.OutputError
         Before any computation, as for :func:`neckid.experiments.paper.run_demo` (the folder is
         locked, written in a staging folder and moved in at the end).
     """
-    from neckid.outputs import output_folder
+    from neckid.utils.files import output_folder
 
     settings = settings or Demo3DSettings.make()
     with output_folder(out_dir, force=force) as staged, quiet_smoke_run(settings):

@@ -13,8 +13,8 @@ from neckid.data.iodata import IOData
 from neckid.experiments.demo_outputs import _FigureSaver
 from neckid.experiments.neck3d_settings import TESTS_3D, Demo3DSettings
 from neckid.models.base import ModelResult
-from neckid.outputs import StagedFolder
 from neckid.regressors import Lags
+from neckid.utils.files import StagedFolder
 
 if TYPE_CHECKING:
     from neckid.report.html import Link, Report

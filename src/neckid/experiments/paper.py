@@ -50,13 +50,13 @@ from neckid.experiments.demo_settings import (
 )
 from neckid.loops.model_in_loop import model_in_the_loop
 from neckid.models.base import ModelResult
-from neckid.outputs import StagedFolder
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.plant.calibration import chirp_bandwidth
 from neckid.registry import methods
 from neckid.regressors import Lags
-from neckid.selection import lag_grid, select_lags
+from neckid.selection.lags import lag_grid, select_lags
 from neckid.signals import multisine, sine, staircase, step
+from neckid.utils.files import StagedFolder
 
 __all__ = ["EXPERIMENTS", "PAPER_FITS", "DemoResult", "DemoSettings", "run_demo"]
 
@@ -125,13 +125,13 @@ def run_demo(
 
     Raises
     ------
-    neckid.outputs.OutputError
+    neckid.utils.files.OutputError
         Before any computation: ``out_dir`` is a file, holds files (without ``force``), or another
         run is writing into it. The folder is locked for the run; its files are written in a
         hidden staging folder and moved in together at the end, so an interrupted run changes
         nothing.
     """
-    from neckid.outputs import output_folder
+    from neckid.utils.files import output_folder
 
     with output_folder(out_dir, force=force) as staged, quiet_smoke_run(settings):
         return _run_protocol(staged, settings, on_step)

@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from neckid._typing import FloatArray, IntArray
 from neckid._version import __version__
 from neckid.models.base import check_is_fitted
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["EXPORT_FORMAT", "EXPORT_VERSION", "LINEAR_CLASSES", "export_model", "is_linear"]
 
@@ -183,7 +183,7 @@ def export_model(model: Any) -> dict[str, Any]:
     ARX polynomials follow MATLAB's ``idpoly``: :math:`A(q)\,y(t) = B(q)\,u(t) + c`,
     ``A{o, c} = [δ_oc, a_1, …, a_na]`` and ``B{o, j} = [0, …, 0, b_nk, …]`` in powers of
     :math:`q^{-1}` (leading zeros for the delay :math:`n_k`). The transfer function is
-    :func:`neckid.interop.to_control`'s, in descending powers of :math:`z`, without the
+    :func:`neckid.export.control.to_control`'s, in descending powers of :math:`z`, without the
     output offset ``output_offset`` (:math:`y(t) = y_0 + G(q)\,u(t)`).
 
     Examples
@@ -220,7 +220,7 @@ def export_model(model: Any) -> dict[str, Any]:
 # ============================================================================ linear models
 def _transfer_function(model: Any) -> dict[str, Any]:
     """``num{o, j}``, ``den{o, j}`` (descending powers of z) and the output offset."""
-    from neckid.interop import output_offset, to_control
+    from neckid.export.control import output_offset, to_control
 
     system = to_control(model)
     n_out, n_in = len(model.output_names_), len(model.input_names_)

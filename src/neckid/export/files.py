@@ -11,7 +11,7 @@ r"""Writers of a model description: JSON, a MATLAB ``.mat`` file, a MATLAB scrip
   runs to build ``G = tf(num, den, Ts)`` and, for an ARX, the ``idpoly`` model, for a state
   space the ``ss`` model. Only for a linear model.
 
-:func:`write_export` writes any of them atomically (:func:`neckid.outputs.atomic_path`).
+:func:`write_export` writes any of them atomically (:func:`neckid.utils.files.atomic_path`).
 """
 
 from __future__ import annotations
@@ -244,7 +244,7 @@ def _refuse_nonlinear(description: dict[str, Any]) -> None:
     what = description["label"] or description["model_class"]
     hint = (
         " (a GainScheduledModel is linear only frozen at one inclination:"
-        " neckid.interop.to_control(model, inclination=...))"
+        " neckid.export.control.to_control(model, inclination=...))"
         if description["structure"] == "gain_scheduled"
         else ""
     )
@@ -349,7 +349,7 @@ def write_export(model: Any, path: str | Path, *, to: ExportFormat = "json") -> 
     TypeError
         ``to="tf"`` with a nonlinear model.
     """
-    from neckid.outputs import atomic_path
+    from neckid.utils.files import atomic_path
 
     if to not in EXPORT_SUFFIXES:
         raise ValueError(f"to must be one of {list(EXPORT_SUFFIXES)}; got {to!r}")

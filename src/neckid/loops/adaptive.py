@@ -24,12 +24,12 @@ from typing import Any, Literal
 
 import numpy as np
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.models.base import ModelResult, check_is_fitted
 from neckid.models.kstep import predict_ahead
 from neckid.models.online import estimate_offset, simulate_with_offset
-from neckid.validation import check_number
+from neckid.utils.checks import check_number
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "ADAPT_MODES",

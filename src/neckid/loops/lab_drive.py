@@ -52,11 +52,11 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.loops.controllers.drive import DRIVE_MIN_VELOCITY, executed_velocity
 from neckid.loops.controllers.references import LAB_TS
-from neckid.validation import check_number, check_ts
+from neckid.utils.checks import check_number, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = ["LAB_DRIVE_GAINS", "LAB_DRIVE_VELOCITY_GAINS", "DriveFit", "LabDrive", "identify_drive"]
 

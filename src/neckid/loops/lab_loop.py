@@ -43,7 +43,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid._typing import BoolArray, FloatArray
 from neckid.data.iodata import IOData
 from neckid.datasets.softneck import load_softneck_log
 from neckid.loops.controllers.adaptive import AdaptiveParameters, load_adaptive_parameters
@@ -54,8 +53,9 @@ from neckid.loops.lab_drive import LabDrive
 from neckid.loops.lab_loop_result import LabLoopResult, loop_figures
 from neckid.metrics import fit_percent
 from neckid.models.base import check_is_fitted
-from neckid.selection import free_run
+from neckid.selection.lags import free_run
 from neckid.systems import Controller
+from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = [
     "LoopInput",

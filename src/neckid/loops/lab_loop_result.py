@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.loops.loop_measures import (
     Oscillation,
@@ -22,6 +21,7 @@ from neckid.loops.loop_measures import (
     stair_responses,
     tracking_error_rms,
 )
+from neckid.utils.types import FloatArray
 
 __all__ = ["LabLoopResult", "loop_figures"]
 

@@ -40,8 +40,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
-from neckid.validation import check_number, check_ts
+from neckid.utils.checks import check_number, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "Oscillation",

@@ -30,14 +30,14 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.metrics import coverage, fit_percent, rmse
 from neckid.models.base import check_is_fitted
 from neckid.plant.control import closed_loop
 from neckid.plant.soft_neck import SoftNeckParameters
 from neckid.systems import BoundedSimulator, Controller, Simulator, StateMap
-from neckid.validation import check_finite, check_number, check_ts
+from neckid.utils.checks import check_finite, check_number, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = ["DriveStateMap", "LoopComparison", "ModelPlant", "VelocityDrive", "model_in_the_loop"]
 
@@ -202,7 +202,7 @@ class VelocityDrive:
         Returns
         -------
         DriveStateMap
-            State ``[position, velocity]``; see :func:`neckid.interop.to_iosystem`.
+            State ``[position, velocity]``; see :func:`neckid.export.control.to_iosystem`.
         """
         return DriveStateMap(self)
 

@@ -25,12 +25,12 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.linear.rls import RecursiveARX
 from neckid.models.scheduled.model import GainScheduledModel, default_window, identify_point
 from neckid.signals import random_binary
-from neckid.validation import check_number, check_ts
+from neckid.utils.checks import check_number, check_ts
+from neckid.utils.types import FloatArray
 
 if TYPE_CHECKING:
     from neckid.systems import Controller, Plant

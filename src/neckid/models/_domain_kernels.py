@@ -20,7 +20,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import BoolArray, FloatArray
+from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = ["BLOCK", "box_block", "box_counts", "channels_of", "count_outside", "count_term"]
 

@@ -14,7 +14,7 @@ Contracts (the architecture page, docs/architecture.md, shows where each part li
   after ``reset(y0=y[:max_lag_], u0=u[:max_lag_])``, stepping ``u[max_lag_:]`` gives what
   ``simulate`` gives.
 - Hyper-parameters are keyword-only after ``lags`` and declared once in
-  ``_parameter_constraints`` (checked at ``fit`` by :func:`neckid.validation.validate_parameters`);
+  ``_parameter_constraints`` (checked at ``fit`` by :func:`neckid.utils.checks.validate_parameters`);
   a model is fitted when it has ``max_lag_`` (:meth:`Estimator.__sklearn_is_fitted__`).
 
 Every estimator subclasses :class:`Estimator`; the contract test (``tests/test_contract.py``) runs
@@ -32,7 +32,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.domain import Domain, box_shares, regressor_box, regressor_domain
 from neckid.models.io import ModelFile
@@ -48,7 +47,8 @@ from neckid.models.results import (
 )
 from neckid.regressors import Lags, ResolvedLags
 from neckid.systems import HistoryMap, StateMap, history_rows
-from neckid.validation import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
+from neckid.utils.checks import TIME_JITTER_TOLERANCE, check_finite, validate_parameters
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "DIVERGENCE_SPANS",
@@ -490,7 +490,7 @@ class Estimator(BaseEstimator, ModelFile):
         raise NotImplementedError
 
     def state_map(self, bounds: bool = False) -> StateMap:
-        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+        """The model's state functions, for python-control (:func:`neckid.export.control.to_iosystem`).
 
         The generic map (:class:`~neckid.systems.HistoryMap`): the state is the simulator's
         history, ``x = [y(t−m), …, y(t−1), u(t−m), …, u(t−1)]`` with

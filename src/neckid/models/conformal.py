@@ -31,11 +31,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, check_is_fitted
 from neckid.models.kstep import predict_ahead
-from neckid.validation import check_number
+from neckid.utils.checks import check_number
+from neckid.utils.types import FloatArray
 
 __all__ = ["CalibratedModel", "Kind", "calibrate", "conformal_quantile", "predict_ahead"]
 

@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from neckid._typing import BoolArray, FloatArray, IntArray
 from neckid.data.iodata import IOData
+from neckid.utils.types import BoolArray, FloatArray, IntArray
 
 __all__ = [
     "NEAREST_QUANTILE",

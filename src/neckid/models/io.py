@@ -88,7 +88,7 @@ def write_model_file(
             )
         payload[key] = array
     payload[_META_KEY] = np.array(json.dumps(header, allow_nan=True))
-    from neckid.outputs import atomic_path
+    from neckid.utils.files import atomic_path
 
     with atomic_path(path) as temporary, temporary.open("wb") as handle:
         np.savez_compressed(handle, **payload)  # type: ignore[arg-type]

@@ -10,7 +10,7 @@ one line naming the file, the entry or header key and the value, before anything
   a few bytes is refused); an archive whose arrays would inflate to more than
   :data:`MAX_INFLATION` times its size (a zip bomb: 1.6 MB on disk, 1.6 GB of zeros once read)
   is refused, and so are arrays that need more than half the memory the machine has available
-  (:func:`neckid._memory.check_allocation`); dtypes no neckid model writes (complex, Python
+  (:func:`neckid.utils.memory.check_allocation`); dtypes no neckid model writes (complex, Python
   objects, records, dates, text, bytes) are refused by entry.
 - :func:`check_header_numbers`: every ``ts`` of the JSON header is a positive finite number of
   seconds, every ``n_samples`` a whole number >= 0, every training and regressor range a pair
@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid._memory import check_allocation, describe_bytes
-from neckid.validation import check_ts
+from neckid.utils.checks import check_ts
+from neckid.utils.memory import check_allocation, describe_bytes
 
 __all__ = [
     "HEADER_ENTRY",
@@ -255,7 +255,7 @@ def check_header_numbers(path: Path, meta: Mapping[str, Any]) -> None:
 
     Every member named ``ts`` (the model's, and its parts': ``linear.ts``, ``submodels.1.ts``)
     must be a positive finite number of seconds up to ``1e6``
-    (:func:`~neckid.validation.check_ts`); every ``n_samples`` a whole number >= 0; every
+    (:func:`~neckid.utils.checks.check_ts`); every ``n_samples`` a whole number >= 0; every
     ``training_ranges`` and ``regressor_ranges`` an object of ``[low, high]`` pairs of finite
     numbers with ``low <= high``.
 

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, check_is_fitted
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "estimate_offset",

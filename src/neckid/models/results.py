@@ -20,9 +20,9 @@ import pandas as pd
 from numpy.typing import ArrayLike
 from sklearn.exceptions import NotFittedError as _SklearnNotFittedError
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.metrics import fit_percent, mae, rmse
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "DIVERGENCE_SPANS",

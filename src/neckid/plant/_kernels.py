@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from neckid._typing import FloatArray, IntArray
+from neckid.utils.types import FloatArray, IntArray
 
 # Indices into the packed parameter vector (see SoftNeckParameters.packed).
 LINK_LENGTH = 0

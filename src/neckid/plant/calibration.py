@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neckid._typing import FloatArray
 from neckid.plant.control import InclinationController, closed_loop
 from neckid.plant.soft_neck import SoftNeck
 from neckid.signals import BandwidthResult, bandwidth_from_chirp, paper_chirp, paper_chirp_frequency
 from neckid.signals import prbs as prbs_signal
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "OperatingPointModels",

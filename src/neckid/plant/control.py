@@ -15,11 +15,11 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import neckid.plant._kernels as _kernels
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.plant.soft_neck import DIVERGED_MESSAGE, SoftNeck
 from neckid.systems import Controller, Plant, StateMap
-from neckid.validation import check_finite, check_number, check_ts
+from neckid.utils.checks import check_finite, check_number, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = ["ControllerStateMap", "InclinationController", "closed_loop"]
 
@@ -138,7 +138,7 @@ class InclinationController:
 
         :meth:`step` is this law applied to the controller's stored integral; here nothing is
         stored, so a simulation tool that keeps the state itself (python-control's
-        ``NonlinearIOSystem``, see :func:`neckid.interop.to_iosystem`) can call it with any state.
+        ``NonlinearIOSystem``, see :func:`neckid.export.control.to_iosystem`) can call it with any state.
 
         Parameters
         ----------
@@ -200,7 +200,7 @@ class InclinationController:
         Returns
         -------
         ControllerStateMap
-            State ``[integral, last measurement]``; see :func:`neckid.interop.to_iosystem`.
+            State ``[integral, last measurement]``; see :func:`neckid.export.control.to_iosystem`.
         """
         return ControllerStateMap(self)
 

@@ -53,9 +53,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import neckid.plant._kernels as _kernels
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
-from neckid.validation import check_finite, check_ts
+from neckid.utils.checks import check_finite, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = ["Configuration", "SoftNeck", "SoftNeckParameters"]
 

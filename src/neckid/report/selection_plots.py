@@ -21,7 +21,7 @@ def plot_lipschitz_index(
     Parameters
     ----------
     table : pandas.DataFrame
-        The result of :func:`neckid.selection.lipschitz_quotients`.
+        The result of :func:`neckid.selection.lags.lipschitz_quotients`.
     output : str, optional
         Which output channel; default the first in the table.
     ax : matplotlib.axes.Axes, optional
@@ -35,14 +35,14 @@ def plot_lipschitz_index(
     Raises
     ------
     ValueError
-        If the table lacks the columns of :func:`~neckid.selection.lipschitz_quotients` or does
+        If the table lacks the columns of :func:`~neckid.selection.lags.lipschitz_quotients` or does
         not hold ``output``.
 
     Examples
     --------
     >>> import numpy as np
     >>> from neckid import IOData
-    >>> from neckid.selection import lipschitz_quotients
+    >>> from neckid.selection.lags import lipschitz_quotients
     >>> u = np.random.default_rng(0).normal(size=200)
     >>> table = lipschitz_quotients(IOData(u, np.cumsum(u), ts=0.1), 1, 2)
     >>> fig = plot_lipschitz_index(table)

@@ -28,7 +28,6 @@ from typing import Any
 import numpy as np
 from sklearn.base import BaseEstimator
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.experiments.benchmark.settings import (
     PEER_METHODS,
@@ -38,6 +37,7 @@ from neckid.experiments.benchmark.settings import (
 )
 from neckid.models.base import ModelResult, NotFittedError
 from neckid.regressors import Lags
+from neckid.utils.types import FloatArray
 
 __all__ = ["PEER_METHODS", "FrolsPeer", "peer_candidates", "peer_unavailable"]
 

@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 from joblib import delayed
 
-from neckid._parallel import run_jobs
 from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.peers import peer_candidates
@@ -39,6 +38,7 @@ from neckid.experiments.benchmark.settings import (
 )
 from neckid.experiments.benchmark.shared import SharedFits, data_digest, fit_key
 from neckid.experiments.benchmark.stages import FinalRun, Outcome, final_unit, fit_unit, score_unit
+from neckid.utils.parallel import run_jobs
 
 __all__ = ["UNIT_COST", "MethodPlan", "choose", "run_plans", "selection_parts"]
 
@@ -454,7 +454,7 @@ def run_plans(
 
     At each stage every plan that can go on gives its units (a shared fit, a candidate's score,
     the final fit and test runs); the units run on ``n_jobs`` workers of ``backend`` (joblib,
-    see :func:`neckid._parallel.run_jobs`), longest first (:data:`UNIT_COST`), and their
+    see :func:`neckid.utils.parallel.run_jobs`), longest first (:data:`UNIT_COST`), and their
     outcomes go back to their plans, in the order of the plans (the results do not depend on
     which worker finished first).
 

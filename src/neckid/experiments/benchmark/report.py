@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid.outputs import StagedFolder, output_folder
+from neckid.utils.files import StagedFolder, output_folder
 
 __all__ = ["TABLE_COLUMNS", "BenchmarkReport"]
 
@@ -87,7 +87,7 @@ class BenchmarkReport:
         """Write ``benchmark.csv``, ``published.csv`` and ``benchmark.json`` into a folder.
 
         The folder is locked while it is written and the files move in together
-        (:func:`neckid.outputs.output_folder`); a folder that holds files already is refused
+        (:func:`neckid.utils.files.output_folder`); a folder that holds files already is refused
         unless ``force``.
 
         Returns

@@ -8,11 +8,11 @@ For every data set found (:mod:`~neckid.experiments.benchmark.datasets`) and eve
    :data:`~neckid.experiments.benchmark.settings.BUILDS_ON`, on the lags its base method chose);
 2. fits each on the first :data:`~neckid.experiments.benchmark.settings.SELECTION_FRACTION` of
    the training record and ranks them by free-run RMSE on the rest, or, given several training
-   experiments, on held-out experiments (:func:`neckid.selection.score_candidates`); a candidate
+   experiments, on held-out experiments (:func:`neckid.selection.lags.score_candidates`); a candidate
    whose held-out free run is not finite or leaves the divergence envelope of the training
    outputs is out (its RMSE is infinite);
 3. refits the best one on the whole training record and simulates every test record once, in free
-   run (:func:`neckid.selection.free_run`, with the protocol's initial samples).
+   run (:func:`neckid.selection.lags.free_run`, with the protocol's initial samples).
 
 The work of all data sets and methods runs together (:func:`~.plans.run_plans`): at each stage,
 every unit that can start (a shared fit, a candidate, a final fit with its test runs) goes to the
@@ -32,7 +32,6 @@ from typing import Any, Literal
 import pandas as pd
 from joblib import delayed
 
-from neckid._parallel import check_backend, run_jobs
 from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.datasets import BENCHMARKS, PROTOCOLS, load_benchmark
@@ -52,8 +51,9 @@ from neckid.experiments.benchmark.settings import (
 )
 from neckid.experiments.benchmark.shared import SharedFits
 from neckid.experiments.benchmark.stages import score_unit
-from neckid.outputs import output_folder
 from neckid.registry import DEPRECATED_NAMES, get_method
+from neckid.utils.files import output_folder
+from neckid.utils.parallel import check_backend, run_jobs
 
 __all__ = ["TABLE_COLUMNS", "BenchmarkReport", "run_benchmark"]
 
@@ -69,7 +69,7 @@ class _Sweep:
     backend: str | None = None
 
     def options(self) -> dict[str, Any]:
-        """The keyword arguments of :func:`~neckid.selection.score_candidates`."""
+        """The keyword arguments of :func:`~neckid.selection.lags.score_candidates`."""
         return {"n_jobs": self.n_jobs, "backend": self.backend}
 
 

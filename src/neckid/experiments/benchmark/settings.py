@@ -80,7 +80,7 @@ Training = IOData | Sequence[IOData]
 SELECTION_FRACTION = 0.75
 
 #: When the training data are several experiments: the number of folds of experiments the
-#: candidates are ranked on (:func:`neckid.selection.score_candidates`); ``None`` holds out one
+#: candidates are ranked on (:func:`neckid.selection.lags.score_candidates`); ``None`` holds out one
 #: experiment at a time. :data:`SELECTION_FRACTION` is then not used.
 SELECTION_FOLDS: int | None = None
 

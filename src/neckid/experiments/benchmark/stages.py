@@ -7,7 +7,7 @@ the polynomial states it may reuse) that never raises (an error comes back in it
 - :func:`fit_unit`: one fit that several candidates share (the polynomial that ``poly`` refits
   and ``sm-parallel-poly`` runs in parallel), done once before them;
 - :func:`score_unit`: one candidate ranked on the training data, exactly as
-  :func:`neckid.selection.score_candidates` ranks it among the others (its own fits and folds);
+  :func:`neckid.selection.lags.score_candidates` ranks it among the others (its own fits and folds);
 - :func:`final_unit`: the chosen candidate refitted on the whole training data, and the free run
   of every test record.
 
@@ -41,7 +41,7 @@ from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.shared import PolynomialEntry, RecordingCache
 from neckid.metrics import fit_percent, rmse
 from neckid.models.cache import use_caches
-from neckid.selection import free_run, score_candidates
+from neckid.selection.lags import free_run, score_candidates
 
 __all__ = ["FinalRun", "Outcome", "TestRun", "final_unit", "fit_unit", "score_unit"]
 
@@ -138,8 +138,8 @@ def score_unit(
 
     One training record: fitted on its first ``fraction``, scored on the rest. Several
     experiments: scored on held-out experiments (``folds``, see
-    :func:`~neckid.selection.score_candidates`). The row is the candidate's row of
-    :func:`~neckid.selection.score_candidates` over the whole grid (each candidate's fits and
+    :func:`~neckid.selection.lags.score_candidates`). The row is the candidate's row of
+    :func:`~neckid.selection.lags.score_candidates` over the whole grid (each candidate's fits and
     scores are independent of the others').
     """
 
@@ -198,7 +198,7 @@ def final_unit(
     """The candidate fitted on the whole training data, then the free run of every test record.
 
     Warnings of the fit are not silenced (as in a run of one method at a time); the free runs
-    are those of :func:`neckid.selection.free_run` with the protocol's initial samples. The
+    are those of :func:`neckid.selection.lags.free_run` with the protocol's initial samples. The
     fitted model comes back only with ``keep_model`` (another grid reads it).
     """
 

@@ -17,7 +17,7 @@
 Every controller follows :class:`neckid.systems.Controller` (``reset()``,
 ``step(reference, measurement) -> command``; a NaN measurement is a failed sensor read) and has
 ``state_map()``, so it runs in :func:`neckid.plant.closed_loop` and converts with
-:func:`neckid.interop.to_iosystem`. The facts come from ``shared/data/softneck/CONTROLLERS.md``;
+:func:`neckid.export.control.to_iosystem`. The facts come from ``shared/data/softneck/CONTROLLERS.md``;
 the logs and parameter files are not distributed with neckid: loaders take a path.
 """
 

@@ -32,10 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from neckid._typing import FloatArray
 from neckid.loops.controllers.lab import LabController, fractional_period, grunwald_letnikov_weights
 from neckid.loops.controllers.references import ADAPTIVE_WARMUP_ROWS, LAB_TS
-from neckid.validation import check_ts
+from neckid.utils.checks import check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "ADAPTIVE_START_GAINS",

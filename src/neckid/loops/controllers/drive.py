@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.systems import Plant
+from neckid.utils.types import FloatArray
 
 __all__ = ["DRIVE_MIN_VELOCITY", "MinimumVelocityDrive", "executed_velocity"]
 

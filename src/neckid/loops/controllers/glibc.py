@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from neckid._typing import IntArray
+from neckid.utils.types import IntArray
 
 __all__ = ["GLIBC_RAND_MAX", "GlibcRandom", "glibc_rand"]
 

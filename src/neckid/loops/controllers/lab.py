@@ -5,7 +5,7 @@ dither minus the **raw** inclination, deg) and give the motor velocity command :
 [rad/s]. Both follow :class:`neckid.systems.Controller` (``reset()``,
 ``step(reference, measurement) -> command``, the reference there already holding the dither), so
 they run in :func:`neckid.plant.closed_loop`, and both give ``state_map()`` for
-:func:`neckid.interop.to_iosystem`.
+:func:`neckid.export.control.to_iosystem`.
 
 A failed sensor read is a NaN measurement: nothing is updated and the last command is held
 (the bench's behaviour; see :func:`neckid.loops.controllers.reconstruct.failed_reads`).
@@ -28,10 +28,10 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.loops.controllers.references import LAB_TS
 from neckid.systems import StateMap
-from neckid.validation import check_number, check_ts
+from neckid.utils.checks import check_number, check_ts
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "FRA_ID_GAINS",
@@ -204,7 +204,7 @@ class LabController:
         return command
 
     def state_map(self, bounds: bool = False) -> LabControllerStateMap:
-        """The controller's state functions, for :func:`neckid.interop.to_iosystem`.
+        """The controller's state functions, for :func:`neckid.export.control.to_iosystem`.
 
         Parameters
         ----------

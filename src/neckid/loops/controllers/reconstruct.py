@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 
-from neckid._typing import BoolArray, FloatArray
 from neckid.data.iodata import IOData
 from neckid.datasets.softneck import load_softneck_log
 from neckid.loops.controllers.adaptive import (
@@ -41,6 +40,7 @@ from neckid.loops.controllers.references import (
     LabReference,
     reference_for_log,
 )
+from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = [
     "CLOSED_LOOP_LOGS",

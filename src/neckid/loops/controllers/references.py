@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neckid._typing import FloatArray, IntArray
 from neckid.loops.controllers.glibc import glibc_rand
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
     "ADAPTIVE_WARMUP_ROWS",

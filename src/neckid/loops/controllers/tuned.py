@@ -25,11 +25,11 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.loops.controllers.adaptive import ADAPTIVE_WARMUP_GAINS, FEX_CHANGE
 from neckid.loops.controllers.lab import fractional_period, grunwald_letnikov_weights
 from neckid.loops.controllers.references import ADAPTIVE_WARMUP_ROWS, LAB_TS
 from neckid.loops.controllers.tuner import OnlineIdentifier, iso_damping_tuning
+from neckid.utils.types import FloatArray
 
 __all__ = ["TUNER_START_GAINS", "AdaptiveFractionalTuner"]
 

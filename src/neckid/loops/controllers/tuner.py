@@ -47,9 +47,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neckid._typing import BoolArray, FloatArray
 from neckid.loops.controllers.adaptive import AdaptiveParameters
 from neckid.loops.controllers.references import ADAPTIVE_WARMUP_ROWS, LAB_TS
+from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = [
     "INITIAL_ESTIMATE",

@@ -23,8 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from neckid._typing import FloatArray
 from neckid.models.greybox.hysteresis import denominator, dynamics_run, play, reflection
+from neckid.utils.types import FloatArray
 
 __all__ = ["REFLECTION_BOUND", "SLACK_GRID", "Problem", "basis", "fit_problem", "free_run_error"]
 

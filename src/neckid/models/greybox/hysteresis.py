@@ -27,8 +27,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.signal import lfilter, lfiltic
 
-from neckid._typing import FloatArray
-from neckid.validation import check_finite
+from neckid.utils.checks import check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "denominator",

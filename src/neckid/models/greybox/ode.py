@@ -25,7 +25,6 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.greybox.catalog import resolve_structure, shipped_structures
@@ -36,7 +35,8 @@ from neckid.models.online import update_experiments
 from neckid.models.results import DIVERGENCE_SPANS
 from neckid.regressors import Lags
 from neckid.systems import history_rows
-from neckid.validation import Interval, Options, check_finite
+from neckid.utils.checks import Interval, Options, check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = ["GreyBoxODE", "GreyBoxODESimulator"]
 
@@ -362,7 +362,7 @@ class GreyBoxODE(Estimator):
         return GreyBoxODESimulator(self)
 
     def state_map(self, bounds: bool = False) -> Any:
-        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+        """The model's state functions, for python-control (:func:`neckid.export.control.to_iosystem`).
 
         Parameters
         ----------

@@ -46,11 +46,11 @@ from scipy.optimize import OptimizeResult, least_squares
 from scipy.stats import qmc
 from threadpoolctl import threadpool_limits
 
-from neckid._typing import FloatArray
 from neckid.models.greybox.ode_kernels import evaluate, free_run
 from neckid.models.greybox.structure import GreyBoxStructure
 from neckid.models.results import DIVERGENCE_SPANS
-from neckid.progress import task
+from neckid.utils.progress import task
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "DIFF_STEP",

@@ -43,9 +43,9 @@ from numba import njit, types
 from numba.core.errors import NumbaError
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.models.greybox.structure import GreyBoxStructure
-from neckid.validation import check_finite
+from neckid.utils.checks import check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "RUNAWAY",

@@ -1,4 +1,4 @@
-"""State functions of a GreyBoxODE, for python-control (:func:`neckid.interop.to_iosystem`).
+"""State functions of a GreyBoxODE, for python-control (:func:`neckid.export.control.to_iosystem`).
 
 The state is the structure's own state at the current sample (the simulator's): the output is
 ``y(t) = g(x(t), u(t), θ)`` and the update integrates ``x`` over one period with ``u(t)`` held,
@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.models.greybox.ode_kernels import advance, evaluate
 from neckid.systems import StateMap
+from neckid.utils.types import FloatArray
 
 __all__ = ["GreyBoxODEStateMap"]
 

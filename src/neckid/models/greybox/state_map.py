@@ -1,4 +1,4 @@
-"""State functions of the grey-box neck, for python-control (:func:`neckid.interop.to_iosystem`).
+"""State functions of the grey-box neck, for python-control (:func:`neckid.export.control.to_iosystem`).
 
 The state is everything :class:`~neckid.models.greybox.model.GreyBoxSimulator` remembers: the
 last ``max_lag_`` outputs, the last ``max_lag_`` operator outputs ``v`` and the plays' outputs
@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.systems import StateMap, history_names
+from neckid.utils.types import FloatArray
 
 __all__ = ["GreyBoxStateMap"]
 

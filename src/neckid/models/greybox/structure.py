@@ -49,7 +49,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from neckid._typing import FloatArray
+from neckid.utils.types import FloatArray
 
 __all__ = ["GreyBoxStructure", "StructureParameter", "UnknownStructureError"]
 

@@ -60,8 +60,8 @@ import math
 import numpy as np
 from numba import njit
 
-from neckid._typing import FloatArray
 from neckid.models.greybox.structure import GreyBoxStructure, StructureParameter
+from neckid.utils.types import FloatArray
 
 __all__ = ["CASCADED_TANKS"]
 

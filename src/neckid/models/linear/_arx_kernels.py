@@ -15,8 +15,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray
 from neckid.models._domain_kernels import BLOCK, box_block, count_outside
+from neckid.utils.types import FloatArray
 
 __all__ = ["MAX_FIR_TAPS", "all_pole_block", "checked_free_run", "fir_block"]
 

@@ -18,7 +18,6 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray, IntArray
 from neckid.data.iodata import IOData
 from neckid.models._domain_kernels import channels_of
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
@@ -28,7 +27,8 @@ from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.results import RunChecks
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Interval
+from neckid.utils.checks import Interval
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["LinearARX", "least_squares", "linear_free_run", "linear_sum"]
 

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from neckid._typing import FloatArray
+from neckid.utils.types import FloatArray
 
 __all__ = ["LeastSquaresStatistics"]
 

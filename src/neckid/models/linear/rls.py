@@ -17,7 +17,6 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.linear.arx import linear_free_run
@@ -29,7 +28,8 @@ from neckid.models.linear.rls_kernels import (
     rls_reference,
 )
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Interval, check_finite, check_number
+from neckid.utils.checks import Interval, check_finite, check_number
+from neckid.utils.types import FloatArray
 
 __all__ = ["Convergence", "RecursiveARX", "rls_reference"]
 

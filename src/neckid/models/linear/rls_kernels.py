@@ -17,7 +17,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
+from neckid.utils.types import FloatArray
 
 __all__ = ["FILLING", "NOT_FINITE", "ParameterHistory", "rls_reference"]
 

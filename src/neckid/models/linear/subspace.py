@@ -21,7 +21,6 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.linear.subspace_order import order_by_folds
@@ -45,7 +44,8 @@ from neckid.models.linear.subspace_steps import (
 from neckid.models.online import update_experiments
 from neckid.regressors import Lags
 from neckid.systems import StateMap, history_rows
-from neckid.validation import Interval, Options, check_finite
+from neckid.utils.checks import Interval, Options, check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = ["StateSpaceMap", "StateSpaceSimulator", "SubspaceStateSpace"]
 

@@ -4,7 +4,7 @@ On noisy records the canonical correlations of :func:`.subspace_steps.observabil
 often fall without a clear gap, and the largest ratio of consecutive values can sit anywhere
 (on the real neck's staircases it picked the largest order the horizon allows). With two or
 more experiments, :func:`order_by_folds` chooses the order the way every selection of the
-package chooses (:mod:`neckid.folds`): each experiment is held out in turn, the model of every
+package chooses (:mod:`neckid.data.folds`): each experiment is held out in turn, the model of every
 candidate order is identified on the others (steps 1–4 of :mod:`.subspace_steps`, without the
 refinement, which would multiply the cost by the number of candidates; the modes bounded as in
 the full fit) and run free on the
@@ -24,8 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from neckid._typing import FloatArray
-from neckid.folds import fold_statistics, one_standard_error
+from neckid.data.folds import fold_statistics, one_standard_error
 from neckid.metrics import fit_percent
 from neckid.models.linear.subspace_steps import (
     bound_modes,
@@ -36,6 +35,7 @@ from neckid.models.linear.subspace_steps import (
     shift_invariance,
     state_space_run,
 )
+from neckid.utils.types import FloatArray
 
 __all__ = ["order_by_folds"]
 
@@ -107,7 +107,7 @@ def order_by_folds(
     -------
     order : int
         The smallest order whose mean fold fit is at least the best mean minus its standard
-        error (:func:`neckid.folds.one_standard_error`).
+        error (:func:`neckid.data.folds.one_standard_error`).
     fold_fits : ndarray, shape (largest, n_experiments)
         Row ``k``: the free-run fit [%] of order ``k + 1`` on each held-out experiment.
 

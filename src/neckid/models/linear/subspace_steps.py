@@ -47,7 +47,7 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import least_squares
 
-from neckid._typing import FloatArray
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "SETTLING_SHARE",

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
-from neckid._typing import FloatArray, IntArray
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["ACTIVATION_CODES", "mlp_free_run", "pack_layers"]
 

@@ -25,14 +25,14 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
-from neckid._memory import check_allocation
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
-from neckid.progress import task
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Interval, Options
+from neckid.utils.checks import Interval, Options
+from neckid.utils.memory import check_allocation
+from neckid.utils.progress import task
+from neckid.utils.types import FloatArray
 
 __all__ = ["NeuralNARX", "forward_pass", "member_seeds"]
 
@@ -716,7 +716,7 @@ class NeuralNARX(NarxModel):
         (catastrophic forgetting); a few epochs nudge them towards the new run.
         """
         from neckid.models.online import extend_training_ranges, update_experiments, update_rows
-        from neckid.validation import check_number
+        from neckid.utils.checks import check_number
 
         epochs = check_number(epochs, "epochs", low=1, integer=True)
         experiments = update_experiments(self, data)

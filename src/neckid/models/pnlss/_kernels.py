@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from neckid._typing import FloatArray, IntArray
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["pnlss_run", "pnlss_sensitivity"]
 

@@ -19,11 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neckid._typing import BoolArray, FloatArray, IntArray
 from neckid.models.linear.subspace import SubspaceStateSpace
 from neckid.models.linear.subspace_steps import estimate_state
 from neckid.models.pnlss._kernels import pnlss_run, pnlss_sensitivity
 from neckid.models.polynomial.monomials import monomial_tables
+from neckid.utils.types import BoolArray, FloatArray, IntArray
 
 __all__ = ["FreeRunProblem", "Layout", "Matrices", "linear_start"]
 

@@ -33,8 +33,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
-from neckid._memory import check_allocation
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import DIVERGENCE_SPANS, Estimator, ModelResult, check_is_fitted
 from neckid.models.linear.subspace import StateSpaceSimulator, SubspaceStateSpace
@@ -43,7 +41,9 @@ from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.pnlss._kernels import pnlss_run
 from neckid.models.pnlss.fitting import FreeRunProblem, Layout, free_run, linear_start
 from neckid.regressors import Lags
-from neckid.validation import Interval
+from neckid.utils.checks import Interval
+from neckid.utils.memory import check_allocation
+from neckid.utils.types import FloatArray
 
 __all__ = ["PolynomialStateSpace", "PolynomialStateSpaceSimulator"]
 
@@ -395,7 +395,7 @@ class PolynomialStateSpace(Estimator):
         return PolynomialStateSpaceSimulator(self)
 
     def state_map(self, bounds: bool = False) -> Any:
-        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+        """The model's state functions, for python-control (:func:`neckid.export.control.to_iosystem`).
 
         Parameters
         ----------

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.systems import StateMap, history_rows
+from neckid.utils.types import FloatArray
 
 __all__ = ["PolynomialStateMap"]
 

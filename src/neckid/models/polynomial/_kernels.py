@@ -32,7 +32,7 @@ from numba import njit
 
 __all__ = ["poly_free_run", "poly_sensitivity"]
 
-from neckid._typing import FloatArray, IntArray
+from neckid.utils.types import FloatArray, IntArray
 
 
 @njit(cache=True)

@@ -12,7 +12,7 @@ import itertools
 
 import numpy as np
 
-from neckid._typing import IntArray
+from neckid.utils.types import IntArray
 
 __all__ = ["monomial_tables"]
 

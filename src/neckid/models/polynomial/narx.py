@@ -42,7 +42,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares as _levenberg_marquardt
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.cache import active_cache, array_digest
@@ -51,9 +50,10 @@ from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.polynomial._kernels import poly_free_run, poly_sensitivity
 from neckid.models.polynomial.monomials import monomial_tables
-from neckid.progress import counting, task
 from neckid.regressors import Lags
-from neckid.validation import Interval, Options
+from neckid.utils.checks import Interval, Options
+from neckid.utils.progress import counting, task
+from neckid.utils.types import FloatArray
 
 __all__ = ["PolynomialNARX"]
 

@@ -22,7 +22,6 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.scheduled.point_table import (
@@ -48,7 +47,8 @@ from neckid.models.scheduled.simulator import GainScheduledSimulator, clipped_po
 from neckid.models.scheduled.state_map import ScheduledStateMap
 from neckid.models.scheduled.summary import describe_schedule
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Interval, Options, check_number, check_ts, check_vector
+from neckid.utils.checks import Interval, Options, check_number, check_ts, check_vector
+from neckid.utils.types import FloatArray
 
 if TYPE_CHECKING:
     import control
@@ -575,7 +575,7 @@ class GainScheduledModel(Estimator):
         return GainScheduledSimulator(self)
 
     def state_map(self, bounds: bool = False) -> ScheduledStateMap:
-        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+        """The model's state functions, for python-control (:func:`neckid.export.control.to_iosystem`).
 
         Parameters
         ----------

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray
 from neckid.models.scheduled.points import OperatingPoint
 from neckid.models.scheduled.segments import OperatingSegment
+from neckid.utils.types import FloatArray
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -18,11 +18,11 @@ from typing import Literal, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.models.linear.rls import RecursiveARX
 from neckid.models.scheduled.segments import OperatingSegment
 from neckid.regressors import Lags
+from neckid.utils.types import FloatArray
 
 __all__ = ["FORMS", "OperatingPoint", "default_window", "identify_point", "identify_segments"]
 

@@ -46,9 +46,9 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
-from neckid.validation import check_number, check_time_vector, check_vector
+from neckid.utils.checks import check_number, check_time_vector, check_vector
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "DWELL_BAND",

@@ -13,8 +13,8 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
-from neckid.validation import check_finite
+from neckid.utils.checks import check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = ["GainScheduledSimulator", "clipped_polyval"]
 

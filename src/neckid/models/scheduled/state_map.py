@@ -1,8 +1,8 @@
 """State functions of the gain-scheduled model, and the names its state-space forms share.
 
 :meth:`GainScheduledModel.state_map <neckid.models.scheduled.model.GainScheduledModel.state_map>`
-gives a :class:`ScheduledStateMap`; :func:`neckid.interop.to_iosystem` turns it into a
-python-control system, and :func:`neckid.interop.to_control` names the states of the model
+gives a :class:`ScheduledStateMap`; :func:`neckid.export.control.to_iosystem` turns it into a
+python-control system, and :func:`neckid.export.control.to_control` names the states of the model
 frozen at one inclination with :func:`scheduled_state_names`.
 """
 
@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.systems import StateMap
-from neckid.validation import check_finite
+from neckid.utils.checks import check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = ["ScheduledStateMap", "command_channel", "scheduled_state_names"]
 

@@ -24,7 +24,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from neckid._typing import BoolArray, FloatArray
 from neckid.models.linear.arx import least_squares, linear_sum
 from neckid.models.set_membership import prior
 from neckid.models.set_membership._kernels import (
@@ -50,7 +49,8 @@ from neckid.models.set_membership.training import (
 )
 from neckid.models.set_membership.update import PriorRule, revise_prior
 from neckid.regressors import ResolvedLags
-from neckid.validation import per_output
+from neckid.utils.checks import per_output
+from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = ["FitReport", "SMBounds", "SMCore", "SMSettings", "fit_core"]
 

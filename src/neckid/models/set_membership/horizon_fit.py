@@ -33,7 +33,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData
 from neckid.models.linear.arx import least_squares
 from neckid.models.set_membership._kernels import SMTree
@@ -52,6 +51,7 @@ from neckid.models.set_membership.training import (
     training_tree,
 )
 from neckid.regressors import Lags, ResolvedLags
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "FALLBACK_FRACTIONS",

@@ -29,8 +29,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray
 from neckid.models.polynomial.monomials import monomial_tables
+from neckid.utils.types import FloatArray
 
 __all__ = ["GRADIENT_DEGREE", "GRADIENT_FLOOR", "gradient_relevance", "learnt_weights"]
 

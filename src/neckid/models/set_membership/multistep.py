@@ -34,7 +34,6 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import (
     ModelResult,
@@ -68,7 +67,8 @@ from neckid.models.set_membership.prior import ProgressOption
 from neckid.models.set_membership.state_maps import MultiStepStateMap
 from neckid.models.set_membership.update import PriorRule
 from neckid.regressors import Lags
-from neckid.validation import Interval, Options
+from neckid.utils.checks import Interval, Options
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "MAD_TO_STD",
@@ -697,7 +697,7 @@ class MultiStepSetMembership(NarxModel):
         return MultiStepSimulator(self)
 
     def state_map(self, bounds: bool = False) -> MultiStepStateMap:
-        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+        """The model's state functions, for python-control (:func:`neckid.export.control.to_iosystem`).
 
         Parameters
         ----------

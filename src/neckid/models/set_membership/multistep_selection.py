@@ -7,7 +7,7 @@ training point). :func:`select_settings` chooses them on the training logs only:
 
 1. **Folds over runs.** With two or more training experiments each fold holds one out
    (leave-one-experiment-out); with one, the record is cut into ``MIN_BLOCKS = 3`` contiguous
-   time blocks (:func:`neckid.folds.fold_records`: of one period of the period average when
+   time blocks (:func:`neckid.data.folds.fold_records`: of one period of the period average when
    the input repeats exactly) and each fold holds one block out.
    Regressors never straddle two experiments or blocks.
 2. **Every setting of the grid** (:class:`SettingGrid`; by default :data:`EPSILON_FACTORS` ×
@@ -51,9 +51,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid._typing import FloatArray
+from neckid.data.folds import MIN_BLOCKS, fold_records
 from neckid.data.iodata import IOData
-from neckid.folds import MIN_BLOCKS, fold_records
 from neckid.models.linear.arx import linear_sum
 from neckid.models.set_membership._kernels.priors import prior_bounds
 from neckid.models.set_membership.core import SMSettings
@@ -72,6 +71,7 @@ from neckid.models.set_membership.prior import ProgressOption, _progress_callbac
 from neckid.models.set_membership.scaling import term_weights
 from neckid.models.set_membership.training import training_tree
 from neckid.regressors import Lags, ResolvedLags
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "EPSILON_FACTORS",
@@ -314,7 +314,7 @@ def json_candidates(value: Any) -> float | list[float] | None:
 def fold_experiments(experiments: Sequence[IOData]) -> tuple[list[IOData], str]:
     """The parts the folds hold out: the experiments (two or more), else time blocks of the one.
 
-    One record is cut as :func:`neckid.folds.fold_records` cuts it: within one period of its
+    One record is cut as :func:`neckid.data.folds.fold_records` cuts it: within one period of its
     period average when its input repeats exactly.
 
     Returns

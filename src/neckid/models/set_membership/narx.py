@@ -15,7 +15,6 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import (
     ModelResult,
@@ -45,7 +44,8 @@ from neckid.models.set_membership.training import (
 )
 from neckid.models.set_membership.update import Invalidation, PriorRule
 from neckid.regressors import Lags
-from neckid.validation import Interval, Options, check_finite
+from neckid.utils.checks import Interval, Options, check_finite
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "DEFAULT_GAMMA_MARGIN",

@@ -51,7 +51,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import clone
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import (
     DivergenceError,
@@ -76,7 +75,8 @@ from neckid.models.set_membership.state_maps import (
 )
 from neckid.models.set_membership.update import PriorRule
 from neckid.regressors import Lags, ResolvedLags
-from neckid.validation import Options, check_lag_list
+from neckid.utils.checks import Options, check_lag_list
+from neckid.utils.types import FloatArray
 
 __all__ = ["ParallelSetMembership", "ParallelSetMembershipSimulator"]
 
@@ -494,7 +494,7 @@ class ParallelSetMembership(Estimator):
         return ParallelSetMembershipSimulator(self)
 
     def state_map(self, bounds: bool = False) -> ParallelStateMap | StatefulParallelStateMap:
-        """The model's state functions, for python-control (:func:`neckid.interop.to_iosystem`).
+        """The model's state functions, for python-control (:func:`neckid.export.control.to_iosystem`).
 
         Parameters
         ----------

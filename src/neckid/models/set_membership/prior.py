@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.cache import active_cache, array_digest
 from neckid.models.set_membership._kernels import SMTree, gamma_star
 from neckid.models.set_membership.training import duplicate_spread
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
     "DEFAULT_GRID_POINTS",
@@ -184,7 +184,7 @@ def _progress_callback(
 ) -> tuple[Callable[[int, int], None] | None, Callable[[], None]]:
     """Turn the ``progress`` option into a callback and a closer.
 
-    Shown through :mod:`neckid.progress`: the reporter of the context (the command line's bar or
+    Shown through :mod:`neckid.utils.progress`: the reporter of the context (the command line's bar or
     lines), else a bar when standard error is a terminal.
     """
     if callable(progress) and not isinstance(progress, bool):
@@ -194,7 +194,7 @@ def _progress_callback(
         return None, lambda: None
     from contextlib import ExitStack
 
-    from neckid.progress import shown_task
+    from neckid.utils.progress import shown_task
 
     stack = ExitStack()
     advance = stack.enter_context(shown_task(label, 1.0, terminal_only=True))

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from neckid._typing import FloatArray
 from neckid.regressors import ResolvedLags
+from neckid.utils.types import FloatArray
 
 __all__ = ["distance_weights", "term_weights"]
 

@@ -4,7 +4,7 @@
 <neckid.models.set_membership.parallel.ParallelSetMembership.state_map>` gives a
 :class:`ParallelStateMap`, :meth:`MultiStepSetMembership.state_map
 <neckid.models.set_membership.multistep.MultiStepSetMembership.state_map>` a
-:class:`MultiStepStateMap`; :func:`neckid.interop.to_iosystem` turns them into python-control
+:class:`MultiStepStateMap`; :func:`neckid.export.control.to_iosystem` turns them into python-control
 systems. The other Set Membership models use the generic :class:`~neckid.systems.HistoryMap`.
 """
 
@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.systems import (
     HistoryMap,
     StateMap,
@@ -23,6 +22,7 @@ from neckid.systems import (
     history_names,
     history_rows,
 )
+from neckid.utils.types import FloatArray
 
 __all__ = ["MultiStepStateMap", "ParallelStateMap", "StatefulParallelStateMap"]
 

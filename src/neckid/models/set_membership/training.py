@@ -30,7 +30,6 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.linear.arx import linear_sum
 from neckid.models.set_membership._kernels import (
     TREE_MIN_POINTS,
@@ -38,6 +37,7 @@ from neckid.models.set_membership._kernels import (
     gamma_star,
     gamma_star_blocked,
 )
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
     "PRIOR_TOLERANCE",

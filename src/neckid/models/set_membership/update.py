@@ -35,9 +35,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels import SMTree, gamma_star
 from neckid.models.set_membership.prior import gamma_from_margin
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["PRIOR_RULES", "Invalidation", "PriorRule", "cross_gamma_star", "revise_prior"]
 

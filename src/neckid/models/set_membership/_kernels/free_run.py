@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.tree import STACK_DEPTH, SMTree, query_one
-from neckid.progress import task
+from neckid.utils.progress import task
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["free_run"]
 

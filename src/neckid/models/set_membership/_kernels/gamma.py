@@ -50,7 +50,6 @@ from typing import Literal
 import numpy as np
 from numba import njit, prange
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.gamma_search import (
     _raise,
     _tree_leaves_kernel,
@@ -58,6 +57,7 @@ from neckid.models.set_membership._kernels.gamma_search import (
 )
 from neckid.models.set_membership._kernels.slope import SlopeBounds, no_slope_bounds, slope_bounds
 from neckid.models.set_membership._kernels.tree import SMTree
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
     "GAMMA_LEAF_SIZE",

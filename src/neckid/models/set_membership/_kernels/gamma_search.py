@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.slope import slope_skips
 from neckid.models.set_membership._kernels.tree import STACK_DEPTH
+from neckid.utils.types import FloatArray, IntArray
 
 __all__: list[str] = []
 

@@ -36,7 +36,7 @@ every ``max(γ(w), γ_j)`` in the node, so no point that could change a bound is
 
 Developers: numba's on-disk cache of these kernels is keyed on this file; after editing the
 kernels they call in :mod:`neckid.models.set_membership._kernels.tree` in a checkout, delete the cache (see
-:mod:`neckid._numba_setup`) or touch this file.
+:mod:`neckid.utils.numba_cache`) or touch this file.
 
 References
 ----------
@@ -56,7 +56,6 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.tree import (
     SERIAL_QUERIES,
     STACK_DEPTH,
@@ -66,6 +65,7 @@ from neckid.models.set_membership._kernels.tree import (
     query_one,
     squared_distance,
 )
+from neckid.utils.types import FloatArray, IntArray
 
 if TYPE_CHECKING:
     from neckid.models.set_membership._kernels.tree import SMTree

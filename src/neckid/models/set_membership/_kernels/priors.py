@@ -40,7 +40,6 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.local import kth_radius2
 from neckid.models.set_membership._kernels.tree import (
     STACK_DEPTH,
@@ -50,6 +49,7 @@ from neckid.models.set_membership._kernels.tree import (
     query_one,
     squared_distance,
 )
+from neckid.utils.types import FloatArray, IntArray
 
 if TYPE_CHECKING:
     from neckid.models.set_membership._kernels.tree import SMTree

@@ -52,8 +52,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from neckid._typing import FloatArray, IntArray
 from neckid.models.set_membership._kernels.tree import SMTree
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
     "SLOPE_REGION_DEPTH",

@@ -41,7 +41,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid._typing import FloatArray, IntArray
+from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
     "LEAF_SIZE",

@@ -8,6 +8,13 @@ from typing import Any, Literal
 
 import numpy as np
 
+from neckid.cli.lag_text import (
+    format_lags,
+    lone_lag_note,
+    parse_lags,
+    parse_order_grid,
+    parse_orders,
+)
 from neckid.data.iodata import IOData
 from neckid.data.preprocess import (
     LowPass,
@@ -17,13 +24,6 @@ from neckid.data.preprocess import (
     Resample,
     Restamp,
     Tilt,
-)
-from neckid.lag_text import (
-    format_lags,
-    lone_lag_note,
-    parse_lags,
-    parse_order_grid,
-    parse_orders,
 )
 from neckid.regressors import Lags
 
@@ -89,7 +89,7 @@ def read_log(
         which override those the loader reads from a soft-neck file name.
     tilt : bool, default False
         A 3-D neck's log: read its ``inclination`` and ``orientation`` outputs [deg] and return
-        the tilt vector ``tilt_x``, ``tilt_y`` [deg] in their place (:mod:`neckid.tilt`).
+        the tilt vector ``tilt_x``, ``tilt_y`` [deg] in their place (:mod:`neckid.data.tilt`).
         ``tilt_x``/``tilt_y`` among ``outputs`` (a model's channels) stand for those two.
     maps : mapping of str to str, optional
         Log channel name -> model channel name (what :func:`parse_mapping` returns): ``inputs``,

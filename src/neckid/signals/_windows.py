@@ -13,8 +13,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import integrate
 from scipy import signal as sps
 
-from neckid._typing import FloatArray
-from neckid.validation import check_vector
+from neckid.utils.checks import check_vector
+from neckid.utils.types import FloatArray
 
 __all__ = ["chirp_phase", "window_envelopes"]
 

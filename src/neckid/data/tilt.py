@@ -42,8 +42,8 @@ from typing import Any, Literal, Protocol, Self, TypeVar
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
-from neckid.validation import check_finite
+from neckid.utils.checks import check_finite
+from neckid.utils.types import FloatArray
 
 
 class _Log(Protocol):
@@ -124,7 +124,7 @@ def to_tilt(inclination: ArrayLike, orientation: ArrayLike) -> tuple[FloatArray,
 
     Examples
     --------
-    >>> from neckid.tilt import to_tilt
+    >>> from neckid.data.tilt import to_tilt
     >>> x, y = to_tilt([10.0, 10.0], [0.0, 360.0])      # the same pose: no jump
     >>> x.tolist(), [round(v, 12) for v in y.tolist()]
     ([10.0, 10.0], [0.0, -0.0])
@@ -141,7 +141,7 @@ def from_tilt(tilt_x: ArrayLike, tilt_y: ArrayLike) -> tuple[FloatArray, FloatAr
 
     Examples
     --------
-    >>> from neckid.tilt import from_tilt
+    >>> from neckid.data.tilt import from_tilt
     >>> incl, orient = from_tilt([0.0, -3.0], [0.0, -4.0])
     >>> incl.tolist(), [round(v, 6) for v in orient.tolist()]
     ([0.0, 5.0], [0.0, 233.130102])
@@ -159,7 +159,7 @@ def to_pitch_roll(inclination: ArrayLike, orientation: ArrayLike) -> tuple[Float
 
     Examples
     --------
-    >>> from neckid.tilt import to_pitch_roll
+    >>> from neckid.data.tilt import to_pitch_roll
     >>> pitch, roll = to_pitch_roll([30.0, 30.0], [0.0, 90.0])
     >>> [round(v, 9) for v in pitch.tolist()], [round(v, 9) for v in roll.tolist()]
     ([30.0, 0.0], [-0.0, -30.0])
@@ -175,7 +175,7 @@ def from_pitch_roll(pitch: ArrayLike, roll: ArrayLike) -> tuple[FloatArray, Floa
 
     Examples
     --------
-    >>> from neckid.tilt import from_pitch_roll
+    >>> from neckid.data.tilt import from_pitch_roll
     >>> incl, orient = from_pitch_roll([0.0], [-30.0])
     >>> round(float(incl[0]), 9), round(float(orient[0]), 9)
     (30.0, 90.0)
@@ -224,7 +224,7 @@ def tilt_log(
     --------
     >>> import numpy as np
     >>> from neckid import IOData
-    >>> from neckid.tilt import tilt_log
+    >>> from neckid.data.tilt import tilt_log
     >>> log = IOData(np.zeros(2), np.array([[5.0, 359.0], [5.0, 1.0]]), ts=0.02,
     ...              output_names=["inclination", "orientation"], output_units=["deg", "deg"])
     >>> tilt_log(log).output_names
@@ -249,7 +249,7 @@ def polar_log(data: LogT, *, representation: Representation = "vector") -> LogT:
     --------
     >>> import numpy as np
     >>> from neckid import IOData
-    >>> from neckid.tilt import polar_log
+    >>> from neckid.data.tilt import polar_log
     >>> log = IOData(np.zeros(1), np.array([[3.0, 4.0]]), ts=0.02, output_names=["tilt_x", "tilt_y"])
     >>> polar_log(log).y.tolist()
     [[5.0, 53.13010235415598]]

@@ -48,7 +48,6 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
 from neckid.models.base import Estimator, check_is_fitted
 from neckid.models.linear.arx import LinearARX
 from neckid.models.linear.rls import RecursiveARX
@@ -56,6 +55,7 @@ from neckid.models.linear.subspace import SubspaceStateSpace
 from neckid.models.scheduled.model import GainScheduledModel
 from neckid.models.scheduled.state_map import command_channel, scheduled_state_names
 from neckid.systems import StateFunctions, history_names
+from neckid.utils.types import FloatArray
 
 __all__ = ["initial_state", "output_offset", "to_control", "to_iosystem"]
 
@@ -105,7 +105,7 @@ def output_offset(model: LinearARX | RecursiveARX) -> FloatArray:
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags, LinearARX
-    >>> from neckid.interop import output_offset
+    >>> from neckid.export.control import output_offset
     >>> u = np.random.default_rng(0).normal(size=300)
     >>> y = np.zeros(300)
     >>> for t in range(1, 300):
@@ -363,7 +363,7 @@ def to_control(
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags, LinearARX
-    >>> from neckid.interop import to_control
+    >>> from neckid.export.control import to_control
     >>> u = np.random.default_rng(0).normal(size=300)
     >>> y = np.zeros(300)
     >>> for t in range(1, 300):
@@ -390,7 +390,7 @@ def to_control(
     if not isinstance(model, LINEAR_MODELS):
         raise TypeError(
             f"to_control needs a linear model (LinearARX, RecursiveARX, GainScheduledModel); a"
-            f" {type(model).__name__} is nonlinear: use neckid.interop.to_iosystem(model) for a"
+            f" {type(model).__name__} is nonlinear: use neckid.export.control.to_iosystem(model) for a"
             " control.NonlinearIOSystem"
         )
     if inclination is not None:
@@ -470,7 +470,7 @@ def to_iosystem(
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags, LinearARX
-    >>> from neckid.interop import initial_state, to_iosystem
+    >>> from neckid.export.control import initial_state, to_iosystem
     >>> u = np.random.default_rng(0).normal(size=200)
     >>> y = np.zeros(200)
     >>> for t in range(1, 200):
@@ -524,7 +524,7 @@ def initial_state(
     --------
     >>> import numpy as np
     >>> from neckid import IOData, Lags, LinearARX
-    >>> from neckid.interop import initial_state
+    >>> from neckid.export.control import initial_state
     >>> data = IOData(np.sin(np.arange(50.0)), np.cos(np.arange(50.0)), ts=0.02)
     >>> model = LinearARX(Lags.arx(2, 1)).fit(data)
     >>> initial_state(model, y0=[[1.0], [2.0]], u0=0.5)

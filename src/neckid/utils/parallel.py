@@ -1,6 +1,6 @@
 """Where a sweep runs: a joblib backend on this machine, or a Dask cluster, with a progress bar.
 
-The sweeps (:func:`neckid.select_lags`, :func:`neckid.selection.score_candidates` and the
+The sweeps (:func:`neckid.select_lags`, :func:`neckid.selection.lags.score_candidates` and the
 benchmark's hyper-parameter selection, :func:`neckid.experiments.benchmark.run_benchmark`) cut
 their work into independent units (one candidate on one fold) and hand them to
 :func:`run_jobs`, which runs them with :class:`joblib.Parallel` on the backend asked for:
@@ -97,12 +97,12 @@ def _backend_context(backend: str | None) -> AbstractContextManager[Any]:
 
 
 def _with_progress(results: Iterable[Any], total: int, label: str) -> Iterator[Any]:
-    """Yield ``results`` while :mod:`neckid.progress` counts them.
+    """Yield ``results`` while :mod:`neckid.utils.progress` counts them.
 
     Shown by the reporter of the context (the command line's bar, or lines in a log); without
     one, by a rich bar on standard error.
     """
-    from neckid.progress import shown_task
+    from neckid.utils.progress import shown_task
 
     with shown_task(label, total=total) as advance:
         for result in results:

@@ -135,7 +135,7 @@ def output_name(path: str | Path, suffix: str, *, option: str = "--save") -> Pat
     >>> output_name("..", ".npz")
     Traceback (most recent call last):
     ...
-    neckid.outputs.OutputError: --save '..' names no file; give a file name such as 'out.npz'
+    neckid.utils.files.OutputError: --save '..' names no file; give a file name such as 'out.npz'
     """
     target = Path(path)
     _refuse_degenerate(target, path, option)

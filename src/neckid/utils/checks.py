@@ -35,7 +35,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid._typing import FloatArray
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "Interval",

@@ -9,10 +9,10 @@ Two complementary tools:
   folds of experiments, or 3 time blocks of a single record). The scoring itself is
   :func:`score_candidates` (any list of named estimators, also what the benchmark ranks its
   candidates with), and a free run with a protocol's initial samples is :func:`free_run`.
-- :func:`lipschitz_quotients` (in :mod:`neckid.lipschitz_index`, re-exported here) computes He
+- :func:`lipschitz_quotients` (in :mod:`neckid.selection.lipschitz`, re-exported here) computes He
   & Asada's order index from the data alone, no model needed.
 
-The choice among the scored candidates follows the safe rule of :mod:`neckid.folds`.
+The choice among the scored candidates follows the safe rule of :mod:`neckid.data.folds`.
 """
 
 from __future__ import annotations
@@ -30,15 +30,15 @@ import pandas as pd
 from joblib import delayed
 from sklearn.base import clone
 
-from neckid._parallel import check_backend, run_jobs
-from neckid._typing import FloatArray
+from neckid.data.folds import fold_records, fold_statistics, one_standard_error
 from neckid.data.iodata import IOData, as_experiments
-from neckid.folds import fold_records, fold_statistics, one_standard_error
-from neckid.lipschitz_index import lipschitz_quotients
 from neckid.metrics import fit_percent, rmse
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
 from neckid.registry import get_method
 from neckid.regressors import Lags
+from neckid.selection.lipschitz import lipschitz_quotients
+from neckid.utils.parallel import check_backend, run_jobs
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "LagSelection",
@@ -58,7 +58,7 @@ Scheme = Literal[
     "time-blocks",
     "time-blocks of one period",
 ]
-#: How :func:`select_lags` picks: the safe rule of :mod:`neckid.folds`, or the top mean fit.
+#: How :func:`select_lags` picks: the safe rule of :mod:`neckid.data.folds`, or the top mean fit.
 Rule = Literal["safe", "best"]
 
 
@@ -179,7 +179,7 @@ class LagSelection:
 
         With ``rule="safe"``: the fewest regressor terms among the candidates that never failed
         nor diverged and whose mean fold fit is within one standard error of the best
-        (:func:`neckid.folds.one_standard_error`); with ``rule="best"``: the first row of
+        (:func:`neckid.data.folds.one_standard_error`); with ``rule="best"``: the first row of
         :attr:`table`.
         """
         if self.rule == "safe":
@@ -640,7 +640,7 @@ def select_lags(
 
     The choice (:attr:`LagSelection.best_lags`) follows ``rule``: ``"safe"`` (the default) puts
     out every candidate that failed or diverged in a fold and takes the fewest regressor terms
-    within one standard error of the best mean fold fit (:mod:`neckid.folds`); ``"best"`` takes
+    within one standard error of the best mean fold fit (:mod:`neckid.data.folds`); ``"best"`` takes
     the top mean fit, the rule of earlier versions.
 
     Parameters
@@ -817,7 +817,7 @@ def _rule_status(
     """Fill missing scores, ``status`` and ``reason``; the safe rule's choice (None: all out).
 
     A candidate is out when it failed to fit or its free run (or one-step run) was not finite
-    in a fold; the rest go to :func:`~neckid.folds.one_standard_error`, simpler meaning fewer
+    in a fold; the rest go to :func:`~neckid.data.folds.one_standard_error`, simpler meaning fewer
     regressor terms, then a shorter memory.
     """
     column = f"fit_{criterion}"

@@ -91,14 +91,14 @@ def parse_order_grid(text: str) -> list[Lags]:
     """Read ``"NA,NB,NK"`` where each is a number or a range ``lo-hi``: every combination.
 
     MATLAB's ``struc(1:3, 1:3, 0:2)``: ``"1-3,1-3,0-2"`` is 27 candidates
-    (:func:`~neckid.selection.lag_grid`).
+    (:func:`~neckid.selection.lags.lag_grid`).
 
     Examples
     --------
     >>> len(parse_order_grid("1-3,1-3,0-2")), parse_order_grid("2,2,1-2")[1]
     (27, Lags(outputs=[1, 2], inputs=[2, 3]))
     """
-    from neckid.selection import lag_grid
+    from neckid.selection.lags import lag_grid
 
     na, nb, nk = _order_ranges(text, "--orders")
     return lag_grid(na, nb, nk)

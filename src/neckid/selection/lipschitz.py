@@ -13,9 +13,9 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from neckid._typing import FloatArray
 from neckid.data.iodata import IOData, as_experiments
 from neckid.regressors import Lags, ResolvedLags
+from neckid.utils.types import FloatArray
 
 __all__ = ["lipschitz_quotients"]
 

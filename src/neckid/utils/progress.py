@@ -6,7 +6,7 @@ costs nothing when nobody listens. The command line listens for the whole comman
 (:class:`TerminalReporter`), plain lines otherwise (:class:`LineReporter`: a log file, a CI job).
 A Python user can do the same::
 
-    with neckid.progress.reporting(neckid.progress.LineReporter()):
+    with neckid.utils.progress.reporting(neckid.utils.progress.LineReporter()):
         model.fit(data)
 
 The listener lives in a :class:`contextvars.ContextVar`, so threads and asynchronous tasks each

@@ -40,20 +40,20 @@ import numpy as np
 import pandas as pd
 from sklearn.base import clone
 
-from neckid.data.iodata import IOData, as_experiments
-from neckid.folds import (
+from neckid.data.folds import (
     MIN_BLOCKS,
     fold_records,
     fold_statistics,
     one_standard_error,
     time_blocks,
 )
+from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
 from neckid.models.bands import band_meaning
 from neckid.models.base import DivergenceError, ModelResult
 from neckid.registry import get_method
 from neckid.regressors import Lags
-from neckid.selection import score_candidates
+from neckid.selection.lags import score_candidates
 
 __all__ = [
     "COMPLEXITY",
@@ -237,7 +237,7 @@ def select_safely(
         Parallel workers over candidates and folds (joblib).
     backend : str, optional
         The joblib backend (``"dask"`` for a cluster), as in
-        :func:`~neckid.selection.score_candidates`.
+        :func:`~neckid.selection.lags.score_candidates`.
     progress : bool, default False
         Show a progress bar.
 

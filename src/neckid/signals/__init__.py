@@ -1,0 +1,37 @@
+"""Excitation signals and the bandwidth of a chirp run.
+
+The generators are in :mod:`~neckid.signals.excitation`, the chirp-run analysis in
+:mod:`~neckid.signals.bandwidth`. All frequencies are angular, in rad/s; all times in seconds. A signal is a 1-D float64 array,
+one value per time stamp, ready to be a column of an :class:`~neckid.data.iodata.IOData`.
+"""
+
+from neckid.signals.bandwidth import BandwidthResult, bandwidth_from_chirp
+from neckid.signals.excitation import (
+    chirp,
+    chirp_frequency,
+    multisine,
+    multisine_frequencies,
+    paper_chirp,
+    paper_chirp_frequency,
+    prbs,
+    random_binary,
+    sine,
+    staircase,
+    step,
+)
+
+__all__ = [
+    "BandwidthResult",
+    "bandwidth_from_chirp",
+    "chirp",
+    "chirp_frequency",
+    "multisine",
+    "multisine_frequencies",
+    "paper_chirp",
+    "paper_chirp_frequency",
+    "prbs",
+    "random_binary",
+    "sine",
+    "staircase",
+    "step",
+]
