@@ -57,6 +57,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from neckid.loops.controllers.lab import GL_THRESHOLD, grunwald_letnikov_weights
 from neckid.utils.checks import check_number, check_ts
 from neckid.utils.types import FloatArray
 
@@ -72,11 +73,6 @@ __all__ = [
 
 #: The discretisations of :math:`s^\alpha` a fractional controller may use.
 DISCRETISATIONS = ("gl", "oustaloup")
-
-#: The lab's truncation threshold of the Grünwald–Letnikov taps.
-GL_THRESHOLD = 0.01
-
-_MAX_TAPS = 100_000
 
 Method = Literal["tustin", "gl", "oustaloup"]
 
@@ -194,9 +190,9 @@ def gl_taps(order: float, threshold: float = GL_THRESHOLD) -> FloatArray:
     r"""Grünwald–Letnikov taps :math:`w_i = (-1)^i\binom{a}{i}`, truncated as the lab does.
 
     :math:`w_0 = 1`, :math:`w_i = w_{i-1}(i - 1 - a)/i`; the list ends with the first tap of
-    magnitude below ``threshold`` (kept). The same rule as
-    :func:`neckid.loops.controllers.grunwald_letnikov_weights` (tested equal); repeated here so
-    that a controller file loads without the lab's controllers.
+    magnitude below ``threshold`` (kept). The lab's rule itself: this is
+    :func:`neckid.loops.controllers.lab.grunwald_letnikov_weights` (one implementation, in the
+    lower layer), under the name the design's operators use.
 
     Parameters
     ----------
@@ -219,18 +215,7 @@ def gl_taps(order: float, threshold: float = GL_THRESHOLD) -> FloatArray:
     >>> gl_taps(0.45).shape, gl_taps(0.45)[:2].tolist()
     ((12,), [1.0, -0.45])
     """
-    a = check_number(order, "order")
-    limit = check_number(threshold, "threshold", low=0, closed="neither")
-    taps = [1.0]
-    while abs(taps[-1]) >= limit:
-        i = len(taps)
-        if i >= _MAX_TAPS:
-            raise ValueError(
-                f"the Grünwald–Letnikov taps of order {a} do not fall below {limit} within"
-                f" {_MAX_TAPS} taps; use a larger threshold"
-            )
-        taps.append(taps[-1] * (i - 1 - a) / i)
-    return np.array(taps)
+    return grunwald_letnikov_weights(order, threshold)
 
 
 def _check_order(order: float) -> float:

@@ -98,7 +98,7 @@ def grunwald_letnikov_weights(order: float, threshold: float = GL_THRESHOLD) -> 
         if i >= _MAX_TAPS:
             raise ValueError(
                 f"the Grünwald–Letnikov taps of order {a} do not fall below {limit} within"
-                f" {_MAX_TAPS} taps"
+                f" {_MAX_TAPS} taps; use a larger threshold"
             )
         taps.append(taps[-1] * (i - 1 - a) / i)
     return np.array(taps)
