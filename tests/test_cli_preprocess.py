@@ -235,8 +235,42 @@ def test_tilt_combines_with_map(tmp_path: Path) -> None:
         )
         fits = _fits(result.output, "tilt_x") + _fits(result.output, "tilt_y")
         assert len(fits) == 2 and min(fits) > 90.0, result.output
+    # The mapping travels with the model as the preprocessing does (issue 39): no --map needed.
     result = runner.invoke(app, ["validate", str(model), str(tmp_path / "test.csv")])
-    assert result.exit_code == 2 and "inclination" in result.output
+    assert result.exit_code == 0, result.output
+    shown = "channel mapping from the model: --map inclination_sensor=inclination"
+    assert shown in _plain(result.output).replace("\n", " ")
+    fits = _fits(result.output, "tilt_x") + _fits(result.output, "tilt_y")
+    assert len(fits) == 2 and min(fits) > 90.0, result.output
+    assert loaded.channel_map_ == {
+        "inclination_sensor": "inclination",
+        "orientation_sensor": "orientation",
+    }
+
+
+def test_the_stored_mapping_is_skipped_for_a_log_that_already_names_the_channels(
+    tmp_path: Path,
+) -> None:
+    """A model identified with --map on one rig validates on a log whose columns need none."""
+    _sensor_csv(tmp_path / "train.csv", seed=1)
+    renamed = pd.read_csv(tmp_path / "train.csv").rename(
+        columns={"inclination_sensor": "inclination", "orientation_sensor": "orientation"}
+    )
+    renamed.to_csv(tmp_path / "plain.csv", index=False)
+    model = tmp_path / "m.npz"
+    maps = ["--map", "inclination=inclination_sensor", "--map", "orientation=orientation_sensor"]
+    result = runner.invoke(
+        app,
+        ["identify", str(tmp_path / "train.csv"), "--inputs", "motor_1,motor_2,motor_3",
+         "--outputs", "inclination,orientation", "--tilt", *maps, "--method", "arx",
+         "--lags", "1-2/1-3", "--save", str(model)],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(app, ["validate", str(model), str(tmp_path / "plain.csv")])
+    assert result.exit_code == 0, result.output
+    assert "channel mapping from the model" not in result.output
+    info = runner.invoke(app, ["info", str(model)])
+    assert "inclination_sensor=inclination" in _plain(info.output).replace("\n", " ")
 
 
 def test_an_old_tilt_model_still_validates_with_tilt_and_map(tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from neckid.cli._app import _sep, _split, error_console
+from neckid.cli._app import error_console
 
 #: The regressor of identify when neither --lags nor --orders is given (MATLAB's [2 2 1]).
 DEFAULT_ORDERS = "2,2,1"
@@ -39,43 +39,6 @@ def refuse_repeated_paths(paths: Sequence[Path], what: str = "log") -> None:
                 " give each run once"
             )
         seen[key] = Path(path)
-
-
-def _training_logs(logs: Sequence[Path], **options: Any) -> tuple[list[Any], Any]:
-    """The training logs read as identify reads them, and the preprocessing they went through.
-
-    ``options`` are the commands' log options by parameter name (``inputs``, ``outputs``,
-    ``time``, ``ts``, ``layout``, ``sep``, ``channels``, ``conditions``, ``maps``, ``tilt`` and
-    the preprocessing ones: ``relative``, ``offsets``, ``lowpass``, ``resample``, ``restamp``).
-    """
-    from neckid.cli.workflow import parse_mapping, pipeline_from_options, read_log
-
-    refuse_repeated_paths(logs)
-    pipeline = pipeline_from_options(
-        relative=options["relative"] or (),
-        offsets=options["offsets"] or (),
-        lowpass=options["lowpass"] or (),
-        resample=options["resample"],
-        restamp=options["restamp"],
-        tilt=options["tilt"],
-    )
-    experiments = [
-        read_log(
-            log,
-            _split(options["inputs"]),
-            _split(options["outputs"]),
-            time=options["time"],
-            ts=options["ts"],
-            layout=options["layout"],
-            sep=_sep(options["sep"]),
-            channels=options["channels"] or (),
-            conditions=options["conditions"] or (),
-            maps=parse_mapping(options["maps"] or []),
-            preprocessing=pipeline,
-        )
-        for log in logs
-    ]
-    return experiments, pipeline
 
 
 def _regressor(

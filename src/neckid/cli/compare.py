@@ -9,23 +9,8 @@ import typer
 from rich.markup import escape
 
 from neckid.cli._app import (
-    CHANNEL_OPTION,
-    CONDITION_OPTION,
     FORCE_OPTION,
-    INPUTS_HELP,
-    LAYOUT_OPTION,
     LOG_HELP,
-    LOWPASS_OPTION,
-    MAP_OPTION,
-    OFFSET_OPTION,
-    OUTPUTS_HELP,
-    RELATIVE_OPTION,
-    RESAMPLE_OPTION,
-    RESTAMP_OPTION,
-    SEP_OPTION,
-    TILT_OPTION,
-    TIME_OPTION,
-    TS_OPTION,
     _method_name,
     _metrics_table,
     _split,
@@ -34,13 +19,14 @@ from neckid.cli._app import (
     error_console,
     handled,
 )
-from neckid.cli._training import _training_logs, refuse_repeated_paths
+from neckid.cli._training import refuse_repeated_paths
 from neckid.cli.explain import _save_panels
+from neckid.cli.options import LogSpec, log_options, read_training_logs
 
 
-def _read_all(paths: list[Path], options: dict[str, Any]) -> list[Any]:
+def _read_all(paths: list[Path], spec: LogSpec) -> list[Any]:
     """The logs read as identify reads them (same channels, map and preprocessing), by file name."""
-    experiments, _ = _training_logs(paths, **options)
+    experiments, _ = read_training_logs(paths, spec)
     return [data.renamed(path.name) for path, data in zip(paths, experiments, strict=True)]
 
 
@@ -127,6 +113,7 @@ def _write_report(comparison: Any, tests: list[Any], folder: Path, force: bool) 
 
 @app.command()
 @handled
+@log_options(training=True)
 def compare(
     train: list[Path] = typer.Argument(
         ...,
@@ -140,8 +127,6 @@ def compare(
         help="A test log (repeat the option); touched once, after every choice.",
         exists=True,
     ),
-    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
-    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
     methods: str = typer.Option(
         "arx,sm,sm-parallel",
         "--methods",
@@ -163,20 +148,9 @@ def compare(
     json_out: Path = typer.Option(None, "--json", help="Write the comparison as JSON."),
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of every method on each test log."),
     report: Path = typer.Option(None, "--report", help="Write an HTML report into this folder."),
-    time: str = TIME_OPTION,
-    ts: float = TS_OPTION,
-    layout: str = LAYOUT_OPTION,
-    sep: str = SEP_OPTION,
-    channels: list[str] = CHANNEL_OPTION,
-    conditions: list[str] = CONDITION_OPTION,
-    tilt: bool = TILT_OPTION,
-    maps: list[str] = MAP_OPTION,
-    relative: list[str] = RELATIVE_OPTION,
-    offsets: list[str] = OFFSET_OPTION,
-    lowpass: list[str] = LOWPASS_OPTION,
-    resample: float = RESAMPLE_OPTION,
-    restamp: bool = RESTAMP_OPTION,
     force: bool = FORCE_OPTION,
+    *,
+    spec: LogSpec,
 ) -> None:
     """Choose a model on the training logs, then free-run every method on the test logs.
 
@@ -203,26 +177,9 @@ def compare(
     for text in lags or ["1-2/1-2"]:
         parsed = parse_lags(text)
         regressors.append(Lags(parsed.outputs, parsed.inputs))
-    # the same channels, --map and preprocessing for the training and the test logs
-    options = {
-        "inputs": inputs,
-        "outputs": outputs,
-        "time": time,
-        "ts": ts,
-        "layout": layout,
-        "sep": sep,
-        "channels": channels,
-        "conditions": conditions,
-        "maps": maps,
-        "tilt": tilt,
-        "relative": relative,
-        "offsets": offsets,
-        "lowpass": lowpass,
-        "resample": resample,
-        "restamp": restamp,
-    }
+    # the same channels, --map and preprocessing for the training and the test logs: spec
     refuse_repeated_paths([*train, *test], "log (a test log must not be a training log)")
-    training, tests = _read_all(train, options), _read_all(test, options)
+    training, tests = _read_all(train, spec), _read_all(test, spec)
     result = run_compare(
         training, tests, names, regressors, stress=stress, seed=seed, progress=True
     )

@@ -10,13 +10,16 @@ on the shared training logs (:meth:`neckid.loops.lab_drive.LabDrive.identified`)
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.markup import escape
 from rich.table import Table
 
 from neckid.cli._app import _sep, console, error_console
+
+if TYPE_CHECKING:
+    from neckid.cli.options import LogSpec
 
 __all__ = ["CONTROLLER_HELP", "validate_in_loop"]
 
@@ -44,13 +47,11 @@ def _headerless(path: Path, sep: str) -> bool:
     return True
 
 
-def _read(path: Path, model: Any, options: dict[str, Any]) -> Any:
+def _read(path: Path, model: Any, spec: LogSpec) -> Any:
     from neckid.cli.workflow import read_log
 
-    sep = _sep(options["sep"])
-    softneck = options["layout"] == "softneck" or (
-        options["layout"] == "csv" and _headerless(path, sep)
-    )
+    sep = _sep(spec.sep)
+    softneck = spec.layout == "softneck" or (spec.layout == "csv" and _headerless(path, sep))
     if softneck:
         inputs = list(_LOOP_CHANNELS)
     else:
@@ -63,11 +64,11 @@ def _read(path: Path, model: Any, options: dict[str, Any]) -> Any:
         path,
         inputs,
         ["inclination"],
-        time=options["time"],
-        ts=options["ts"],
-        layout="softneck" if softneck else options["layout"],
+        time=spec.time,
+        ts=spec.ts,
+        layout="softneck" if softneck else spec.layout,
         sep=sep,
-        conditions=options["conditions"] or (),
+        conditions=spec.conditions,
     )
 
 
@@ -154,7 +155,7 @@ def validate_in_loop(
     logs: list[Path],
     controller: str | None,
     json_out: Path | None,
-    options: dict[str, Any],
+    spec: LogSpec,
 ) -> None:
     """Run ``model_path`` in the loop of each log; print the figures; write them as JSON.
 
@@ -168,8 +169,9 @@ def validate_in_loop(
         ``--controller``.
     json_out : Path, optional
         ``--json`` (already checked by the caller).
-    options : dict
-        ``time``, ``ts``, ``layout``, ``sep``, ``conditions`` of the command line.
+    spec : LogSpec
+        The log options of the command line (``time``, ``ts``, ``layout``, ``sep``,
+        ``conditions`` are read here).
     """
     from neckid.loops.lab_loop import in_loop_on_log
     from neckid.models.io import load_model
@@ -179,7 +181,7 @@ def validate_in_loop(
     chosen, parameters = _controller(controller)
     records = []
     for log in logs:
-        data = _read(log, model, options)
+        data = _read(log, model, spec)
         try:
             result = in_loop_on_log(model, data, chosen, adaptive_parameters=parameters)
         except (ValueError, FileNotFoundError) as exc:

@@ -251,6 +251,9 @@ def _info_model(path: Path, as_json: bool) -> None:
     table.add_row("conditions (inputs)", ", ".join(described["conditions"]) or "none")
     if "preprocessing" in described:
         table.add_row("preprocessing", model.preprocessing_.describe())
+    if "channel_map" in described:
+        shown = ", ".join(f"{log}={name}" for log, name in described["channel_map"].items())
+        table.add_row("channel mapping (--map)", shown)
     console.print(table)
     if "schedule" in described:
         _print_schedule(described["schedule"])

@@ -10,26 +10,10 @@ import typer
 from rich.markup import escape
 
 from neckid.cli._app import (
-    CHANNEL_OPTION,
-    CONDITION_OPTION,
     FORCE_OPTION,
-    INPUTS_HELP,
-    LAYOUT_OPTION,
     LOG_HELP,
-    LOWPASS_OPTION,
-    MAP_OPTION,
-    OFFSET_OPTION,
-    OUTPUTS_HELP,
-    RELATIVE_OPTION,
-    RESAMPLE_OPTION,
-    RESTAMP_OPTION,
-    SEP_OPTION,
-    TILT_OPTION,
-    TIME_OPTION,
-    TS_OPTION,
     _method_name,
     _metrics_table,
-    _sep,
     _split,
     app,
     console,
@@ -42,7 +26,6 @@ from neckid.cli._training import (
     _method_settings,
     _regressor,
     _regressor_text,
-    _training_logs,
 )
 from neckid.cli.explain import (
     _describe_model,
@@ -55,11 +38,19 @@ from neckid.cli.explain import (
     _save_panels,
 )
 from neckid.cli.in_loop import CONTROLLER_HELP, validate_in_loop
+from neckid.cli.options import (
+    LogSpec,
+    attach_log_options,
+    log_options,
+    read_for_model,
+    read_training_logs,
+)
 from neckid.registry import methods
 
 
 @app.command()
 @handled
+@log_options(training=True)
 def identify(
     logs: list[Path] = typer.Argument(
         ...,
@@ -67,8 +58,6 @@ def identify(
         help=LOG_HELP + " Several logs are several experiments of one model.",
         exists=True,
     ),
-    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
-    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
     method: str = typer.Option(
         "sm",
         "--method",
@@ -79,28 +68,15 @@ def identify(
     save: Path = typer.Option(
         Path("model.npz"), "--save", help="Where to write the model (.npz, no pickle)."
     ),
-    time: str = TIME_OPTION,
-    ts: float = TS_OPTION,
-    layout: str = LAYOUT_OPTION,
-    sep: str = SEP_OPTION,
-    channels: list[str] = CHANNEL_OPTION,
     seed: int = typer.Option(
         0, "--seed", min=0, help="Seed (>= 0) of the neural network's initial weights."
     ),
-    conditions: list[str] = CONDITION_OPTION,
     use_conditions: str = typer.Option(
         None,
         "--use-conditions",
         help="Comma-separated conditions the model takes as constant inputs (e.g. payload);"
         " each log must have them (file name, sidecar or --condition).",
     ),
-    tilt: bool = TILT_OPTION,
-    maps: list[str] = MAP_OPTION,
-    relative: list[str] = RELATIVE_OPTION,
-    offsets: list[str] = OFFSET_OPTION,
-    lowpass: list[str] = LOWPASS_OPTION,
-    resample: float = RESAMPLE_OPTION,
-    restamp: bool = RESTAMP_OPTION,
     settings: list[str] = typer.Option(
         None,
         "--set",
@@ -113,6 +89,8 @@ def identify(
         None, "--json", help="Write the model's regressor, settings and training fit as JSON."
     ),
     force: bool = FORCE_OPTION,
+    *,
+    spec: LogSpec,
 ) -> None:
     """Identify a model from one log or several (one experiment each) and save it.
 
@@ -135,24 +113,7 @@ def identify(
     check_output_file(save, force=force, inputs=list(logs), option="--save")
     if json_out is not None:
         check_output_file(json_out, force=force, inputs=[*logs, save], option="--json")
-    experiments, pipeline = _training_logs(
-        logs,
-        inputs=inputs,
-        outputs=outputs,
-        time=time,
-        ts=ts,
-        layout=layout,
-        sep=sep,
-        channels=channels,
-        conditions=conditions,
-        maps=maps,
-        tilt=tilt,
-        relative=relative,
-        offsets=offsets,
-        lowpass=lowpass,
-        resample=resample,
-        restamp=restamp,
-    )
+    experiments, pipeline = read_training_logs(logs, spec)
     method = _method_name(method)
     options = _method_settings(method, settings or ())
     regressor, chosen_by = _regressor(method, lags, orders, _split(use_conditions) or ())
@@ -184,7 +145,7 @@ def identify(
         }
         for r in records
     ]
-    estimator.preprocessing_ = pipeline
+    attach_log_options(estimator, spec, pipeline)
     path = estimator.save(save)
     if pipeline:
         console.print(f"preprocessing stored in the model: {pipeline.describe()}", markup=False)
@@ -242,38 +203,6 @@ def _identify_summary(
         "preprocessing": pipeline.to_list() if pipeline else [],
         "training": {"kind": "free run", "outputs": records},
     }
-
-
-def _read_for_model(
-    model: Any,
-    log: Path,
-    time: str,
-    ts: float | None,
-    layout: str,
-    sep: str = ",",
-    maps: list[str] | None = None,
-    channels: list[str] | None = None,
-    conditions: list[str] | None = None,
-    tilt: bool = False,
-) -> Any:
-    """The log as the model reads it: its channels, renamed by --map, through its preprocessing."""
-    from neckid.cli.workflow import parse_mapping, read_log_for_model
-
-    data, pipeline = read_log_for_model(
-        model,
-        log,
-        time=time,
-        ts=ts,
-        layout=layout,  # type: ignore[arg-type]
-        sep=_sep(sep),
-        channels=channels or (),
-        maps=parse_mapping(maps or []),
-        conditions=conditions or (),
-        tilt=tilt,
-    )
-    if pipeline is not None:
-        console.print(f"preprocessing from the model: {pipeline.describe()}", markup=False)
-    return data
 
 
 def _validate_one(model: Any, data: Any, log: Path) -> tuple[dict[str, Any], Any, Any]:
@@ -379,6 +308,7 @@ def _validation_plot(model: Any, runs: list[tuple[Path, Any, Any, Any]], plot: P
 
 @app.command()
 @handled
+@log_options(training=False)
 def validate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
@@ -389,14 +319,6 @@ def validate(
         help=LOG_HELP + " Several logs: a table each and the mean.",
         exists=True,
     ),
-    time: str = TIME_OPTION,
-    ts: float = TS_OPTION,
-    layout: str = LAYOUT_OPTION,
-    sep: str = SEP_OPTION,
-    channels: list[str] = CHANNEL_OPTION,
-    maps: list[str] = MAP_OPTION,
-    conditions: list[str] = CONDITION_OPTION,
-    tilt: bool = TILT_OPTION,
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
     json_out: Path = typer.Option(
         None, "--json", help="Write per log and the mean: fit %, RMSE, MAE, domain, band."
@@ -406,6 +328,8 @@ def validate(
         False, "--in-loop", help="Run the model in the lab's loop of each log (docs/in_loop.md)."
     ),
     controller: str = typer.Option(None, "--controller", help=CONTROLLER_HELP),
+    *,
+    spec: LogSpec,
 ) -> None:
     """Free-run simulate a saved model on one log or several; print fit (%), RMSE and MAE per output.
 
@@ -420,14 +344,13 @@ def validate(
         if path is not None:
             check_output_file(path, force=force, inputs=given, option=option)
     if in_loop:
-        options = {"time": time, "ts": ts, "layout": layout, "sep": sep, "conditions": conditions}
-        return validate_in_loop(model_path, logs, controller, json_out, options)
+        return validate_in_loop(model_path, logs, controller, json_out, spec)
     from neckid.models.io import load_model
 
     model = load_model(model_path)  # once: every log runs the same model
     records, runs = [], []
     for log in logs:
-        data = _read_for_model(model, log, time, ts, layout, sep, maps, channels, conditions, tilt)
+        data = read_for_model(model, log, spec)
         record, result, domain = _validate_one(model, data, log)
         records.append(record)
         if result is not None:
@@ -445,6 +368,7 @@ def validate(
 
 @app.command()
 @handled
+@log_options(training=False)
 def simulate(
     model_path: Path = typer.Argument(
         ..., metavar="MODEL", help="A model file written by identify.", exists=True
@@ -453,14 +377,6 @@ def simulate(
     out: Path = typer.Option(
         Path("simulation.csv"), "--out", help="CSV to write: time, inputs, outputs (and bounds)."
     ),
-    time: str = TIME_OPTION,
-    ts: float = TS_OPTION,
-    layout: str = LAYOUT_OPTION,
-    sep: str = SEP_OPTION,
-    channels: list[str] = CHANNEL_OPTION,
-    maps: list[str] = MAP_OPTION,
-    conditions: list[str] = CONDITION_OPTION,
-    tilt: bool = TILT_OPTION,
     force: bool = FORCE_OPTION,
     keep_diverged: bool = typer.Option(
         False,
@@ -472,6 +388,8 @@ def simulate(
         "--json",
         help="Write a summary as JSON: samples, band kind, and the fit against the log's outputs.",
     ),
+    *,
+    spec: LogSpec,
 ) -> None:
     """Free-run simulate a saved model with the inputs of a log; write time, inputs and outputs to CSV.
 
@@ -488,7 +406,7 @@ def simulate(
     from neckid.models.io import load_model
 
     model = load_model(model_path)
-    data = _read_for_model(model, log, time, ts, layout, sep, maps, channels, conditions, tilt)
+    data = read_for_model(model, log, spec)
     diverged: DivergenceError | None = None
     try:
         result = model.simulate(data)

@@ -8,29 +8,15 @@ from typing import Any
 import typer
 
 from neckid.cli._app import (
-    CHANNEL_OPTION,
-    CONDITION_OPTION,
     FORCE_OPTION,
-    INPUTS_HELP,
-    LAYOUT_OPTION,
     LOG_HELP,
-    LOWPASS_OPTION,
-    MAP_OPTION,
-    OFFSET_OPTION,
-    OUTPUTS_HELP,
-    RELATIVE_OPTION,
-    RESAMPLE_OPTION,
-    RESTAMP_OPTION,
-    SEP_OPTION,
-    TILT_OPTION,
-    TIME_OPTION,
-    TS_OPTION,
     _method_name,
     app,
     console,
     handled,
 )
-from neckid.cli._training import _method_settings, _training_logs
+from neckid.cli._training import _method_settings
+from neckid.cli.options import LogSpec, attach_log_options, log_options, read_training_logs
 from neckid.registry import methods
 
 #: The candidate grid of select when neither --orders nor --lags is given: MATLAB's
@@ -134,6 +120,7 @@ def _document(selection: Any, data: Any, method: str, chosen: str | None) -> dic
 
 @app.command()
 @handled
+@log_options(training=True)
 def select(
     logs: list[Path] = typer.Argument(
         ...,
@@ -141,8 +128,6 @@ def select(
         help=LOG_HELP + " Several logs: each is held out once; one log: 3 time blocks.",
         exists=True,
     ),
-    inputs: str = typer.Option(None, "--inputs", help=INPUTS_HELP),
-    outputs: str = typer.Option(None, "--outputs", help=OUTPUTS_HELP),
     method: str = typer.Option("arx", "--method", help=" | ".join(methods()) + "."),
     orders: str = typer.Option(
         None,
@@ -174,23 +159,12 @@ def select(
         None, "--json", help="Write every candidate's fold fits and the choice as JSON."
     ),
     jobs: int = typer.Option(1, "--jobs", help="Parallel fits (-1: every core)."),
-    time: str = TIME_OPTION,
-    ts: float = TS_OPTION,
-    layout: str = LAYOUT_OPTION,
-    sep: str = SEP_OPTION,
-    channels: list[str] = CHANNEL_OPTION,
-    conditions: list[str] = CONDITION_OPTION,
-    tilt: bool = TILT_OPTION,
-    maps: list[str] = MAP_OPTION,
-    relative: list[str] = RELATIVE_OPTION,
-    offsets: list[str] = OFFSET_OPTION,
-    lowpass: list[str] = LOWPASS_OPTION,
-    resample: float = RESAMPLE_OPTION,
-    restamp: bool = RESTAMP_OPTION,
     settings: list[str] = typer.Option(
         None, "--set", metavar="NAME=VALUE", help="A setting of the method, as in identify."
     ),
     force: bool = FORCE_OPTION,
+    *,
+    spec: LogSpec,
 ) -> None:
     """Choose the regressor on your logs: every candidate is fitted with logs held out.
 
@@ -211,24 +185,7 @@ def select(
         check_output_file(save, force=force, inputs=list(logs), option="--save")
     if json_out is not None:
         check_output_file(json_out, force=force, inputs=list(logs), option="--json")
-    experiments, pipeline = _training_logs(
-        logs,
-        inputs=inputs,
-        outputs=outputs,
-        time=time,
-        ts=ts,
-        layout=layout,
-        sep=sep,
-        channels=channels,
-        conditions=conditions,
-        maps=maps,
-        tilt=tilt,
-        relative=relative,
-        offsets=offsets,
-        lowpass=lowpass,
-        resample=resample,
-        restamp=restamp,
-    )
+    experiments, pipeline = read_training_logs(logs, spec)
     method = _method_name(method)
     options = _method_settings(method, settings or ())
     estimator = make_estimator(method, None, **options)  # type: ignore[arg-type]
@@ -254,5 +211,5 @@ def select(
     if save is not None:
         model = make_estimator(method, chosen, **options)
         model.fit(experiments if len(experiments) > 1 else experiments[0])
-        model.preprocessing_ = pipeline
+        attach_log_options(model, spec, pipeline)
         console.print(f"model fitted on all {len(experiments)} log(s), saved to {model.save(save)}")

@@ -701,6 +701,9 @@ def describe_model(model: Any) -> dict[str, Any]:
     pipeline = getattr(model, "preprocessing_", None)
     if pipeline is not None and len(pipeline):
         info["preprocessing"] = pipeline.to_list()
+    mapping = getattr(model, "channel_map_", None)
+    if mapping:
+        info["channel_map"] = dict(mapping)
     sm = getattr(model, "sm_", model)
     if hasattr(sm, "gamma_"):
         horizons = getattr(model, "horizons_", None)

@@ -239,11 +239,31 @@ def _restore_preprocessing(model: Any, meta: Mapping[str, Any]) -> None:
     Files written before preprocessing was recorded have no such key: their models load as they
     were, without the attribute.
     """
+    if "channel_map" in meta:
+        model.channel_map_ = check_channel_map(meta["channel_map"])
     if "preprocessing" not in meta:
         return
     from neckid.data.preprocess import Pipeline
 
     model.preprocessing_ = Pipeline.from_list(meta["preprocessing"])
+
+
+def check_channel_map(mapping: Any) -> dict[str, str]:
+    """A model's channel mapping ``{log name: model name}``: names that are non-empty text.
+
+    The mapping a model was identified with (``channel_map_``, the CLI's ``--map``) is stored
+    in its file and replayed on new logs of the same rig; a damaged one is refused, naming it.
+    """
+    if not isinstance(mapping, Mapping):
+        raise ValueError(f"channel_map must be an object of log name -> model name; got {mapping!r}")
+    checked: dict[str, str] = {}
+    for log, name in mapping.items():
+        if not (isinstance(log, str) and isinstance(name, str) and log.strip() and name.strip()):
+            raise ValueError(f"channel_map entry {log!r}: {name!r} must map a name to a name")
+        if any(ord(c) < 32 for c in log + name):
+            raise ValueError(f"channel_map entry {log!r}: {name!r} holds a control character")
+        checked[log] = name
+    return checked
 
 
 #: Longest regressor memory (samples) a loaded model may claim; more is a damaged file.
@@ -350,6 +370,9 @@ class ModelFile:
         pipeline = getattr(self, "preprocessing_", None)
         if pipeline is not None and len(pipeline):
             meta = {**meta, "preprocessing": pipeline.to_list()}
+        mapping = getattr(self, "channel_map_", None)
+        if mapping:
+            meta = {**meta, "channel_map": dict(check_channel_map(mapping))}
         return write_model_file(path, type(self).__name__, arrays, meta)
 
     @classmethod

@@ -49,6 +49,10 @@ def load_with_structures(
                 from neckid.data.preprocess import Pipeline
 
                 model.preprocessing_ = Pipeline.from_list(meta["preprocessing"])
+            if "channel_map" in meta:
+                from neckid.models.io import check_channel_map
+
+                model.channel_map_ = check_channel_map(meta["channel_map"])
             written = model._get_state()[0]
     except KeyError as exc:
         raise ValueError(
