@@ -255,7 +255,9 @@ def check_channel_map(mapping: Any) -> dict[str, str]:
     in its file and replayed on new logs of the same rig; a damaged one is refused, naming it.
     """
     if not isinstance(mapping, Mapping):
-        raise ValueError(f"channel_map must be an object of log name -> model name; got {mapping!r}")
+        raise ValueError(
+            f"channel_map must be an object of log name -> model name; got {mapping!r}"
+        )
     checked: dict[str, str] = {}
     for log, name in mapping.items():
         if not (isinstance(log, str) and isinstance(name, str) and log.strip() and name.strip()):
