@@ -62,6 +62,7 @@ def test_the_registry_lists_every_method() -> None:
         "arx",
         "greybox-neck",
         "greybox-tanks",
+        "lpv",
         "nn",
         "pnlss",
         "poly",

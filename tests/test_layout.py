@@ -66,7 +66,16 @@ FORBIDDEN = {
 }
 
 #: The model families: each a subpackage of neckid.models with its private names.
-FAMILIES = ("greybox", "linear", "neural", "pnlss", "polynomial", "scheduled", "set_membership")
+FAMILIES = (
+    "greybox",
+    "linear",
+    "lpv",
+    "neural",
+    "pnlss",
+    "polynomial",
+    "scheduled",
+    "set_membership",
+)
 
 #: The only modules directly under src/neckid/: the vocabulary a user imports (issue 41).
 TOP_LEVEL = {"__init__", "_version", "metrics", "registry", "regressors", "systems"}

@@ -10,7 +10,7 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'greybox-neck', 'greybox-tanks', 'nn', 'pnlss', 'poly', 'rls', 'scheduled',
+['arx', 'greybox-neck', 'greybox-tanks', 'lpv', 'nn', 'pnlss', 'poly', 'rls', 'scheduled',
  'scheduled-position', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
@@ -149,6 +149,15 @@ _METHODS: tuple[Method, ...] = (
         "neckid.models.polynomial.narx:PolynomialNARX",
         "polynomial NARX of degree 3, least squares then fitted for free-run simulation",
         quick={"degree": 2, "max_iter": 10},
+    ),
+    Method(
+        "lpv",
+        "LPV-ARX",
+        "neckid.models.lpv.model:LPVARX",
+        "linear parameter-varying ARX: coefficients polynomial (degree 2) in a condition (the"
+        " payload) or a measured channel (the inclination), least squares then fitted for"
+        " free-run simulation, stable at every frozen scheduling value",
+        quick={"max_iter": 10},
     ),
     Method(
         "nn",

@@ -205,10 +205,10 @@ class PolynomialNARX(NarxModel):
 
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
         n_terms = x.shape[1]
-        powers, _, _, _ = monomial_tables(n_terms, int(self.degree))
+        powers, _, _, _ = monomial_tables(n_terms, self._total_degree())
         if x.shape[0] < powers.shape[0]:
             raise ValueError(
-                f"a degree-{self.degree} polynomial of {n_terms} regressor terms has"
+                f"a degree-{self._total_degree()} polynomial of {n_terms} regressor terms has"
                 f" {powers.shape[0]} monomials but the training data give {x.shape[0]} rows;"
                 " use a lower degree, fewer lags or more data"
             )
@@ -218,12 +218,24 @@ class PolynomialNARX(NarxModel):
         self.scale_ = np.where(scale > 0, scale, 1.0)
         standard = (x - self.center_) / self.scale_
         low, high = standard.min(axis=0), standard.max(axis=0)
-        margin = float(self.hold_margin) * (high - low)
-        self.low_, self.high_ = low - margin, high + margin
+        self.low_, self.high_ = self._hold_range(low, high)
         self.statistics_ = LeastSquaresStatistics.from_rows(self._features(x), y, centred=True)
-        self.active_ = _independent_monomials(self.statistics_)
+        self.active_ = _independent_monomials(self.statistics_, self._allowed_monomials(powers))
         self._solve_statistics()
         self.fit_report_: dict[str, Any] = {"start": "polynomial", "evaluations": 0}
+
+    def _total_degree(self) -> int:
+        """The largest total degree of a monomial (``degree``; a subclass may derive it)."""
+        return int(self.degree)
+
+    def _hold_range(self, low: FloatArray, high: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Where the monomials of degree >= 2 hold each standardised term, from its range."""
+        margin = float(self.hold_margin) * (high - low)
+        return low - margin, high + margin
+
+    def _allowed_monomials(self, powers: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Which rows of ``powers`` the model may use (all; a subclass may keep fewer)."""
+        return np.ones(powers.shape[0], dtype=bool)
 
     def _solve_statistics(self) -> None:
         """Least squares over the active monomials (the others keep a zero coefficient)."""
@@ -241,7 +253,7 @@ class PolynomialNARX(NarxModel):
 
     def _features(self, x: FloatArray) -> FloatArray:
         """The monomials of ``x`` without the constant: ``(n_rows, n_monomials − 1)``."""
-        _, parent, var, _ = monomial_tables(x.shape[1], int(self.degree))
+        _, parent, var, _ = monomial_tables(x.shape[1], self._total_degree())
         xs = (x - self.center_) / self.scale_
         held = np.clip(xs, self.low_, self.high_)
         phi = np.empty((x.shape[0], parent.shape[0]))
@@ -348,7 +360,7 @@ class PolynomialNARX(NarxModel):
         data = self._with_conditions(data)
         y = np.array(self._initial_outputs(data, initial), dtype=np.float64)
         r = self.lags_
-        _, parent, var, _ = monomial_tables(r.n_terms, int(self.degree))
+        _, parent, var, _ = monomial_tables(r.n_terms, self._total_degree())
         unbounded = np.full(self.n_outputs_, np.inf)
         with np.errstate(all="ignore"):  # divergence is reported by _result
             poly_free_run(
@@ -374,10 +386,10 @@ class PolynomialNARX(NarxModel):
     def _check_state(self) -> None:
         super()._check_state()
         n_terms = self.lags_.n_terms
-        powers, _, _, _ = monomial_tables(n_terms, int(self.degree))
+        powers, _, _, _ = monomial_tables(n_terms, self._total_degree())
         if self.powers_.shape != powers.shape or not np.array_equal(self.powers_, powers):
             raise ValueError(
-                f"powers do not list the degree-{self.degree} monomials of {n_terms} terms"
+                f"powers do not list the degree-{self._total_degree()} monomials of {n_terms} terms"
             )
         self._check_shape("coef", self.coef_, (powers.shape[0], self.n_outputs_))
         self._check_shape("active", self.active_, (powers.shape[0],))
@@ -452,7 +464,7 @@ class _FreeRunProblem:
     def __init__(self, model: PolynomialNARX, experiments: list[IOData], budget: int) -> None:
         r = model.lags_
         self.m = m = r.max_lag
-        _, parent, var, self.lower = monomial_tables(r.n_terms, int(model.degree))
+        _, parent, var, self.lower = monomial_tables(r.n_terms, model._total_degree())
         self.n_rows = n_rows = sum(d.n_samples - m for d in experiments)
         self.n_out = n_out = model.n_outputs_
         self.free = (np.flatnonzero(model.active_)[:, None] * n_out + np.arange(n_out)).ravel()
@@ -533,11 +545,14 @@ class _FreeRunProblem:
         return np.ascontiguousarray(jac.reshape(self.n_rows * self.n_out, -1)[:, self.free])
 
 
-def _independent_monomials(statistics: LeastSquaresStatistics) -> NDArray[np.bool_]:
+def _independent_monomials(
+    statistics: LeastSquaresStatistics, allowed: NDArray[np.bool_] | None = None
+) -> NDArray[np.bool_]:
     """Which monomials the training data tell apart, as a mask over ``powers_``.
 
     The constant and every monomial whose column is not (to 1e-7 relative) a combination of the
-    ones before it, in graded order.
+    ones before it, in graded order; with ``allowed`` (a mask over ``powers_``), among the
+    allowed monomials only (the others are not in the model).
 
     Read off the triangular factor: ``|R_kk|`` is the part of column ``k`` orthogonal to the
     columns before it. A condition that takes two values in training (a payload of 0 or 0.6 kg)
@@ -545,9 +560,14 @@ def _independent_monomials(statistics: LeastSquaresStatistics) -> NDArray[np.boo
     that direction freely and the model would be arbitrary between the two values.
     """
     k = statistics.n_terms
+    keep = np.arange(k) if allowed is None else np.flatnonzero(allowed[1:])
     r = statistics.factor[:k, :k]
+    if keep.size < k:  # the triangular factor of the allowed columns alone
+        r = np.asarray(np.linalg.qr(statistics.factor[:, keep], mode="r"), dtype=np.float64)
     # compared with the column's uncentred size, so that a column constant in the data (a
     # centred column of rounding errors) counts as dependent on the constant monomial
-    size = np.sqrt(np.sum(r**2, axis=0)) + np.sqrt(statistics.n_rows) * np.abs(statistics.x_mean)
-    independent = np.abs(np.diag(r)) > RANK_TOLERANCE * size
+    mean = np.abs(statistics.x_mean[keep])
+    size = np.sqrt(np.sum(r**2, axis=0)) + np.sqrt(statistics.n_rows) * mean
+    independent = np.zeros(k, dtype=bool)
+    independent[keep] = np.abs(np.diag(r)[: keep.size]) > RANK_TOLERANCE * size
     return np.concatenate([[True], independent])
