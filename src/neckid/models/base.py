@@ -34,6 +34,7 @@ from sklearn.base import BaseEstimator
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.domain import Domain, box_shares, regressor_box, regressor_domain
+from neckid.models.envelope import input_reach, reach_widening
 from neckid.models.io import ModelFile
 from neckid.models.results import (
     DIVERGENCE_SPANS,
@@ -134,18 +135,25 @@ class Estimator(BaseEstimator, ModelFile):
         self.training_ranges_ = ranges
 
     def divergence_envelope(
-        self, spans: float = DIVERGENCE_SPANS
+        self, spans: float = DIVERGENCE_SPANS, data: IOData | None = None
     ) -> dict[str, tuple[float, float]]:
         """Per output, the values a free run may take: the training range widened on each side.
 
         ``[low − spans · (high − low), high + spans · (high − low)]`` of the output's training
         range, in its units. A free run that leaves it raises :class:`DivergenceError` (a run
         there is a runaway, not a prediction: no model here was identified on such values).
+        With ``data``, each side widens further by what the log's inputs reaching beyond their
+        training ranges can explain (:mod:`neckid.models.envelope`: the ℓ1 norm of a linear
+        model's impulse response times the reach; a conservative relative extension for the
+        other models), so that a model following its inputs is not taken for a runaway.
 
         Parameters
         ----------
         spans : float, default DIVERGENCE_SPANS (10)
             How many widths of the training range the envelope adds on each side.
+        data : IOData, optional
+            The log the free run reads (its inputs, conditions included); without it, the
+            envelope for inputs inside their training ranges.
 
         Returns
         -------
@@ -165,13 +173,27 @@ class Estimator(BaseEstimator, ModelFile):
         True
         """
         ranges: dict[str, tuple[float, float]] = getattr(self, "training_ranges_", {})
-        envelope = {}
-        for name in getattr(self, "output_names_", ()):
-            if name in ranges:
-                low, high = ranges[name]
-                width = high - low
-                envelope[name] = (low - spans * width, high + spans * width)
-        return envelope
+        names = [n for n in getattr(self, "output_names_", ()) if n in ranges]
+        widths = np.array([ranges[n][1] - ranges[n][0] for n in names], dtype=np.float64)
+        extra = np.zeros(len(names))
+        if data is not None and names and data.n_inputs:
+            reach = input_reach(ranges, data)
+            if any(r > 0 for r, _ in reach.values()):
+                gains = self._impulse_norms() if len(names) == self.n_outputs_ else None
+                order = self.input_names_ if gains is not None else data.input_names
+                extra = reach_widening(reach, order, widths, gains)
+        return {
+            name: (ranges[name][0] - spans * w - e, ranges[name][1] + spans * w + e)
+            for name, w, e in zip(names, widths.tolist(), extra.tolist(), strict=True)
+        }
+
+    def _impulse_norms(self) -> FloatArray | None:
+        """``||h_{o,i}||_1`` per output and input of a linear model (None: not a linear model).
+
+        Over the inputs the model reads, in the order of its ``input_names_``; ``inf`` for an
+        unstable one (:func:`neckid.models.envelope.impulse_l1`).
+        """
+        return None
 
     def _warn_extrapolation(
         self, data: IOData, result: ModelResult, checks: RunChecks | None = None
@@ -210,13 +232,16 @@ class Estimator(BaseEstimator, ModelFile):
         """
         return box_shares(self, data)
 
-    def first_runaway(self, y: FloatArray, start: int) -> tuple[int, int] | None:
+    def first_runaway(
+        self, y: FloatArray, start: int, data: IOData | None = None
+    ) -> tuple[int, int] | None:
         """The first sample from ``start`` on where a run ``y`` leaves the divergence envelope.
 
         Returns ``(sample, output)``, or None when every output stays inside
-        :meth:`divergence_envelope` (non-finite values are not counted here).
+        :meth:`divergence_envelope` (of the log ``data`` the run read, when given; non-finite
+        values are not counted here).
         """
-        envelope = self.divergence_envelope()
+        envelope = self.divergence_envelope(data=data)
         first: tuple[int, int] | None = None
         for j, name in enumerate(self.output_names_):
             if name not in envelope:
@@ -235,19 +260,22 @@ class Estimator(BaseEstimator, ModelFile):
 
         ``checks``: the first runaway sample as the run found it (else looked for here).
         """
-        first = self.first_runaway(y, self.max_lag_) if checks is None else checks.first_runaway
+        first = (
+            self.first_runaway(y, self.max_lag_, data) if checks is None else checks.first_runaway
+        )
         if first is None:
             return
         row, j = first
         name, unit = self.output_names_[j], self.output_units_[j]
-        low, high = self.divergence_envelope()[name]
+        low, high = self.divergence_envelope(data=data)[name]
         shown = f" {unit}" if unit else ""
         raise DivergenceError(
             f"the {type(self).__name__} free run ran away: output {name!r} = {y[row, j]:.4g}{shown}"
             f" at sample {row} (t = {data.time[row]:.6g} s) of {data.name or 'the log'} leaves"
             f" [{low:.4g}, {high:.4g}]{shown}, its training range widened {DIVERGENCE_SPANS:g}"
-            " times its width on each side; the model is unstable, or the log leaves the region"
-            " it was identified on (the whole run is in the exception's .result)",
+            " times its width on each side and by what the log's inputs beyond their training"
+            " ranges can explain; the model is unstable, or the log leaves the region it was"
+            " identified on (the whole run is in the exception's .result)",
             result,
         )
 

@@ -22,6 +22,7 @@ from neckid.data.iodata import IOData
 from neckid.models._domain_kernels import channels_of
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.domain import channel_terms, regressor_terms
+from neckid.models.envelope import impulse_l1
 from neckid.models.linear._arx_kernels import MAX_FIR_TAPS, checked_free_run
 from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
@@ -435,7 +436,7 @@ class LinearARX(NarxModel):
         counted = bool(getattr(self, "regressor_ranges_", None)) and data.n_outputs == 1
         if not counted:  # as Estimator._warn_extrapolation: no box, or no measured outputs
             term_names, terms, term_bounds = [], terms[:0], term_bounds[:0]
-        envelope = self.divergence_envelope().get(self.output_names_[0], (-np.inf, np.inf))
+        envelope = self.divergence_envelope(data=data).get(self.output_names_[0], (-np.inf, np.inf))
         time = np.empty(n)
         channel_counts, term_counts, rows, non_finite, runaway = checked_free_run(
             channels_of(u),
@@ -460,6 +461,18 @@ class LinearARX(NarxModel):
             first_non_finite=int(non_finite) if non_finite >= 0 else None,
             first_runaway=(int(runaway), 0) if runaway >= 0 else None,
         )
+
+    def _impulse_norms(self) -> FloatArray:
+        """``||h_{o,i}||_1`` of the fitted filter per output and input (``inf``: unstable)."""
+        m = int(self.max_lag_)
+        zero = np.zeros(self.n_outputs_)
+
+        def run(u: FloatArray) -> FloatArray:
+            shifted = np.vstack([np.zeros((m, u.shape[1])), u])
+            y = np.zeros((shifted.shape[0], self.n_outputs_))
+            return _linear_free_run(self.lags_, self.coef_, zero, shifted, y)[m:]
+
+        return impulse_l1(run, int(self.n_inputs_), int(self.n_outputs_))
 
     def _check_state(self) -> None:
         super()._check_state()
