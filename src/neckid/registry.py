@@ -1,10 +1,17 @@
-"""The one registry of identification methods: a name, a label, and a factory of unfitted estimators.
+"""The one registry of identification methods: a name, a label, a factory, and the facts about it.
 
 The command line, :func:`~neckid.select_lags`, the benchmark, the demo and the contract test all
 find methods here, by one spelling. A new model is added by registering it in :data:`_METHODS`
-(and nowhere else): the contract test then runs over it, ``neckid identify --method`` offers it,
-and ``neckid.load_model`` reads its files (model classes are found through this table, see
-:func:`model_classes`).
+(and nowhere else, but for its benchmark grid): the contract test then runs over it, ``neckid
+identify --method`` offers it, and ``neckid.load_model`` reads its files (model classes are found
+through this table, see :func:`model_classes`). What the rest of the package needs to know about
+a method is a field of its :class:`Method`: how simple it is (the one-standard-error rule of
+:mod:`neckid.selection.comparison`), whether its regressor is its lags, what it builds on and
+where it runs in the benchmark, what a benchmark unit of it costs, which function describes it
+for export, and which python-control form :func:`neckid.export.control.to_control` gives by
+default. The registry imports nothing but :mod:`neckid.regressors`: the export describer is a
+``"module:function"`` text, resolved by :mod:`neckid.export.describe` when it describes a model,
+and the benchmark's data-set groups are names the benchmark resolves.
 
 Examples
 --------
@@ -50,6 +57,30 @@ class Method:
         Settings for a fast smoke run (tests, ``--quick``): fewer iterations, smaller networks.
     summary : str
         One line for ``--help`` and the README.
+    complexity : int, default 99
+        How simple the method is, for the one-standard-error rule of
+        :func:`neckid.selection.comparison.select_safely` (smaller is simpler; linear ARX is 0).
+    lag_free : bool, default False
+        Whether the regressor is not its lags (the state-space and grey-box models: their order
+        comes from the data or the structure): one candidate each, not one per lag set.
+    builds_on : str, optional
+        The method whose chosen lags this one's benchmark lag grid is cut to (``sm-parallel-poly``
+        sits on the polynomial ``poly``'s own selection picked).
+    only_on : {"public", "softneck"}, optional
+        The benchmark's data-set group the method runs on (``None``: every data set); the
+        benchmark resolves the name (:data:`neckid.experiments.benchmark.settings.ONLY_ON`).
+    unit_cost : float, default 5.0
+        Relative cost of one benchmark unit per training sample: the order in which a stage
+        hands its units to the workers (longest first). It changes the wall time only.
+    benchmark_params : mapping
+        Hyper-parameters beside :attr:`defaults` of the benchmark's one candidate of a state
+        model (empty for every method today).
+    describer : str
+        ``"module:function"`` describing a fitted model of this method for
+        :func:`neckid.export.export_model`: ``function(model) -> (structure, parameters)``.
+    control_form : {"tf", "ss"}, default "tf"
+        The form :func:`neckid.export.control.to_control` gives by default: ``"ss"`` for the
+        state-space models (a MIMO ``StateSpace`` needs no slycot), ``"tf"`` for the ARX models.
     """
 
     name: str
@@ -58,6 +89,19 @@ class Method:
     summary: str
     defaults: Mapping[str, Any] = field(default_factory=dict)
     quick: Mapping[str, Any] = field(default_factory=dict)
+    complexity: int = 99
+    lag_free: bool = False
+    builds_on: str | None = None
+    only_on: str | None = None
+    unit_cost: float = 5.0
+    benchmark_params: Mapping[str, Any] = field(default_factory=dict)
+    describer: str = ""
+    control_form: str = "tf"
+
+    @property
+    def class_name(self) -> str:
+        """The estimator's class name (``"SetMembership"``)."""
+        return self.estimator.partition(":")[2]
 
     def estimator_class(self) -> type[Any]:
         """The estimator class (its module is imported on first use)."""
@@ -92,12 +136,17 @@ _METHODS: tuple[Method, ...] = (
         "Linear ARX",
         "neckid.models.linear.arx:LinearARX",
         "linear ARX by batch least squares",
+        complexity=0,
+        unit_cost=0.01,
+        describer="neckid.export.describe:describe_arx",
     ),
     Method(
         "rls",
         "CFF-RLS ARX",
         "neckid.models.linear.rls:RecursiveARX",
         "ARX by recursive least squares with a constant forgetting factor (0.98)",
+        complexity=1,
+        describer="neckid.export.describe:describe_rls",
     ),
     Method(
         "ss",
@@ -106,6 +155,11 @@ _METHODS: tuple[Method, ...] = (
         "linear state-space model by subspace identification (PO-MOESP), order from the singular"
         " values, refined on the free-run error, stable",
         quick={"max_iter": 20},
+        complexity=2,
+        lag_free=True,
+        unit_cost=0.3,
+        describer="neckid.export.describe:describe_subspace",
+        control_form="ss",
     ),
     Method(
         "pnlss",
@@ -114,12 +168,20 @@ _METHODS: tuple[Method, ...] = (
         "polynomial nonlinear state-space model of degree 3 (Paduart et al. 2010): the ss model"
         " plus monomials of states and inputs, fitted on the free-run error",
         quick={"degree": 2, "max_iter": 10},
+        complexity=4,
+        lag_free=True,
+        unit_cost=20.0,
+        describer="neckid.export.describe:describe_pnlss",
+        control_form="ss",
     ),
     Method(
         "sm",
         "Set Membership",
         "neckid.models.set_membership.narx:SetMembership",
         "Set Membership NARX (Milanese & Novara 2004), bounds and central estimate",
+        complexity=3,
+        unit_cost=1.0,
+        describer="neckid.export.describe:describe_set_membership",
     ),
     Method(
         "sm-linear",
@@ -127,12 +189,18 @@ _METHODS: tuple[Method, ...] = (
         "neckid.models.set_membership.narx:SetMembership",
         "Set Membership on the residual of a linear ARX part",
         defaults={"linear_part": True},
+        complexity=2,
+        unit_cost=1.0,
+        describer="neckid.export.describe:describe_set_membership",
     ),
     Method(
         "sm-parallel",
         "Set Membership parallel",
         "neckid.models.set_membership.parallel:ParallelSetMembership",
         "Set Membership on the free run of a parallel linear ARX (output-error form)",
+        complexity=3,
+        unit_cost=2.0,
+        describer="neckid.export.describe:describe_parallel",
     ),
     Method(
         "sm-parallel-poly",
@@ -142,6 +210,11 @@ _METHODS: tuple[Method, ...] = (
         " simulation",
         defaults={"parallel_degree": 3, "parallel_fit": "simulation"},
         quick={"parallel_degree": 2},
+        complexity=5,
+        builds_on="poly",
+        only_on="public",
+        unit_cost=3.0,
+        describer="neckid.export.describe:describe_parallel",
     ),
     Method(
         "poly",
@@ -149,6 +222,10 @@ _METHODS: tuple[Method, ...] = (
         "neckid.models.polynomial.narx:PolynomialNARX",
         "polynomial NARX of degree 3, least squares then fitted for free-run simulation",
         quick={"degree": 2, "max_iter": 10},
+        complexity=4,
+        only_on="public",
+        unit_cost=10.0,
+        describer="neckid.export.describe:describe_polynomial",
     ),
     Method(
         "lpv",
@@ -158,6 +235,9 @@ _METHODS: tuple[Method, ...] = (
         " payload) or a measured channel (the inclination), least squares then fitted for"
         " free-run simulation, stable at every frozen scheduling value",
         quick={"max_iter": 10},
+        complexity=3,
+        unit_cost=3.0,
+        describer="neckid.models.lpv.summary:describe_lpv",
     ),
     Method(
         "nn",
@@ -166,6 +246,9 @@ _METHODS: tuple[Method, ...] = (
         "neural-network NARX, 2 hidden layers of 25 (tanh), mean of 5 networks",
         defaults={"random_state": 0},
         quick={"hidden_layer_sizes": (8,), "max_iter": 50, "n_networks": 2},
+        complexity=6,
+        unit_cost=8.0,
+        describer="neckid.export.describe:describe_neural",
     ),
     Method(
         "scheduled",
@@ -173,6 +256,11 @@ _METHODS: tuple[Method, ...] = (
         "neckid.models.scheduled.model:GainScheduledModel",
         "the seed paper's first-order model N(i)/(z - P(i)) from velocity command to inclination"
         " rate, scheduled on the inclination; operating points by CFF-RLS where it dwells",
+        complexity=1,
+        only_on="softneck",
+        unit_cost=0.01,
+        describer="neckid.export.describe:describe_scheduled",
+        control_form="ss",
     ),
     Method(
         "scheduled-position",
@@ -181,6 +269,8 @@ _METHODS: tuple[Method, ...] = (
         "the scheduled first-order model from motor position to inclination (no integrator: use"
         " it for free runs); operating points by CFF-RLS where the inclination dwells",
         defaults={"form": "position"},
+        describer="neckid.export.describe:describe_scheduled",
+        control_form="ss",
     ),
     Method(
         "greybox-neck",
@@ -189,6 +279,11 @@ _METHODS: tuple[Method, ...] = (
         "tendon slack and a Prandtl-Ishlinskii hysteresis in series with stable second-order"
         " dynamics, fitted on the free-run error",
         quick={"max_iter": 8, "n_play": 2},
+        complexity=2,
+        lag_free=True,
+        only_on="softneck",
+        unit_cost=1.0,
+        describer="neckid.export.describe:describe_greybox",
     ),
     Method(
         "greybox-tanks",
@@ -199,6 +294,9 @@ _METHODS: tuple[Method, ...] = (
         " free-run error; GreyBoxODE takes a user's structure the same way",
         defaults={"structure": "cascaded-tanks"},
         quick={"n_starts": 2, "max_iter": 20},
+        complexity=2,
+        lag_free=True,
+        describer="neckid.export.describe:describe_greybox_ode",
     ),
     Method(
         "sm-multistep",
@@ -206,6 +304,8 @@ _METHODS: tuple[Method, ...] = (
         "neckid.models.set_membership.multistep:MultiStepSetMembership",
         "direct k-step Set Membership predictors (1..horizon) with guaranteed k-step bands",
         quick={"horizon": 3},
+        complexity=4,
+        describer="neckid.export.describe:describe_multistep",
     ),
 )
 
@@ -257,7 +357,7 @@ def method_of(model: Any) -> Method | None:
     candidates = [
         m
         for m in _METHODS
-        if m.estimator.partition(":")[2] == type(model).__name__
+        if m.class_name == type(model).__name__
         and all(params.get(k) == v for k, v in m.defaults.items() if k != "random_state")
     ]
     # The method with the most defaults matched is the most specific (sm-linear before sm).

@@ -12,12 +12,14 @@ predictors of a multi-step model). Every key is a valid MATLAB field name of at 
 characters, so the ``.mat`` file keeps the same names.
 
 Each family is described from the model's public fitted attributes (``coef_``, ``lags_``,
-``core_``, ...) by one function of :data:`_DESCRIBERS`, found through the model's class and its
-bases; a new family adds one function there.
+``core_``, ...) by one function (``describe_arx``, ``describe_set_membership``, ...), named by its
+method's registry entry (:attr:`neckid.registry.Method.describer`) and found through the
+model's class and its bases; a new family adds one function and names it in its entry.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Callable
 from typing import Any
@@ -129,10 +131,10 @@ def _header(model: Any) -> dict[str, Any]:
 
 def _describe(model: Any) -> dict[str, Any]:
     """Header, structure, parameters and transfer function (no file-level keys)."""
-    describer = next((_DESCRIBERS[n] for n in _class_names(model) if n in _DESCRIBERS), None)
+    describer = _describer(model)
     if describer is None:
         raise TypeError(
-            f"export_model takes a fitted neckid model ({', '.join(sorted(_DESCRIBERS))}); got a"
+            f"export_model takes a fitted neckid model ({', '.join(_described_classes())}); got a"
             f" {type(model).__name__}"
         )
     check_is_fitted(model)
@@ -284,7 +286,8 @@ _ARX_EQUATION = (
 )
 
 
-def _arx(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_arx(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted LinearARX (its registry entry's describer)."""
     return "arx", {
         "equation": _ARX_EQUATION,
         "coef": _array(model.coef_),
@@ -293,8 +296,9 @@ def _arx(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
-def _rls(model: Any) -> tuple[str, dict[str, Any]]:
-    structure, parameters = _arx(model)
+def describe_rls(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted RecursiveARX (its registry entry's describer)."""
+    structure, parameters = describe_arx(model)
     parameters["equation"] += (
         "; estimated by CFF-RLS: theta = [a; b] with y(t) = theta' phi(t-1), phi ="
         " [-y(t-1) ...; u(t-d) ...]: the final estimate"
@@ -305,7 +309,8 @@ def _rls(model: Any) -> tuple[str, dict[str, Any]]:
     return structure, parameters
 
 
-def _subspace(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_subspace(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted SubspaceStateSpace (its registry entry's describer)."""
     return "state_space", {
         "equation": "x(t+1) = A x(t) + B u(t) + K e(t); y(t) = C x(t) + D u(t) + intercept"
         " + e(t) (innovation form; the free run has e = 0 and starts from the state that fits"
@@ -334,7 +339,8 @@ def _monomial_names(powers: IntArray, terms: list[str]) -> list[str]:
     return names
 
 
-def _polynomial(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_polynomial(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted PolynomialNARX (its registry entry's describer)."""
     powers = np.array(model.powers_, dtype=np.int64)
     return "polynomial_narx", {
         "equation": "y_o(t) = sum_m coef(m, o) prod_k x_k^powers(m, k); x_k = (w_k - center_k)"
@@ -352,7 +358,8 @@ def _polynomial(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
-def _neural(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_neural(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted NeuralNARX (its registry entry's describer)."""
     last = len(model.coefs_) - 1
     layers = [
         {
@@ -386,7 +393,8 @@ _SM_EQUATION = (
 )
 
 
-def _set_membership(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_set_membership(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted SetMembership (its registry entry's describer)."""
     core = model.core_
     curve = getattr(model, "gamma_curve_", None)
     point_gamma = model.point_gamma_
@@ -411,7 +419,8 @@ def _set_membership(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
-def _parallel(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_parallel(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted ParallelSetMembership (its registry entry's describer)."""
     return "set_membership_parallel", {
         "equation": "y_L = free run of parallel_model on u; y(t) = the SM map (sm_map) at v(t) ="
         " [u(t - input_lags), y_L(t - linear_lags)], its inputs named <output>_linear for y_L;"
@@ -424,7 +433,8 @@ def _parallel(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
-def _multistep(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_multistep(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted MultiStepSetMembership (its registry entry's describer)."""
     return "set_membership_multistep", {
         "equation": "y(t + k) = f_k(regressor of predictors{i}) for k = horizons(i), each an SM"
         " model on its own regressor; the free run chains them in blocks of horizon samples",
@@ -439,7 +449,8 @@ def _multistep(model: Any) -> tuple[str, dict[str, Any]]:
 
 
 # ============================================================================ scheduled
-def _scheduled(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_scheduled(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted GainScheduledModel (its registry entry's describer)."""
     delay = int(model.delay_)
     lags = model.lags_
     command = lags.input_names[int(lags.channel[lags.source == 1][0])]
@@ -470,7 +481,8 @@ def _scheduled(model: Any) -> tuple[str, dict[str, Any]]:
 
 
 # ============================================================================ grey box
-def _greybox(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_greybox(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted GreyBoxNeck (its registry entry's describer)."""
     return "greybox_neck", {
         "equation": "s_j = play(x_j, slack_j / 2); v_o(t) = sum_jk (W{o}(jk) + sum_c W_c{o}(jk)"
         " p_c) play(s_j, radii(j, k))(t) + sum_c q{o}(c) p_c + offset{o}; y_o(t) = -sum_i"
@@ -487,7 +499,8 @@ def _greybox(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
-def _greybox_ode(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_greybox_ode(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted GreyBoxODE (its registry entry's describer)."""
     structure = model.structure_
     step = (
         "dx/dt = f(x, u, p) integrated by classical Runge-Kutta, substeps steps per sample,"
@@ -509,7 +522,8 @@ def _greybox_ode(model: Any) -> tuple[str, dict[str, Any]]:
     }
 
 
-def _pnlss(model: Any) -> tuple[str, dict[str, Any]]:
+def describe_pnlss(model: Any) -> tuple[str, dict[str, Any]]:
+    """``(structure, parameters)`` of a fitted PolynomialStateSpace (its registry entry's describer)."""
     names = [f"x{k + 1}" for k in range(int(model.order_))] + list(model.input_names_)
     return "polynomial_state_space", {
         "equation": "x(t+1) = A x + B v + E zeta(x, v); w(t) = C x + D v + intercept + F zeta(x,"
@@ -535,18 +549,25 @@ def _pnlss(model: Any) -> tuple[str, dict[str, Any]]:
 
 Describer = Callable[[Any], tuple[str, dict[str, Any]]]
 
-#: Class name -> the function describing its fitted parameters (``(structure, parameters)``).
-_DESCRIBERS: dict[str, Describer] = {
-    "LinearARX": _arx,
-    "RecursiveARX": _rls,
-    "SubspaceStateSpace": _subspace,
-    "PolynomialStateSpace": _pnlss,
-    "PolynomialNARX": _polynomial,
-    "NeuralNARX": _neural,
-    "SetMembership": _set_membership,
-    "ParallelSetMembership": _parallel,
-    "MultiStepSetMembership": _multistep,
-    "GainScheduledModel": _scheduled,
-    "GreyBoxNeck": _greybox,
-    "GreyBoxODE": _greybox_ode,
-}
+
+def _describer(model: Any) -> Describer | None:
+    """The function describing ``model``: its method's :attr:`~neckid.registry.Method.describer`.
+
+    Found through the model's class and its bases (a subclass of a registered class is described
+    as that class); ``None`` for an object of no registered class.
+    """
+    from neckid.registry import methods
+
+    by_class = {m.class_name: m.describer for m in methods().values() if m.describer}
+    name = next((by_class[n] for n in _class_names(model) if n in by_class), None)
+    if name is None:
+        return None
+    module, _, function = name.partition(":")
+    describer: Describer = getattr(importlib.import_module(module), function)
+    return describer
+
+
+def _described_classes() -> list[str]:
+    from neckid.registry import methods
+
+    return sorted({m.class_name for m in methods().values() if m.describer})

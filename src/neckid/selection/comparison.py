@@ -11,16 +11,23 @@ meant to hold on the next run rather than on the tail of this one:
    :meth:`neckid.models.base.Estimator.divergence_envelope`) is out, with the reason kept.
    Optionally (``stress > 0``), each remaining candidate, fitted on all training logs, runs on
    the training inputs stretched ``stress`` beyond their range, and one that runs away is out.
-3. **One standard error toward the simpler model.** Among the rest, the best mean fold fit
-   ``m*`` (free run, NRMSE %) and its standard error ``s* = std(fold fits) / sqrt(k)`` set a
-   bar ``m* − s*``; the simplest candidate above it is chosen (Hastie, Tibshirani & Friedman
-   2009, §7.10: the one-standard-error rule). Simplicity is :data:`COMPLEXITY` (linear ARX
+3. **Paired one standard error toward the simpler model.** Every candidate is scored on the
+   same folds (with few logs, each held-out log in time blocks:
+   :func:`neckid.data.folds.fold_plan`); among the rest, candidate ``j`` is eligible when its
+   mean per-fold difference to the best, ``d̄_j``, is within one standard error of that
+   difference, ``d̄_j >= −std(d_j) / sqrt(k)``; the simplest eligible candidate is chosen
+   (Hastie, Tibshirani & Friedman 2009, §7.10, on paired differences:
+   :func:`neckid.data.folds.rank_candidates`). Simplicity is :data:`COMPLEXITY` (linear ARX
    first), then fewer regressor terms.
+4. **Baselines.** The training outputs' mean and, where a training log was driven by the same
+   inputs, its replay (:mod:`neckid.selection.baselines`) are scored on the same folds; a
+   chosen candidate below 0 % or below one of them is said so in :attr:`SafeSelection.warnings`.
 
 :func:`compare` runs that selection over methods and lag sets (linear ARX always among them, the
 reference), fits each method's best candidate on all training logs, and runs one free run per
-test log: fit and RMSE, the share of samples outside the training range, and the band's kind,
-width and coverage. The test logs are touched once, after every choice is made.
+test log: fit and RMSE, the share of samples outside the training range (the channels' ranges
+over the training logs, the same measure for every method) and outside the model's own domain,
+and the band's kind, width and coverage. The test logs are touched once, after every choice is made.
 
 References
 ----------
@@ -34,6 +41,7 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -42,17 +50,19 @@ from sklearn.base import clone
 
 from neckid.data.folds import (
     MIN_BLOCKS,
+    Ranking,
     fold_records,
     fold_statistics,
-    one_standard_error,
+    rank_candidates,
     time_blocks,
 )
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
 from neckid.models.bands import band_meaning
 from neckid.models.base import DivergenceError, ModelResult
-from neckid.registry import get_method
+from neckid.registry import get_method, methods
 from neckid.regressors import Lags
+from neckid.selection.baselines import baseline_candidates, baseline_warnings
 from neckid.selection.lags import score_candidates
 
 __all__ = [
@@ -61,33 +71,20 @@ __all__ = [
     "SafeSelection",
     "compare",
     "input_reach",
+    "outside_training_range",
     "select_safely",
     "stretched",
     "time_blocks",
 ]
 
 #: How simple each method is, for the one-standard-error rule (smaller is simpler; a method
-#: not listed counts as the most complex).
-COMPLEXITY: Mapping[str, int] = {
-    "arx": 0,
-    "rls": 1,
-    "scheduled": 1,
-    "ss": 2,
-    "greybox-neck": 2,
-    "greybox-tanks": 2,
-    "sm-linear": 2,
-    "sm": 3,
-    "sm-parallel": 3,
-    "sm-multistep": 4,
-    "poly": 4,
-    "pnlss": 4,
-    "sm-parallel-poly": 5,
-    "nn": 6,
-}
+#: not listed counts as the most complex): each method's :attr:`~neckid.registry.Method.complexity`.
+COMPLEXITY: Mapping[str, int] = MappingProxyType({m.name: m.complexity for m in methods().values()})
 
 #: Methods whose regressor is not their lags (the subspace model: its order comes from the
-#: singular values): one candidate each, not one per lag set.
-LAG_FREE_METHODS = frozenset({"ss", "pnlss", "greybox-neck", "greybox-tanks"})
+#: singular values): one candidate each, not one per lag set
+#: (:attr:`~neckid.registry.Method.lag_free`).
+LAG_FREE_METHODS = frozenset(m.name for m in methods().values() if m.lag_free)
 
 
 def input_reach(train: Sequence[IOData], tests: Sequence[IOData]) -> float:
@@ -136,16 +133,28 @@ class SafeSelection:
     table : pandas.DataFrame
         One row per candidate: ``name``, ``complexity``, ``n_terms``, ``fit_mean`` (mean fold
         fit of the free run, %), ``fit_se`` (its standard error, points), ``fit_worst``,
-        ``fold_fits`` (each fold's fit), ``status`` (``"chosen"``, ``"accepted"`` or
-        ``"rejected"``) and ``reason`` (why rejected; empty otherwise). Best first.
+        ``diff_best`` and ``diff_se`` (the mean per-fold difference to the best candidate and
+        its standard error, points), ``bar`` (the mean fit it needed), ``fold_fits`` (each
+        fold's fit), ``status`` (``"chosen"``, ``"accepted"`` or ``"rejected"``) and ``reason``
+        (why rejected; empty otherwise). Best first.
     chosen : str
         The chosen candidate's name.
     scheme : str
-        ``"leave-one-experiment-out"`` or ``"time-blocks"``.
+        ``"leave-one-experiment-out"``, ``"experiments × time-blocks"`` or ``"time-blocks"``.
     folds : list of list of str
         The held-out records of each fold.
     bar : float
-        ``m* − s*``: the best mean fold fit minus its standard error.
+        The mean fold fit the chosen candidate had to reach: the best mean minus the standard
+        error of the chosen one's paired difference to the best.
+    ranking : Ranking
+        What :func:`neckid.data.folds.rank_candidates` chose and why (positions as given).
+    names : tuple of str
+        The candidates' names, in the order given (the positions of :attr:`ranking`).
+    baselines : dict of str to float
+        Naive references on the same folds: name -> mean fold fit [%] (one that did not apply
+        is left out).
+    baseline_fits : dict of str to list of float
+        Their fit on each fold.
     """
 
     table: pd.DataFrame
@@ -153,12 +162,63 @@ class SafeSelection:
     scheme: str
     folds: list[list[str]]
     bar: float
+    ranking: Ranking | None = None
+    names: tuple[str, ...] = ()
+    baselines: dict[str, float] = field(default_factory=dict)
+    baseline_fits: dict[str, list[float]] = field(default_factory=dict)
 
     @property
     def rejected(self) -> dict[str, str]:
         """Rejected candidate -> the reason."""
         rows = self.table[self.table["status"] == "rejected"]
         return dict(zip(rows["name"], rows["reason"], strict=True))
+
+    @property
+    def best(self) -> str:
+        """The candidate with the best mean fold fit."""
+        return self.names[self.ranking.best] if self.ranking is not None else self.chosen
+
+    @property
+    def warnings(self) -> list[str]:
+        """One line when the chosen candidate fits below 0 % or below a baseline on the folds."""
+        row = self.table[self.table["name"] == self.chosen].iloc[0]
+        return baseline_warnings(self.chosen, float(row["fit_mean"]), self.baselines)
+
+    def explain(self) -> list[str]:
+        """Why: the best, the chosen, the rule and the bar; when they differ, each fold's gap."""
+        if self.ranking is None:
+            return [f"{self.chosen}: chosen ({self.scheme}, {len(self.folds)} folds)"]
+        lines = [
+            f"{self.ranking.explain(self.names)}; free run, {self.scheme}, {len(self.folds)} folds"
+        ]
+        if self.ranking.chosen != self.ranking.best:
+            gaps = self.ranking.differences[self.ranking.chosen]
+            lines.append(
+                f"{self.chosen} minus {self.best} per fold [points]: "
+                + ", ".join(f"{g:+.1f}" for g in gaps)
+            )
+        return lines
+
+    def to_json(self) -> dict[str, Any]:
+        """The choice as JSON: best, chosen, bar, rule, scheme, per-fold gaps, baselines."""
+        table = self.table.set_index("name")
+        out: dict[str, Any] = {
+            "rule": self.ranking.rule if self.ranking is not None else "",
+            "scheme": self.scheme,
+            "n_folds": len(self.folds),
+            "best": self.best,
+            "best_fit_mean": _plain(table.loc[self.best, "fit_mean"]),
+            "chosen": self.chosen,
+            "chosen_fit_mean": _plain(table.loc[self.chosen, "fit_mean"]),
+            "bar": _plain(self.bar),
+            "baselines": {k: _plain(v) for k, v in self.baselines.items()},
+        }
+        if self.ranking is not None:
+            i = self.ranking.chosen
+            out["fold_differences_to_best"] = [_plain(g) for g in self.ranking.differences[i]]
+            out["difference_mean"] = _plain(self.ranking.difference_means[i])
+            out["difference_se"] = _plain(self.ranking.difference_errors[i])
+        return out
 
 
 def _folds_of(train: list[IOData], n_blocks: int) -> tuple[list[IOData], str]:
@@ -186,21 +246,24 @@ def _stress_reason(estimator: Any, train: list[IOData], stress: float) -> str:
     return ""
 
 
-def _ranked(rows: list[dict[str, Any]]) -> tuple[pd.DataFrame, str, float]:
-    """Status and order by the one-standard-error rule; the chosen name and the bar."""
+def _ranked(rows: list[dict[str, Any]], fold_fits: np.ndarray) -> tuple[pd.DataFrame, str, Ranking]:
+    """Status and order by the paired rule (:func:`rank_candidates`); the chosen name, the ranking."""
     try:
-        pick, bar = one_standard_error(
-            [float(row["fit_mean"]) for row in rows],
-            [float(row["fit_se"]) for row in rows],
+        ranking = rank_candidates(
+            fold_fits,
             [(row["complexity"], row["n_terms"]) for row in rows],
             [row["status"] != "rejected" for row in rows],
         )
     except ValueError:
         reasons = "; ".join(f"{row['name']}: {row['reason']}" for row in rows)
         raise ValueError(f"every candidate was rejected on the training logs ({reasons})") from None
-    rows[pick]["status"] = "chosen"
+    for i, row in enumerate(rows):
+        row["diff_best"] = float(ranking.difference_means[i])
+        row["diff_se"] = float(ranking.difference_errors[i])
+        row["bar"] = float(ranking.bars[i])
+    rows[ranking.chosen]["status"] = "chosen"
     table = pd.DataFrame(rows).sort_values(["fit_mean"], ascending=False, kind="mergesort")
-    return table.reset_index(drop=True), str(rows[pick]["name"]), bar
+    return table.reset_index(drop=True), str(rows[ranking.chosen]["name"]), ranking
 
 
 def select_safely(
@@ -275,22 +338,24 @@ def select_safely(
         raise ValueError(f"stress must be a finite number >= 0; got {stress!r}")
     experiments = as_experiments(train, "train")
     records, scheme = _folds_of(experiments, n_blocks)
+    references = baseline_candidates()
     scored = score_candidates(
-        options,
+        [*options, *references],
         records,
         criteria=["simulation"],
         n_initial=n_initial,
         n_jobs=n_jobs,
         backend=backend,
         progress=progress,
+        blocks_per_log=None if len(experiments) >= 2 else 1,
     )
-    fold_fits = scored.attrs["fold_scores"]["fit_simulation"]
+    fold_fits = scored.fold_fits["fit_simulation"]
     ranks = [int((complexity or {}).get(name, 0)) for name in names]
     terms = [_n_terms(estimator, experiments[0]) for _, estimator in options]
     rows = []
     for i, (name, estimator) in enumerate(options):
         fits = np.asarray(fold_fits[i], dtype=np.float64)
-        reason = str(scored.at[i, "error"])
+        reason = str(scored.table.at[i, "error"])
         if not reason and stress > 0:
             reason = _stress_reason(estimator, experiments, stress)
         mean, se, worst = fold_statistics(fits)
@@ -308,8 +373,23 @@ def select_safely(
                 "reason": reason or ("" if finite else "a fold's fit is not finite"),
             }
         )
-    table, chosen, bar = _ranked(rows)
-    return SafeSelection(table, chosen, scheme, list(scored.attrs["folds"]), bar)
+    table, chosen, ranking = _ranked(rows, fold_fits[: len(options)])
+    applied = [
+        (name.removeprefix("baseline: "), fold_fits[len(options) + j])
+        for j, (name, _) in enumerate(references)
+        if not scored.table.at[len(options) + j, "error"]
+    ]
+    return SafeSelection(
+        table,
+        chosen,
+        scored.scheme if len(experiments) >= 2 else scheme,
+        list(scored.folds),
+        ranking.bar,
+        ranking,
+        tuple(names),
+        {name: float(np.mean(fits)) for name, fits in applied},
+        {name: [float(f) for f in fits] for name, fits in applied},
+    )
 
 
 @dataclass
@@ -326,15 +406,21 @@ class Comparison:
         Per method, the chosen candidate's name and lags.
     results : pandas.DataFrame
         One row per method and test log: ``method``, ``log``, ``output``, ``fit_percent`` (free
-        run, %), ``rmse`` and ``unit``, ``outside_domain`` (share of samples outside the model's
-        domain: :meth:`~neckid.models.base.Estimator.domain`), ``band`` (what it bounds, or empty), ``band_width``
+        run, %), ``rmse`` and ``unit``, ``outside_training_range`` (share of samples at which a
+        channel is outside its range over the training logs: the same for every method,
+        :func:`outside_training_range`), ``outside_domain`` (share outside the model's own
+        domain: :meth:`~neckid.models.base.Estimator.domain`, SM its nearest-neighbour radius), ``band`` (what it bounds, or empty), ``band_width``
         (mean, output units), ``band_coverage`` (share of measured samples inside), ``error``.
     recommended : str
         The method of the chosen candidate.
     reasons : list of str
-        Why it is recommended (fold scores, rejected candidates, domain).
+        Why it is recommended: the best candidate and its mean fold fit, the chosen one, the
+        rule and the bar, each fold's gap when they differ; the rejected candidates.
     runs : list of dict of str to ModelResult
         Per test log (in the order given), each method's free run (not the diverged ones).
+    warnings : list of str
+        One line when the recommended candidate fits below 0 % or below a baseline on the
+        training folds (:attr:`SafeSelection.warnings`); empty otherwise.
     """
 
     selection: SafeSelection
@@ -344,11 +430,12 @@ class Comparison:
     recommended: str
     reasons: list[str] = field(default_factory=list)
     runs: list[dict[str, ModelResult]] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
 
     def summary(self) -> pd.DataFrame:
-        """Per method: the mean over test logs and outputs of fit, RMSE and outside share."""
+        """Per method: the mean over test logs and outputs of fit, RMSE and outside shares."""
         table = self.results.groupby("method", sort=False)[
-            ["fit_percent", "rmse", "outside_domain"]
+            ["fit_percent", "rmse", "outside_training_range", "outside_domain"]
         ].mean()
         return table.reset_index()
 
@@ -376,6 +463,8 @@ class Comparison:
         return {
             "recommended": self.recommended,
             "reasons": self.reasons,
+            "warnings": list(self.warnings),
+            "selection": self.selection.to_json(),
             "scheme": self.selection.scheme,
             "folds": self.selection.folds,
             "rejected": self.selection.rejected,
@@ -409,11 +498,37 @@ def _outside_domain(model: Any, data: IOData) -> float:
     return float(outside.mean()) if data.n_samples else 0.0
 
 
+def outside_training_range(train: Sequence[IOData], record: IOData) -> float:
+    """Share of ``record``'s samples at which some channel lies outside its training range.
+
+    The range of every input and output channel over all training logs: a property of the
+    data, the same for every method (the model's own domain is :func:`_outside_domain`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> train = IOData(np.linspace(0.0, 1.0, 10), np.linspace(0.0, 2.0, 10), ts=0.1)
+    >>> outside_training_range([train], IOData(np.linspace(0.5, 1.5, 10), np.ones(10), ts=0.1))
+    0.4
+    """
+    outside = np.zeros(record.n_samples, dtype=bool)
+    for name in (*record.input_names, *record.output_names):
+        values = np.concatenate([d.channel(name) for d in train])
+        seen = record.channel(name)
+        outside |= (seen < values.min()) | (seen > values.max())
+    return float(outside.mean()) if record.n_samples else 0.0
+
+
 def _test_rows(
-    method: str, model: Any, record: IOData
+    method: str, model: Any, record: IOData, outside_range: float = 0.0
 ) -> tuple[list[dict[str, Any]], ModelResult | None]:
     """One free run of ``model`` on ``record``: a row per output, and the run (None if diverged)."""
-    base = {"method": method, "log": record.name or "test", "error": ""}
+    base = {
+        "method": method,
+        "log": record.name or "test",
+        "error": "",
+        "outside_training_range": outside_range,
+    }
     outside = _outside_domain(model, record)
     try:
         with warnings.catch_warnings():
@@ -467,7 +582,7 @@ def _method_pick(
     """The candidate of ``method`` that is run on the test logs.
 
     The recommended method runs the chosen candidate; every other method its own choice by the
-    same rule among its accepted candidates (one standard error toward fewer terms); a method
+    same rule among its accepted candidates (the paired rule toward fewer terms); a method
     whose every candidate was rejected, its best rejected row (not run).
     """
     own = table[[method_of[n] == method for n in table["name"]]]
@@ -476,13 +591,11 @@ def _method_pick(
     usable = own[own["status"] != "rejected"]
     if not len(usable):
         return own.iloc[0]
-    pick, _ = one_standard_error(
-        usable["fit_mean"].tolist(),
-        usable["fit_se"].tolist(),
+    ranking = rank_candidates(
+        np.array(usable["fold_fits"].tolist(), dtype=np.float64),
         list(zip(usable["complexity"], usable["n_terms"], strict=True)),
-        [True] * len(usable),
     )
-    return usable.iloc[pick]
+    return usable.iloc[ranking.chosen]
 
 
 def _candidates(
@@ -493,8 +606,8 @@ def _candidates(
     options, method_of, lags_of = [], {}, {}
     for method in chosen:
         entry = get_method(method)
-        for regressor in lags[:1] if method in LAG_FREE_METHODS else lags:
-            several = len(lags) > 1 and method not in LAG_FREE_METHODS
+        for regressor in lags[:1] if entry.lag_free else lags:
+            several = len(lags) > 1 and not entry.lag_free
             name = f"{method} {regressor!r}" if several else method
             estimator = entry.make(regressor)
             if "random_state" in estimator.get_params():
@@ -578,6 +691,7 @@ def compare(
         progress=progress,
     )
     table = selection.table
+    reaches = {record.name: outside_training_range(experiments, record) for record in tests}
     models, settings, rows = {}, {}, []
     runs: list[dict[str, ModelResult]] = [{} for _ in tests]
     for method in dict.fromkeys(method_of.values()):
@@ -591,16 +705,13 @@ def compare(
             warnings.simplefilter("ignore")
             models[method] = estimator.fit(experiments if len(experiments) > 1 else experiments[0])
         for record, by_method in zip(tests, runs, strict=True):
-            made, result = _test_rows(method, models[method], record)
+            made, result = _test_rows(method, models[method], record, reaches[record.name])
             rows.extend(made)
             if result is not None:
                 by_method[method] = result
     recommended = method_of[selection.chosen]
-    chosen = table[table["name"] == selection.chosen].iloc[0]
     reasons = [
-        f"{selection.chosen}: mean fold fit {chosen['fit_mean']:.1f} % (free run,"
-        f" {selection.scheme}, {len(selection.folds)} folds); the simplest candidate within one"
-        f" standard error of the best ({selection.bar:.1f} %)",
+        *selection.explain(),
         *(f"rejected {n}: {r}" for n, r in selection.rejected.items()),
     ]
     if reach > 0:
@@ -608,4 +719,13 @@ def compare(
             f"stress check: every candidate run on the training inputs stretched {reach:.0%}"
             " beyond their range (at least as far as the test inputs go)"
         )
-    return Comparison(selection, models, settings, pd.DataFrame(rows), recommended, reasons, runs)
+    return Comparison(
+        selection,
+        models,
+        settings,
+        pd.DataFrame(rows),
+        recommended,
+        reasons,
+        runs,
+        list(selection.warnings),
+    )

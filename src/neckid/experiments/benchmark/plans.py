@@ -15,13 +15,15 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 from joblib import delayed
 
+from neckid.data.folds import rank_candidates
 from neckid.data.iodata import IOData, as_experiments
 from neckid.datasets.benchmarks import BenchmarkData
 from neckid.experiments.benchmark.peers import peer_candidates
@@ -38,6 +40,7 @@ from neckid.experiments.benchmark.settings import (
 )
 from neckid.experiments.benchmark.shared import SharedFits, data_digest, fit_key
 from neckid.experiments.benchmark.stages import FinalRun, Outcome, final_unit, fit_unit, score_unit
+from neckid.registry import methods
 from neckid.utils.parallel import run_jobs
 
 __all__ = ["UNIT_COST", "MethodPlan", "choose", "run_plans", "selection_parts"]
@@ -46,19 +49,8 @@ logger = logging.getLogger(__name__)
 
 #: Relative cost of one unit per training sample, by method: the order in which a stage hands
 #: its units to the workers (longest first). It changes the wall time only, never the results.
-UNIT_COST: dict[str, float] = {
-    "arx": 0.01,
-    "ss": 0.3,
-    "pnlss": 20.0,
-    "sm": 1.0,
-    "sm-linear": 1.0,
-    "sm-parallel": 2.0,
-    "sm-parallel-poly": 3.0,
-    "poly": 10.0,
-    "nn": 8.0,
-    "scheduled": 0.01,
-    "greybox-neck": 1.0,
-}
+#: Each method's :attr:`~neckid.registry.Method.unit_cost`; a peer method counts 5.
+UNIT_COST: Mapping[str, float] = MappingProxyType({m.name: m.unit_cost for m in methods().values()})
 
 
 def selection_parts(train: IOData | Sequence[IOData]) -> list[IOData | list[IOData]]:
@@ -87,7 +79,10 @@ def choose(
 
     ``rows`` are the candidates' score rows (:func:`~.stages.score_unit`), in their order. Each
     score says the settings and the hold-out RMSE; across experiments also the scheme and the
-    worst fold's RMSE; a failed candidate its error.
+    worst fold's RMSE; a failed candidate its error. The choice is the one ranking of every
+    selection (:func:`neckid.data.folds.rank_candidates`) with its ``"best"`` rule on the
+    negated mean RMSE: a benchmark scores each method at its best setting, so no tolerance
+    toward the simpler one (ties: the first).
 
     Raises
     ------
@@ -103,9 +98,10 @@ def choose(
         if row["error"]:
             score["error"] = row["error"]
         scores.append(score)
-    if np.isinf(values).all():
+    if not np.isfinite(values).any():
         raise ValueError(f"every candidate failed or diverged on the held-out end: {scores}")
-    return options[int(np.argmin(values))], scores
+    ranking = rank_candidates(-values[:, None], rule="best")
+    return options[ranking.chosen], scores
 
 
 @dataclass

@@ -29,6 +29,7 @@ from neckid.registry import methods
 from neckid.regressors import Lags
 
 __all__ = [
+    "BENCHMARK_GROUPS",
     "BENCHMARK_METHODS",
     "BUILDS_ON",
     "CANDIDATE_GRIDS",
@@ -205,33 +206,40 @@ PUBLIC_BENCHMARKS = frozenset({"cascaded_tanks", "silverbox", "bouc_wen", "robot
 #: The soft-neck protocols: the single log and the two cross-run splits.
 SOFTNECK_BENCHMARKS = frozenset({"softneck"}) | CROSS_RUN_BENCHMARKS
 
-#: Methods that run on some data sets only. The polynomial NARX's simulation fit costs 1-3 min on
-#: a large record; on the soft-neck protocols, whose selection refits every candidate per run
-#: left out (30 fits of 15,000 rows on the payload split), that is most of an hour, so it runs
-#: on the public benchmarks only. The grey-box neck (tendon slack and hysteresis) is a model of
-#: the soft neck. A user-defined grey box of another plant (e.g. a cascaded-tanks ODE) joins as
-#: one line here with its data sets and one in :data:`CANDIDATE_GRIDS`
-#: (``_state_model_grid("<its registry name>")``).
+#: The data-set groups a registry entry's :attr:`~neckid.registry.Method.only_on` names.
+BENCHMARK_GROUPS: Mapping[str, frozenset[str]] = MappingProxyType(
+    {"public": PUBLIC_BENCHMARKS, "softneck": SOFTNECK_BENCHMARKS}
+)
+
+#: Methods that run on some data sets only: each registry entry's
+#: :attr:`~neckid.registry.Method.only_on` group, and the peer's. The polynomial NARX's
+#: simulation fit costs 1-3 min on a large record; on the soft-neck protocols, whose selection
+#: refits every candidate per run left out (30 fits of 15,000 rows on the payload split), that is
+#: most of an hour, so it runs on the public benchmarks only. The grey-box neck (tendon slack and
+#: hysteresis) is a model of the soft neck. A user-defined grey box of another plant (e.g. a
+#: cascaded-tanks ODE) names its group in its registry entry and adds one line to
+#: :data:`CANDIDATE_GRIDS` (``_state_model_grid("<its registry name>")``).
 ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType(
     {
-        "scheduled": SOFTNECK_BENCHMARKS,
-        "poly": PUBLIC_BENCHMARKS,
-        "sm-parallel-poly": PUBLIC_BENCHMARKS,
-        "greybox-neck": SOFTNECK_BENCHMARKS,
+        **{m.name: BENCHMARK_GROUPS[m.only_on] for m in methods().values() if m.only_on},
         "sysidentpy-frols": PUBLIC_BENCHMARKS,
     }
 )
 
 #: Methods whose lag grid is cut to the lags another method's selection chose on the same
-#: training data (when the grid holds more than one): SM on the parallel polynomial sits on the
+#: training data (when the grid holds more than one): each registry entry's
+#: :attr:`~neckid.registry.Method.builds_on`. SM on the parallel polynomial sits on the
 #: polynomial that ``poly``'s own selection picked. Measured on 2026-11-27 with the full grid
 #: (``docs/benchmarks.md``): the full grid chose those lags on all four public data sets.
-BUILDS_ON: Mapping[str, str] = MappingProxyType({"sm-parallel-poly": "poly"})
+BUILDS_ON: Mapping[str, str] = MappingProxyType(
+    {m.name: m.builds_on for m in methods().values() if m.builds_on}
+)
 
-#: Hyper-parameters of the state models beside the registry's: one candidate each, the order
-#: from the training data (the singular values of the subspace step), not from a lag grid.
+#: Hyper-parameters of the state models beside the registry's defaults: one candidate each, the
+#: order from the training data (the singular values of the subspace step), not from a lag grid.
+#: Each lag-free registry entry's :attr:`~neckid.registry.Method.benchmark_params`.
 STATE_MODEL_PARAMS: Mapping[str, Mapping[str, Any]] = MappingProxyType(
-    {"ss": MappingProxyType({}), "greybox-neck": MappingProxyType({})}
+    {m.name: MappingProxyType(dict(m.benchmark_params)) for m in methods().values() if m.lag_free}
 )
 
 #: Largest ``samples × outputs × parameters²`` of the polynomial state-space model (the work of
