@@ -140,7 +140,7 @@ def _print_prior_check(model: Any, data: Any) -> None:
             )
             continue
         advice = (
-            f"{share:.1%} of the samples of {name} fall outside [f_l − ε, f_u + ε] one step"
+            f"{_share_text(share)} of the samples of {name} fall outside [f_l − ε, f_u + ε] one step"
             f" ahead (ε = {float(epsilon[j]):.4g}{unit}, γ kept): the SM bounds are not"
             " guaranteed on this log. The smallest ε that holds them all is"
             f" {float(found.smallest_epsilon[j]):.4g}{unit}. Identify again with this log among"
@@ -192,17 +192,42 @@ def _report_extrapolation(result: Any) -> None:
 
 
 def _save_panels(panels: list[tuple[Any, dict[str, Any], str, Any]], path: Any) -> None:
-    """One panel per log, stacked: ``(log data, {label: run}, title, samples outside or None)``."""
+    """One panel per log, stacked: ``(log data, {label: run}, title, samples outside or None)``.
+
+    Each panel holds one axes per output of its log (:func:`neckid.report.plots.plot_outputs`):
+    a two-output model shows both outputs of every log, each with its band and unit.
+    """
     import matplotlib.pyplot as plt
 
-    from neckid.report.plots import plot_simulation
+    from neckid.report.plots import plot_outputs
+
+    rows = sum(data.n_outputs for data, _, _, _ in panels)
+    fig, axes = plt.subplots(rows, 1, figsize=(10, 3.4 * rows), layout="constrained", squeeze=False)
+    first = 0
+    for data, runs, title, outside in panels:
+        mine = list(axes[first : first + data.n_outputs, 0])
+        plot_outputs(data, runs, mine, title=title, outside=outside)
+        first += data.n_outputs
+    _save_figure(fig, path)
+
+
+def _save_figure(fig: Any, path: Any) -> None:
+    """Write ``fig`` as PNG (atomically: a failed write leaves no half file) and close it."""
+    import matplotlib.pyplot as plt
+
     from neckid.utils.files import atomic_path
 
-    fig, axes = plt.subplots(
-        len(panels), 1, figsize=(10, 3.4 * len(panels)), layout="constrained", squeeze=False
-    )
-    for ax, (data, runs, title, outside) in zip(axes[:, 0], panels, strict=True):
-        plot_simulation(data, runs, ax=ax, title=title, outside=outside)
-    with atomic_path(path) as temporary:
-        fig.savefig(temporary, dpi=120, format="png")
-    plt.close(fig)
+    try:
+        with atomic_path(path) as temporary:
+            fig.savefig(temporary, dpi=120, format="png")
+    finally:
+        plt.close(fig)
+
+
+def _share_text(share: float) -> str:
+    """A share as a percentage that never rounds a non-zero share to 0.0 % (nor a partial to 100 %)."""
+    if 0.0 < share < 0.0005:
+        return "fewer than 0.1 %"
+    if 0.9995 < share < 1.0:
+        return "more than 99.9 %"
+    return f"{share:.1%}"

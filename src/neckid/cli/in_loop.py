@@ -5,6 +5,15 @@
 ``softneck`` layout), the controller chosen by ``--controller`` or the log's name, and
 :func:`neckid.loops.lab_loop.in_loop_on_log` runs the model in the loop with the drive identified
 on the shared training logs (:meth:`neckid.loops.lab_drive.LabDrive.identified`).
+
+What the loop must agree with is checked first (:mod:`neckid.loops.loop_checks`): a controller
+whose commands, fed the logged inclination, differ from the logged ones by more than 1e-4 rad/s
+is refused (exit status 2, one line naming the log, the controller and the check) unless
+``--force``; so are a controller at another sampling period than the log, and adaptive parameter
+logs given for a log that another controller made. ``--map`` (and the model's stored mapping),
+``--channel`` and ``--condition`` apply to the log as in a free run; ``--tilt`` is refused (the
+lab's controllers measure the inclination alone). A loop that diverges exits with status 3, as a
+diverging free run does; ``--plot`` draws each log's loop (:mod:`neckid.report.loop_plots`).
 """
 
 from __future__ import annotations
@@ -47,19 +56,47 @@ def _headerless(path: Path, sep: str) -> bool:
     return True
 
 
+def _mapping(path: Path, model: Any, spec: LogSpec, softneck: bool) -> dict[str, str]:
+    """``{log name: model name}``: the user's ``--map``, else the model's stored mapping."""
+    from neckid.cli.options import _stored_mapping
+
+    mapping = spec.mapping()
+    if mapping or softneck or not getattr(model, "channel_map_", None):
+        return mapping
+    return _stored_mapping(model, path, spec)
+
+
+def _available(path: Path, spec: LogSpec, sep: str) -> set[str]:
+    """The channel names a log with named columns (or a bag's ``--channel`` list) offers."""
+    if spec.layout == "rosbag":
+        from neckid.cli.workflow import parse_channels
+
+        return set(parse_channels(list(spec.channels)))
+    from neckid.cli.options import _column_names
+
+    return _column_names(path, sep, spec.time)
+
+
 def _read(path: Path, model: Any, spec: LogSpec) -> Any:
+    """The log with every channel the loop and the model read, renamed by the mapping."""
     from neckid.cli.workflow import read_log
 
+    if spec.tilt:
+        raise ValueError(
+            "--tilt: the lab's loop measures the inclination alone (its controllers read the raw"
+            " inclination), so a model of the tilt vector has no lab loop; validate it without"
+            " --in-loop"
+        )
     sep = _sep(spec.sep)
     softneck = spec.layout == "softneck" or (spec.layout == "csv" and _headerless(path, sep))
+    mapping = _mapping(path, model, spec, softneck)
     if softneck:
         inputs = list(_LOOP_CHANNELS)
     else:
-        import pandas as pd
-
-        header = list(pd.read_csv(path, sep=sep, nrows=0).columns)
+        to_log = {name: log for log, name in mapping.items()}
+        offered = _available(path, spec, sep)
         wanted = [*_LOOP_CHANNELS, *model.input_names_]
-        inputs = [n for n in dict.fromkeys(wanted) if n in header]
+        inputs = [n for n in dict.fromkeys(wanted) if to_log.get(n, n) in offered]
     return read_log(
         path,
         inputs,
@@ -68,7 +105,9 @@ def _read(path: Path, model: Any, spec: LogSpec) -> Any:
         ts=spec.ts,
         layout="softneck" if softneck else spec.layout,
         sep=sep,
+        channels=spec.channels,
         conditions=spec.conditions,
+        maps=mapping,
     )
 
 
@@ -133,7 +172,10 @@ def _table(result: Any) -> Table:
         summary["mean_overshoot_percent"],
         summary["logged_mean_overshoot_percent"],
     )
-    row("controller check [rad/s]", summary["controller_check_rad_s"], fmt=".2e")
+    row("controller check [rad/s] (tolerance 1e-4)", summary["controller_check_rad_s"], fmt=".2e")
+    first_stair_row = summary["controller_check_first_stair_row_rad_s"]
+    if first_stair_row == first_stair_row:  # an adaptive replay: its unlogged starting gains
+        row("  first stair row (starting gains, not checked)", first_stair_row, fmt=".2e")
     return table
 
 
@@ -150,14 +192,70 @@ def _stairs_table(result: Any) -> Table:
     return table
 
 
+def _run(model: Any, log: Path, data: Any, controller: tuple[Any, Any], force: bool) -> Any:
+    """:func:`~neckid.loops.lab_loop.in_loop_on_log` on one log; a refusal names the log."""
+    from neckid.loops.lab_loop import in_loop_on_log
+    from neckid.loops.loop_checks import CONTROLLER_CHECK_TOLERANCE, ControllerMismatchError
+
+    chosen, parameters = controller
+    try:
+        result = in_loop_on_log(
+            model,
+            data,
+            chosen,
+            adaptive_parameters=parameters,
+            check_tolerance=None if force else CONTROLLER_CHECK_TOLERANCE,
+        )
+    except ControllerMismatchError as exc:
+        raise ValueError(f"{exc}; --force runs it anyway") from None
+    except (ValueError, FileNotFoundError) as exc:
+        text = str(exc)
+        raise type(exc)(text if text.startswith(log.name) else f"{log.name}: {text}") from None
+    check = result.controller_check
+    if check != check:
+        error_console.print(
+            f"[yellow]warning:[/yellow] {escape(log.name)} has no velocity_command: the"
+            f" controller {escape(result.controller)} could not be checked against the log",
+            highlight=False,
+            soft_wrap=True,
+        )
+    elif check > CONTROLLER_CHECK_TOLERANCE:
+        error_console.print(
+            f"[yellow]warning (--force):[/yellow] {escape(log.name)}: the controller"
+            f" {escape(result.controller)} does not reproduce the log's commands (controller"
+            f" check {check:.3g} rad/s, tolerance {CONTROLLER_CHECK_TOLERANCE:.0e} rad/s): the"
+            " in-loop figures compare two different loops",
+            highlight=False,
+            soft_wrap=True,
+        )
+    return result
+
+
+def _write_plot(results: list[Any], plot: Path) -> None:
+    """Each log's loop (:func:`neckid.report.loop_plots.plot_lab_loops`) as one PNG."""
+    from neckid.cli.explain import _save_figure
+    from neckid.report.loop_plots import plot_lab_loops
+
+    _save_figure(plot_lab_loops(results), plot)
+    console.print(f"figure written to {plot}")
+
+
 def validate_in_loop(
     model_path: Path,
     logs: list[Path],
     controller: str | None,
     json_out: Path | None,
     spec: LogSpec,
+    *,
+    plot: Path | None = None,
+    force: bool = False,
 ) -> None:
     """Run ``model_path`` in the loop of each log; print the figures; write them as JSON.
+
+    Every log is checked and run before anything is written: a refusal (a controller that does
+    not reproduce the log, another sampling period, a log the model cannot run in) stops the
+    command with one line naming the log (exit status 2). A loop that diverges is reported
+    and the command ends with exit status 3, after the other logs and the outputs.
 
     Parameters
     ----------
@@ -171,34 +269,37 @@ def validate_in_loop(
         ``--json`` (already checked by the caller).
     spec : LogSpec
         The log options of the command line (``time``, ``ts``, ``layout``, ``sep``,
-        ``conditions`` are read here).
+        ``channels``, ``conditions``, ``maps`` are read here; ``tilt`` is refused).
+    plot : Path, optional
+        ``--plot`` (already checked by the caller): each log's loop.
+    force : bool, default False
+        Run a controller whose check exceeds its tolerance (with a warning).
     """
-    from neckid.loops.lab_loop import in_loop_on_log
     from neckid.models.io import load_model
     from neckid.utils.files import write_json
 
     model = load_model(model_path)
-    chosen, parameters = _controller(controller)
-    records = []
+    chosen = _controller(controller)
+    results = []
     for log in logs:
-        data = _read(log, model, spec)
-        try:
-            result = in_loop_on_log(model, data, chosen, adaptive_parameters=parameters)
-        except (ValueError, FileNotFoundError) as exc:
-            error_console.print(
-                f"[red]{escape(log.name)}:[/red] {escape(str(exc))}", soft_wrap=True
-            )
-            records.append({"log": log.name, "error": str(exc)})
-            continue
+        result = _run(model, log, _read(log, model, spec), chosen, force)
         console.print(_table(result))
         if len(result.stairs):
             console.print(_stairs_table(result))
         if result.diverged_at is not None:
-            console.print(f"[red]the loop diverged at row {result.diverged_at}[/red]")
-        records.append(result.to_dict())
+            error_console.print(
+                f"[red]diverged:[/red] {escape(log.name)}: the loop's inclination left ±1000 deg"
+                f" or stopped being finite at row {result.diverged_at}"
+                f" (t = {float(result.measured.time[result.diverged_at]):.3f} s)",
+                highlight=False,
+                soft_wrap=True,
+            )
+        results.append(result)
     if json_out is not None:
-        document = {"model": model_path.name, "kind": "in loop", "logs": records}
-        write_json(json_out, document)
+        records = [r.to_dict() for r in results]
+        write_json(json_out, {"model": model_path.name, "kind": "in loop", "logs": records})
         console.print(f"results written to {json_out}")
-    if any("error" in r for r in records):
-        raise typer.Exit(code=1)
+    if plot is not None:
+        _write_plot(results, plot)
+    if any(r.diverged_at is not None for r in results):
+        raise typer.Exit(code=3)

@@ -35,6 +35,7 @@ from neckid.cli.explain import (
     _print_prior,
     _print_prior_check,
     _report_extrapolation,
+    _save_figure,
     _save_panels,
 )
 from neckid.cli.in_loop import CONTROLLER_HELP, validate_in_loop
@@ -272,37 +273,42 @@ def _print_mean(records: list[dict[str, Any]]) -> dict[str, Any]:
     return mean
 
 
+def _fit_text(result: Any, data: Any) -> str:
+    """``fit 81.2 %``, or one fit per output: ``fit 81.2 % (tilt_x), 77.0 % (tilt_y)``."""
+    fits = [float(f) for f in result.fit_percent(data)]
+    if len(fits) == 1:
+        return f"fit {fits[0]:.1f} %"
+    return "fit " + ", ".join(
+        f"{f:.1f} % ({n})" for f, n in zip(fits, data.output_names, strict=True)
+    )
+
+
 def _validation_plot(model: Any, runs: list[tuple[Path, Any, Any, Any]], plot: Path) -> None:
-    """Measured vs simulated output: with residuals for one log, one panel per log otherwise."""
+    """Measured vs simulated outputs, each output in its own axes: with errors for one log."""
     label = _describe_model(model)
     if len(runs) > 1:
         panels = [
             (
                 data,
                 {label: result},
-                f"{log.name}: free run, fit {float(result.fit_percent(data)[0]):.1f} %",
+                f"{log.name}: free run, {_fit_text(result, data)}",
                 None if domain is None else domain.outside,
             )
             for log, data, result, domain in runs
         ]
         _save_panels(panels, plot)
     else:
-        import matplotlib.pyplot as plt
-
-        from neckid.report.plots import plot_simulation
-        from neckid.utils.files import atomic_path
+        from neckid.report.plots import plot_outputs
 
         log, data, result, domain = runs[0]
-        fig = plot_simulation(
+        fig = plot_outputs(
             data,
             {label: result},
-            title=f"{label} on {log.name}: free run, fit {float(result.fit_percent(data)[0]):.1f} %",
+            title=f"{label} on {log.name}: free run, {_fit_text(result, data)}",
             residuals=True,
             outside=None if domain is None else domain.outside,
         )
-        with atomic_path(plot) as temporary:
-            fig.savefig(temporary, dpi=120, format="png")
-        plt.close(fig)
+        _save_figure(fig, plot)
     console.print(f"figure written to {plot}")
 
 
@@ -319,11 +325,21 @@ def validate(
         help=LOG_HELP + " Several logs: a table each and the mean.",
         exists=True,
     ),
-    plot: Path = typer.Option(None, "--plot", help="Write a PNG of measured vs simulated output."),
+    plot: Path = typer.Option(
+        None,
+        "--plot",
+        help="Write a PNG of measured vs simulated outputs, each in its own axes (with"
+        " --in-loop: the loop of each log: reference, inclinations, commands, motor position).",
+    ),
     json_out: Path = typer.Option(
         None, "--json", help="Write per log and the mean: fit %, RMSE, MAE, domain, band."
     ),
-    force: bool = FORCE_OPTION,
+    force: bool = typer.Option(
+        False,
+        "--force",
+        help="Overwrite an existing output. With --in-loop, also run a controller that does"
+        " not reproduce the log's commands (its controller check beyond 1e-4 rad/s).",
+    ),
     in_loop: bool = typer.Option(
         False, "--in-loop", help="Run the model in the lab's loop of each log (docs/in_loop.md)."
     ),
@@ -344,7 +360,9 @@ def validate(
         if path is not None:
             check_output_file(path, force=force, inputs=given, option=option)
     if in_loop:
-        return validate_in_loop(model_path, logs, controller, json_out, spec)
+        return validate_in_loop(
+            model_path, logs, controller, json_out, spec, plot=plot, force=force
+        )
     from neckid.models.io import load_model
 
     model = load_model(model_path)  # once: every log runs the same model
@@ -377,6 +395,9 @@ def simulate(
     out: Path = typer.Option(
         Path("simulation.csv"), "--out", help="CSV to write: time, inputs, outputs (and bounds)."
     ),
+    plot: Path = typer.Option(
+        None, "--plot", help="Write a PNG of measured vs simulated outputs, each in its own axes."
+    ),
     force: bool = FORCE_OPTION,
     keep_diverged: bool = typer.Option(
         False,
@@ -401,8 +422,9 @@ def simulate(
     from neckid.utils.files import atomic_path, check_output_file
 
     check_output_file(out, force=force, inputs=[log, model_path])
-    if json_out is not None:
-        check_output_file(json_out, force=force, inputs=[log, model_path, out], option="--json")
+    for path, option in ((json_out, "--json"), (plot, "--plot")):
+        if path is not None:
+            check_output_file(path, force=force, inputs=[log, model_path, out], option=option)
     from neckid.models.io import load_model
 
     model = load_model(model_path)
@@ -421,6 +443,8 @@ def simulate(
         result.to_frame().to_csv(temporary, index=False)
     console.print(f"{result.n_samples} samples written to {out}")
     _report_extrapolation(result)
+    if plot is not None:
+        _validation_plot(model, [(log, data, result, None)], plot)
     if json_out is not None:
         from neckid.utils.files import write_json
 
@@ -443,8 +467,10 @@ def _simulation_summary(
         "kind": "free run",
         "n_samples": int(result.n_samples),
         "band": band_meaning(result.extras) if result.lower is not None else None,
-        "diverged": None if diverged is None else str(diverged),
+        "diverged": diverged is not None,
     }
+    if diverged is not None:
+        document["divergence"] = str(diverged)
     if diverged is None and data.n_outputs:
         document["outputs"] = [
             {"output": n, "unit": u, "fit_percent": float(f), "rmse": float(r)}

@@ -33,7 +33,6 @@ failed sensor reads are replayed: on those rows the controller holds its command
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -51,6 +50,13 @@ from neckid.loops.controllers.references import LabReference, reference_for_log
 from neckid.loops.controllers.tuned import AdaptiveFractionalTuner
 from neckid.loops.lab_drive import LabDrive
 from neckid.loops.lab_loop_result import LabLoopResult, loop_figures
+from neckid.loops.loop_checks import (
+    CONTROLLER_CHECK_TOLERANCE,
+    ControllerMismatchError,
+    check_parameter_log,
+    check_period,
+    controller_check,
+)
 from neckid.metrics import fit_percent
 from neckid.models.base import check_is_fitted
 from neckid.selection.lags import free_run
@@ -136,7 +142,9 @@ def lab_controller(
     Raises
     ------
     ValueError
-        If no controller is given and the name says none, or ``controller`` is another text.
+        If no controller is given and the name says none, ``controller`` is another text, or
+        adaptive parameters are given for a log that another controller made (its name says
+        int or fra) or for another payload (:func:`~neckid.loops.loop_checks.check_parameter_log`).
     """
     if controller is not None and not isinstance(controller, str):
         return controller, type(controller).__name__
@@ -151,6 +159,12 @@ def lab_controller(
         return controller_for_log(named), kind
     if adaptive_parameters is None:
         return AdaptiveFractionalTuner(), "ada (re-implemented tuner)"
+    given = (
+        adaptive_parameters.name
+        if isinstance(adaptive_parameters, AdaptiveParameters)
+        else str(adaptive_parameters)
+    )
+    check_parameter_log(log_name, controller_kind(log_name), given)
     if not isinstance(adaptive_parameters, AdaptiveParameters):
         adaptive_parameters = load_adaptive_parameters(
             _parameter_file(Path(adaptive_parameters), log_name)
@@ -433,6 +447,7 @@ def in_loop_on_log(
     reference: LabReference | None = None,
     settle: float = 3.0,
     band: float = 1.0,
+    check_tolerance: float | None = CONTROLLER_CHECK_TOLERANCE,
 ) -> LabLoopResult:
     """Run an identified model in the loop of a real log; compare with its free run and the log.
 
@@ -458,6 +473,11 @@ def in_loop_on_log(
         Seconds of each stair left out of the oscillation measures.
     band : float, default 1.0
         Settling band of the stair table, deg.
+    check_tolerance : float or None, default 1e-4
+        The largest controller check [rad/s] accepted
+        (:data:`~neckid.loops.loop_checks.CONTROLLER_CHECK_TOLERANCE`, see
+        :mod:`neckid.loops.loop_checks`); ``None`` runs a controller that does not reproduce
+        the log's commands anyway.
 
     Returns
     -------
@@ -466,7 +486,11 @@ def in_loop_on_log(
     Raises
     ------
     ValueError
-        If no controller or reference is known for the log, or the model cannot run in the loop.
+        If no controller or reference is known for the log, the controller runs at another
+        period than the log, or the model cannot run in the loop.
+    ControllerMismatchError
+        A ``ValueError``: the controller does not reproduce the log's commands (its check
+        exceeds ``check_tolerance``); raised before the loop runs.
 
     Examples
     --------
@@ -479,12 +503,16 @@ def in_loop_on_log(
     data = log if isinstance(log, IOData) else load_softneck_log(Path(log))
     name = data.name or str(log)
     ctrl, label = lab_controller(name, controller, adaptive_parameters)
+    check_period(ctrl, label, data.ts, Path(name).name)
     ref = _reference(data, reference)
     failed = failed_reads(data) if COMMAND in data.input_names else None
-    check = math.nan
+    check, first_stair_row = math.nan, math.nan
     if failed is not None:
-        replayed = _replay(copy.deepcopy(ctrl), ref.values, data.channel(OUTPUT), failed)
-        check = float(np.max(np.abs(replayed - data.channel(COMMAND))))
+        check, first_stair_row = controller_check(
+            ctrl, ref.values, data.channel(OUTPUT), data.channel(COMMAND), failed
+        )
+        if check_tolerance is not None and not check <= check_tolerance:
+            raise ControllerMismatchError(Path(name).name, label, check, check_tolerance)
     engine = drive if drive is not None else LabDrive.identified(ts=data.ts)
     view = model_view(model, data)
     simulated, skip = free_run(model, view, diverged="keep")
@@ -517,6 +545,7 @@ def in_loop_on_log(
         stairs=stairs,
         logged_stairs=logged[2],
         controller_check=check,
+        controller_check_first_stair_row=first_stair_row,
         diverged_at=diverged,
         settings={
             "drive": repr(engine),
@@ -524,20 +553,6 @@ def in_loop_on_log(
             "settle_s": settle,
             "band_deg": band,
         },
-    )
-
-
-def _replay(
-    controller: Controller, reference: FloatArray, inclination: FloatArray, failed: BoolArray
-) -> FloatArray:
-    """The controller's command of every row fed the logged inclination (NaN on failed reads)."""
-    controller.reset()
-    measured = np.where(failed, math.nan, inclination)
-    return np.array(
-        [
-            float(np.asarray(controller.step(r, y)).reshape(-1)[0])
-            for r, y in zip(reference, measured, strict=True)
-        ]
     )
 
 

@@ -104,7 +104,10 @@ class LabLoopResult:
         Overshoot [%] and settling time [s] on each stair.
     controller_check : float
         Largest ``|reconstructed − logged|`` command [rad/s] when the controller is fed the
-        logged raw inclination (NaN when the log has no command).
+        logged raw inclination (NaN when the log has no command), over every row but an
+        adaptive replay's first stair row (:func:`~neckid.loops.loop_checks.controller_check`).
+    controller_check_first_stair_row : float
+        That row's difference [rad/s] (its starting gains no log holds); NaN for the others.
     diverged_at : int or None
         The first row where the loop's inclination was not finite (or beyond 1000 deg).
     settings : dict
@@ -127,6 +130,7 @@ class LabLoopResult:
     stairs: pd.DataFrame
     logged_stairs: pd.DataFrame
     controller_check: float
+    controller_check_first_stair_row: float = math.nan
     diverged_at: int | None = None
     settings: dict[str, Any] = field(default_factory=dict)
 
@@ -161,6 +165,7 @@ class LabLoopResult:
             "mean_overshoot_percent": _mean(self.stairs["overshoot_percent"]),
             "logged_mean_overshoot_percent": _mean(self.logged_stairs["overshoot_percent"]),
             "controller_check_rad_s": self.controller_check,
+            "controller_check_first_stair_row_rad_s": self.controller_check_first_stair_row,
             "diverged_at": self.diverged_at,
             "n_initial": self.n_initial,
         }
