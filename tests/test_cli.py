@@ -224,6 +224,8 @@ def test_warmup_compiles_in_a_temporary_folder_it_removes(
     result = runner.invoke(app, ["warmup"])
     assert result.exit_code == 0, result.output
     assert "kernels compiled and cached" in _plain(result.output)
+    assert "step 1/8" not in result.output  # the demo's steps are not shown (issue 39)
+    assert len(result.output.strip().splitlines()) == 2, result.output
     assert list(tmp_path.glob("neckid-warmup-*")) == []  # the demo's folder is gone
 
 

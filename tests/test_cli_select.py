@@ -113,7 +113,7 @@ def test_simulate_writes_a_json_summary(runs: list[Path], tmp_path: Path) -> Non
     )
     assert result.exit_code == 0, result.output
     document = json.loads(summary.read_text())
-    assert document["kind"] == "free run" and document["diverged"] is None
+    assert document["kind"] == "free run" and document["diverged"] is False
     assert document["n_samples"] == 500 and document["outputs"][0]["fit_percent"] > 95
 
 
@@ -158,3 +158,12 @@ def test_a_long_set_membership_fit_is_announced(
     assert "note: sm-linear on 500 samples takes minutes" in _plain(result.output)
     quiet = runner.invoke(app, [*args, str(tmp_path / "arx.npz"), "--method", "arx"])
     assert "takes minutes" not in quiet.output
+
+
+def test_a_contradiction_never_rounds_to_zero() -> None:
+    from neckid.cli.explain import _share_text
+
+    assert _share_text(0.0) == "0.0%"
+    assert _share_text(1e-5) == "fewer than 0.1 %"
+    assert _share_text(0.9999) == "more than 99.9 %"
+    assert _share_text(0.25) == "25.0%"

@@ -186,8 +186,12 @@ def warmup() -> None:
 
     started = time.perf_counter()
     settings = DemoSettings.make(quick=True, seed=0, paper_regressor=False)
-    with tempfile.TemporaryDirectory(prefix="neckid-warmup-") as folder, _steps(8) as on_step:
-        run_demo(Path(folder) / "demo", settings, on_step=on_step)
+    console.print(
+        "compiling neckid's kernels into their cache (a minute or two, once)", markup=False
+    )
+    with tempfile.TemporaryDirectory(prefix="neckid-warmup-") as folder:
+        # the demo's steps are not the user's business here: no step lines, one line at the end
+        run_demo(Path(folder) / "demo", settings, on_step=lambda _text: None)
     where = os.environ.get("NUMBA_CACHE_DIR") or "beside the package's sources"
     console.print(
         f"kernels compiled and cached in {time.perf_counter() - started:.1f} s ({where})",
