@@ -14,7 +14,13 @@ import pytest
 
 import neckid
 from neckid import GainScheduledModel, IOData, Lags, LinearARX, NotFittedError, RecursiveARX
-from neckid.export.control import initial_state, output_offset, to_control, to_iosystem
+from neckid.export.control import (
+    default_form,
+    initial_state,
+    output_offset,
+    to_control,
+    to_iosystem,
+)
 from neckid.loops.model_in_loop import VelocityDrive
 from neckid.plant import InclinationController, SoftNeck, closed_loop
 from neckid.signals import multisine, sine
@@ -164,7 +170,7 @@ def test_scheduled_model_is_frozen_at_an_inclination() -> None:
     model = GainScheduledModel.from_points(
         i, -0.059 * i + 1.857, 0.01175 * i - 0.4797, ts=TS, delay=3
     )
-    tf = to_control(model, inclination=20.0)
+    tf = to_control(model, inclination=20.0, form="tf")
     reference = model.transfer_function(20.0, to="inclination")
     np.testing.assert_array_equal(tf.num[0][0], reference.num[0][0])
     np.testing.assert_array_equal(tf.den[0][0], reference.den[0][0])
@@ -177,6 +183,25 @@ def test_scheduled_model_is_frozen_at_an_inclination() -> None:
         to_control(model)
 
 
+def test_the_default_form_is_the_methods_entry() -> None:
+    """ARX models: a transfer function; the scheduled model frozen: a state space (its entry's
+    control_form), the same system as form="tf"."""
+    for method in neckid.methods().values():
+        assert default_form(method.make(Lags.arx(1, 1))) == method.control_form
+    i = np.array([5.0, 15.0, 25.0, 35.0])
+    model = GainScheduledModel.from_points(
+        i, -0.059 * i + 1.857, 0.01175 * i - 0.4797, ts=TS, delay=3
+    )
+    frozen = to_control(model, inclination=20.0)
+    assert isinstance(frozen, control.StateSpace)
+    tf = to_control(model, inclination=20.0, form="tf")
+    for omega in (0.5, 5.0):
+        z = np.exp(1j * omega * TS)
+        assert frozen(z) == pytest.approx(tf(z), rel=1e-9)
+    arx = LinearARX(Lags.arx(1, 1), fit_intercept=False).fit(_synthetic(200))
+    assert isinstance(to_control(arx), control.TransferFunction)
+
+
 def test_position_form_scheduled_model_in_python_control() -> None:
     """The position form (inclination from motor displacement): ss = tf, and the I/O system's free
     run equals the model's."""
@@ -184,7 +209,7 @@ def test_position_form_scheduled_model_in_python_control() -> None:
     model = GainScheduledModel.from_points(
         i, 0.05 * i + 1.0, 0.002 * i + 0.8, ts=TS, delay=2, form="position"
     )
-    tf = to_control(model, inclination=20.0)
+    tf = to_control(model, inclination=20.0, form="tf")
     ss = to_control(model, inclination=20.0, form="ss")
     for omega in (0.0, 0.5, 5.0):
         z = np.exp(1j * omega * TS)

@@ -301,7 +301,7 @@ def test_to_control_gives_a_state_space_with_the_same_response(noisy_model) -> N
     expected = noisy_model.simulate(test).y[m:] - noisy_model.intercept_
     np.testing.assert_allclose(response.outputs.T, expected, rtol=0, atol=1e-9)
     # The transfer matrix has the same frequency response.
-    transfer = to_control(noisy_model)
+    transfer = to_control(noisy_model, form="tf")
     for w in (0.1, 1.0, 10.0, 100.0):
         np.testing.assert_allclose(
             transfer(np.exp(1j * w * TS)), system(np.exp(1j * w * TS)), rtol=1e-8, atol=1e-10
@@ -310,6 +310,26 @@ def test_to_control_gives_a_state_space_with_the_same_response(noisy_model) -> N
         to_control(noisy_model, strict=True)
     with pytest.raises(ValueError, match="inclination"):
         to_control(noisy_model, inclination=10.0)
+
+
+def test_to_control_gives_a_mimo_state_space_by_default_without_slycot(noisy_model) -> None:
+    """The ss method's entry says "ss": the 2x2 model comes back as a StateSpace, which python-control
+    simulates, connects and converts again without slycot (a MIMO TransferFunction would need it
+    to become a state space: ControlMIMONotImplemented)."""
+    assert neckid.methods()["ss"].control_form == "ss"
+    test = _record(3, n=300)[0]
+    m = noisy_model.max_lag_
+    system = to_control(noisy_model)
+    assert isinstance(system, control.StateSpace)
+    assert (system.ninputs, system.noutputs, system.nstates) == (2, 2, noisy_model.order_)
+    again = control.ss(system)  # the round trip stays in state space, no slycot involved
+    np.testing.assert_array_equal(again.A, noisy_model.A_)
+    x0 = noisy_model.initial_state(test.y[:m], test.u[:m])
+    response = control.forced_response(again, U=test.u[m:].T, X0=x0)
+    expected = noisy_model.simulate(test).y[m:] - noisy_model.intercept_
+    np.testing.assert_allclose(response.outputs.T, expected, rtol=0, atol=1e-9)
+    loop = control.feedback(system, 0.1 * np.eye(2))  # MIMO interconnection, still a StateSpace
+    assert isinstance(loop, control.StateSpace) and loop.nstates == noisy_model.order_
 
 
 def test_the_iosystem_runs_on_the_model_state(noisy_model) -> None:

@@ -268,7 +268,7 @@ def linear_form(
                 "inclination is required for a GainScheduledModel: the operating point [deg]"
                 " to freeze it at (or design a scheduled controller over its range)"
             )
-        system = to_control(model, inclination=float(inclination), name="scheduled")
+        system = to_control(model, inclination=float(inclination), form="tf", name="scheduled")
         index = 0
         source = f"{name} at {float(inclination):g} deg"
     elif isinstance(model, LinearARX | RecursiveARX | SubspaceStateSpace):
@@ -277,7 +277,7 @@ def linear_form(
                 f"inclination applies to the scheduled and the nonlinear models; a {name} is"
                 f" linear: leave it out (got {inclination!r})"
             )
-        system = to_control(model)
+        system = to_control(model, form="tf")
         index = _output_index(list(system.output_labels), output)
         source = name
     else:

@@ -1,9 +1,12 @@
 r"""python-control interop: identified models as transfer functions and as I/O systems.
 
 * :func:`to_control` turns a *linear* model (:class:`~neckid.LinearARX`,
-  :class:`~neckid.RecursiveARX`, or a :class:`~neckid.GainScheduledModel` frozen at one
-  inclination) into a discrete ``control.TransferFunction`` (or ``StateSpace``) with
-  ``dt = ts_`` and the model's channel names, for Bode plots, margins and controller design.
+  :class:`~neckid.RecursiveARX`, :class:`~neckid.models.linear.subspace.SubspaceStateSpace`, or
+  a :class:`~neckid.GainScheduledModel` frozen at one inclination) into a discrete
+  ``control.StateSpace`` or ``control.TransferFunction`` with ``dt = ts_`` and the model's
+  channel names, for Bode plots, margins and controller design. The form it gives by default is
+  a fact of the model's method (:attr:`neckid.registry.Method.control_form`): a state space for
+  the state-space models (``ss``, the scheduled models), a transfer function for the ARX models.
 * :func:`to_iosystem` turns *any* fitted model (and the loop's other pieces: an
   :class:`~neckid.plant.InclinationController`, a
   :class:`~neckid.loops.model_in_loop.VelocityDrive`) into a discrete
@@ -57,7 +60,7 @@ from neckid.models.scheduled.state_map import command_channel, scheduled_state_n
 from neckid.systems import StateFunctions, history_names
 from neckid.utils.types import FloatArray
 
-__all__ = ["initial_state", "output_offset", "to_control", "to_iosystem"]
+__all__ = ["default_form", "initial_state", "output_offset", "to_control", "to_iosystem"]
 
 
 LINEAR_MODELS = (LinearARX, RecursiveARX, GainScheduledModel)
@@ -301,11 +304,32 @@ def _subspace_system(
     return control.TransferFunction(numerators, denominators, dt=model.ts_, **labels)
 
 
+def default_form(model: Any) -> str:
+    """The python-control form :func:`to_control` gives ``model`` by default (``"tf"`` or ``"ss"``).
+
+    Its method's :attr:`~neckid.registry.Method.control_form`, found through the model's class
+    and its bases (a subclass of a registered class takes that class's form); ``"tf"`` for a
+    class no method is registered with.
+
+    Examples
+    --------
+    >>> from neckid import Lags, LinearARX
+    >>> from neckid.models.linear.subspace import SubspaceStateSpace
+    >>> default_form(LinearARX(Lags.arx(1, 1))), default_form(SubspaceStateSpace())
+    ('tf', 'ss')
+    """
+    from neckid.registry import methods
+
+    by_class = {m.class_name: m.control_form for m in methods().values()}
+    names = (cls.__name__ for cls in type(model).__mro__)
+    return next((by_class[n] for n in names if n in by_class), "tf")
+
+
 def to_control(
     model: Any,
     *,
     inclination: float | None = None,
-    form: Literal["tf", "ss"] = "tf",
+    form: Literal["tf", "ss"] | None = None,
     strict: bool = False,
     name: str | None = None,
 ) -> Any:
@@ -323,10 +347,13 @@ def to_control(
         (:meth:`~neckid.GainScheduledModel.transfer_function` with ``to="inclination"``).
     inclination : float, optional
         Operating point [deg]; required for a ``GainScheduledModel``, refused otherwise.
-    form : {"tf", "ss"}, default "tf"
-        ``"tf"``: a ``control.TransferFunction``. ``"ss"``: a ``control.StateSpace`` whose state
-        is the one of :func:`to_iosystem` (so ``X0 = initial_state(model, y0, u0)`` starts it
-        from given initial conditions, and a MIMO model simulates without slycot).
+    form : {"tf", "ss"}, optional
+        ``"tf"``: a ``control.TransferFunction``. ``"ss"``: a ``control.StateSpace``; for an ARX
+        model its state is the one of :func:`to_iosystem` (so ``X0 = initial_state(model, y0,
+        u0)`` starts it from given initial conditions, and a MIMO model simulates without
+        slycot). Default: the model's method's form (:func:`default_form`): ``"ss"`` for
+        ``SubspaceStateSpace`` and ``GainScheduledModel`` (python-control turns a MIMO transfer
+        function back into a state space only with slycot), ``"tf"`` for the ARX models.
     strict : bool, default False
         Refuse a model with a non-zero intercept instead of leaving the intercept out.
     name : str, optional
@@ -334,7 +361,7 @@ def to_control(
 
     Returns
     -------
-    control.TransferFunction or control.StateSpace
+    control.StateSpace or control.TransferFunction
 
     Raises
     ------
@@ -376,6 +403,8 @@ def to_control(
     if not isinstance(model, Estimator):
         raise TypeError(f"to_control takes a fitted neckid model; got {type(model).__name__}")
     check_is_fitted(model)
+    if form is None:
+        form = "ss" if default_form(model) == "ss" else "tf"
     if form not in ("tf", "ss"):
         raise ValueError(f"form must be 'tf' or 'ss'; got {form!r}")
     if isinstance(model, GainScheduledModel):

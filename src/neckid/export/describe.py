@@ -224,7 +224,7 @@ def _transfer_function(model: Any) -> dict[str, Any]:
     """``num{o, j}``, ``den{o, j}`` (descending powers of z) and the output offset."""
     from neckid.export.control import output_offset, to_control
 
-    system = to_control(model)
+    system = to_control(model, form="tf")
     n_out, n_in = len(model.output_names_), len(model.input_names_)
     if "SubspaceStateSpace" in _class_names(model):
         offset = _array(model.intercept_)
