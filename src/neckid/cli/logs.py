@@ -220,6 +220,9 @@ def _info_model(path: Path, as_json: bool) -> None:
     describe_schedule = getattr(model, "describe_schedule", None)
     if describe_schedule is not None:  # the scheduled model: its lines and operating points
         described["schedule"] = describe_schedule()
+    describe_scheduling = getattr(model, "describe_scheduling", None)
+    if describe_scheduling is not None:  # the LPV model: its coefficient polynomials
+        described["scheduling"] = describe_scheduling()
     if as_json:
         console.print_json(json.dumps(described))
         return
@@ -257,6 +260,23 @@ def _info_model(path: Path, as_json: bool) -> None:
     console.print(table)
     if "schedule" in described:
         _print_schedule(described["schedule"])
+    if "scheduling" in described:
+        _print_scheduling(described["scheduling"])
+
+
+def _print_scheduling(scheduling: dict[str, Any]) -> None:
+    """The LPV model's scheduling variables and its coefficients as polynomials in them."""
+    from rich.markup import escape
+
+    table = Table(title=f"scheduling (degree {scheduling['degree']})", show_header=False)
+    for v in scheduling["variables"]:
+        low, high = v["range"]
+        shown = f"{v['kind']}, term {v['term']}, range {low:.4g} .. {high:.4g}"
+        table.add_row(escape(v["name"]), escape(shown))
+    table.add_row("largest frozen pole", f"{scheduling['max_pole_radius']:.4g} (stable below 1)")
+    for line in scheduling["polynomials"]:
+        table.add_row("", escape(line))
+    console.print(table)
 
 
 def _print_schedule(schedule: dict[str, Any]) -> None:

@@ -45,6 +45,7 @@ takes an update and an output function of the state): :func:`to_iosystem` and
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, Literal
 
 import control
@@ -55,6 +56,7 @@ from neckid.models.base import Estimator, check_is_fitted
 from neckid.models.linear.arx import LinearARX
 from neckid.models.linear.rls import RecursiveARX
 from neckid.models.linear.subspace import SubspaceStateSpace
+from neckid.models.lpv.model import LPVARX
 from neckid.models.scheduled.model import GainScheduledModel
 from neckid.models.scheduled.state_map import command_channel, scheduled_state_names
 from neckid.systems import StateFunctions, history_names
@@ -332,6 +334,7 @@ def to_control(
     form: Literal["tf", "ss"] | None = None,
     strict: bool = False,
     name: str | None = None,
+    scheduling: Mapping[str, Any] | None = None,
 ) -> Any:
     r"""A linear model as a discrete python-control system (``dt = ts_``, channels named).
 
@@ -358,6 +361,11 @@ def to_control(
         Refuse a model with a non-zero intercept instead of leaving the intercept out.
     name : str, optional
         The system's name (default the class name).
+    scheduling : mapping of str, optional
+        For an :class:`~neckid.models.lpv.model.LPVARX` (required there, refused otherwise): the
+        value of every scheduling variable (``{"payload": 0.4}``); the system is the ARX frozen
+        there (:meth:`~neckid.models.lpv.model.LPVARX.frozen`), a scheduling condition no
+        input of it.
 
     Returns
     -------
@@ -414,6 +422,20 @@ def to_control(
                 " freeze N(i) / (z - P(i)) at, e.g. to_control(model, inclination=20.0)"
             )
         return _scheduled_frozen(model, float(inclination), form, name)
+    if isinstance(model, LPVARX) and inclination is None:
+        if scheduling is None:
+            raise ValueError(
+                "scheduling is required for an LPVARX: the values to freeze its coefficients at,"
+                f" e.g. to_control(model, scheduling={{{model.scheduling_[0].name!r}: ...}})"
+            )
+        label = ",".join(f"{k}={v}" for k, v in scheduling.items()).replace(".", "p")
+        frozen = model.frozen(**dict(scheduling))
+        return to_control(frozen, form=form, strict=strict, name=name or f"LPVARX@{label}")
+    if scheduling is not None:
+        raise ValueError(
+            f"scheduling applies to an LPVARX only; got {dict(scheduling)!r} for a"
+            f" {type(model).__name__}"
+        )
     if isinstance(model, SubspaceStateSpace):
         return _subspace_system(model, inclination, form, strict, name)
     if not isinstance(model, LINEAR_MODELS):

@@ -46,6 +46,7 @@ from neckid.models.lpv.schedule import (
     resolve_scheduling,
     scheduling_grid,
 )
+from neckid.models.lpv.summary import schedule_lines
 from neckid.models.polynomial.narx import PolynomialNARX
 from neckid.regressors import Lags, ResolvedLags
 from neckid.utils.checks import Interval, Options
@@ -271,6 +272,35 @@ class LPVARX(PolynomialNARX):
         model.intercept_ = np.asarray(offset[0], dtype=np.float64)
         model.statistics_ = None
         return model
+
+    def describe_scheduling(self) -> dict[str, Any]:
+        """The scheduling in words (``neckid info``): variables, ranges, polynomials, poles.
+
+        ``polynomials`` has one line per output and coefficient, ``a[term] = ...`` and the offset
+        ``c = ...``, in the scheduling terms' own units
+        (:func:`~neckid.models.lpv.summary.schedule_lines`).
+        """
+        check_is_fitted(self)
+        variables = []
+        for v in self.scheduling_:
+            terms = list(v.terms)
+            low = self.center_[terms] + self.scale_[terms] * self.low_[terms]
+            high = self.center_[terms] + self.scale_[terms] * self.high_[terms]
+            variables.append(
+                {
+                    "name": v.name,
+                    "kind": v.kind,
+                    "term": ", ".join(self.lags_.names[t] for t in terms),
+                    "range": [float(low.min()), float(high.max())],
+                }
+            )
+        return {
+            "degree": int(self.degree),
+            "variables": variables,
+            "max_pole_radius": float(self.pole_radius()[0]),
+            "polynomials": schedule_lines(self),
+            "stability": self.fit_report_.get("stability", ""),
+        }
 
     # ------------------------------------------------------------------ files
     def _check_state(self) -> None:

@@ -37,6 +37,7 @@ Nonlinear Control* 12(9), 841-853, 2002 (LPV-ARX by least squares on the schedul
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -55,6 +56,7 @@ __all__ = [
     "frozen_coefficients",
     "frozen_radius",
     "lpv_monomials",
+    "raw_coefficients",
     "resolve_scheduling",
     "scheduling_grid",
 ]
@@ -208,7 +210,7 @@ def carriers(
         The dynamic factor (a term that is not scheduling, else the first measured scheduling
         term of the monomial), ``-1`` for a monomial of the offset ``c(p)``.
     schedule : ndarray of int, shape (n_monomials, n_terms)
-        The powers with the carrier's taken down by one: the monomial of ``p`` in ``a_j(p)``.
+        The powers without the carrier's: the other scheduling terms' factor.
     """
     kind = _term_kinds(variables, powers.shape[1])
     carrier = np.full(powers.shape[0], -1, dtype=np.int64)
@@ -218,15 +220,43 @@ def carriers(
             found = np.flatnonzero((row > 0) & (kind == wanted))
             if found.size:
                 carrier[m] = found[0]
-                schedule[m, found[0]] -= 1
+                schedule[m, found[0]] = 0
                 break
     return carrier, schedule
+
+
+def raw_coefficients(model: Any, coef: FloatArray | None = None) -> FloatArray:
+    """The model's polynomial over the raw regressor terms (rows of ``powers_``).
+
+    The model stores it over the standardised terms ``x_i = (w_i − center_i) / scale_i``; each
+    monomial ``Π x_i^k_i`` expands binomially into monomials of ``w`` of no higher powers (all
+    in the LPV form when it is). Exact inside the held range, where no term is held.
+    """
+    powers = np.asarray(model.powers_, dtype=np.int64)
+    theta = np.asarray(model.coef_ if coef is None else coef, dtype=np.float64)
+    row_of = {tuple(int(v) for v in row): m for m, row in enumerate(powers)}
+    a, b = 1.0 / model.scale_, -model.center_ / model.scale_
+    raw = np.zeros_like(theta)
+    for m in np.flatnonzero(model.active_):
+        exponents = powers[m]
+        for kept in itertools.product(*(range(int(k) + 1) for k in exponents)):
+            weight = 1.0
+            for i, (k, r) in enumerate(zip(exponents, kept, strict=True)):
+                if k:
+                    weight *= math.comb(int(k), r) * a[i] ** r * b[i] ** (int(k) - r)
+            raw[row_of[kept]] += weight * theta[m]
+    return raw
 
 
 def frozen_coefficients(
     model: Any, points: FloatArray, coef: FloatArray | None = None
 ) -> tuple[FloatArray, FloatArray]:
     """The ARX an LPV-ARX is at scheduling values ``points``, in the regressor's units.
+
+    Each raw monomial (:func:`raw_coefficients`) goes to its carrier (:func:`carriers`): a term
+    that does not schedule, times the scheduling values; a measured scheduling term ``s`` of
+    power ``k``, ``s^k = s^(k−1) · s``; or the offset. Scheduling values beyond the held range
+    are taken at its edge.
 
     Parameters
     ----------
@@ -244,20 +274,26 @@ def frozen_coefficients(
     offset : ndarray, shape (n_points, n_outputs)
         ``c(p)``.
     """
-    powers = np.asarray(model.powers_)
+    powers = np.asarray(model.powers_, dtype=np.int64)
     carrier, schedule = carriers(powers, model.scheduling_)
-    standard = (np.asarray(points, dtype=np.float64) - model.center_) / model.scale_
-    held = np.clip(standard, model.low_, model.high_)
-    theta = np.asarray(model.coef_ if coef is None else coef, dtype=np.float64)
-    n_points, n_terms = standard.shape
-    frozen = np.zeros((n_points, n_terms + 1, theta.shape[1]))  # row n_terms: the offset
-    for m in np.flatnonzero(model.active_):
-        base = held if powers[m].sum() >= 2 else standard  # degree-1 monomials are never held
-        factor = np.prod(base ** schedule[m], axis=1)
-        frozen[:, carrier[m] if carrier[m] >= 0 else n_terms] += factor[:, None] * theta[m]
-    scaled = frozen[:, :n_terms] / model.scale_[None, :, None]
-    offset = frozen[:, n_terms] - np.einsum("pjo,j->po", scaled, model.center_)
-    return scaled, offset
+    raw = raw_coefficients(model, coef)
+    terms = [t for v in model.scheduling_ for t in v.terms]
+    low = model.center_[terms] + model.scale_[terms] * model.low_[terms]
+    high = model.center_[terms] + model.scale_[terms] * model.high_[terms]
+    values = np.ones_like(np.asarray(points, dtype=np.float64))
+    values[:, terms] = np.clip(np.asarray(points, dtype=np.float64)[:, terms], low, high)
+    n_points, n_terms = values.shape
+    frozen = np.zeros((n_points, n_terms, raw.shape[1]))
+    offset = np.zeros((n_points, raw.shape[1]))
+    for m in np.flatnonzero(np.any(raw != 0.0, axis=1)):
+        factor = np.prod(values ** schedule[m], axis=1)
+        j = int(carrier[m])
+        if j < 0:
+            offset += factor[:, None] * raw[m]
+            continue
+        factor = factor * values[:, j] ** (int(powers[m, j]) - 1)  # 1 for a dynamic term
+        frozen[:, j] += factor[:, None] * raw[m]
+    return frozen, offset
 
 
 def frozen_radius(lags: ResolvedLags, coef: FloatArray) -> FloatArray:
