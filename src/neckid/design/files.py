@@ -182,9 +182,53 @@ def _field(document: dict[str, Any], key: str, path: Path) -> Any:
     return document[key]
 
 
+def _finite(value: Any, key: str, path: Path) -> float:
+    """A number of the file that must be finite; the refusal names the file and the key."""
+    number = value if isinstance(value, int | float) and not isinstance(value, bool) else None
+    if number is None or not math.isfinite(number):
+        raise ValueError(f"{path}: {key} must be a finite number; got {value!r}")
+    return float(number)
+
+
+#: Relative difference above which two keys that hold one gain twice disagree.
+TWIN_TOLERANCE = 1e-9
+
+
+def _gains(document: dict[str, Any], operator: DiscreteOperator, path: Path) -> tuple[float, float]:
+    """``(kp, kf)`` of the file, every gain finite, and each gain written twice agreeing.
+
+    A PI's integral gain is ``kf`` and ``ki``; a Grünwald–Letnikov controller's fractional gain
+    is ``kf`` and ``kd_lab`` = ``kf`` T^-(1+α). One of a pair edited alone is refused (naming
+    both keys): which of the two the user meant cannot be told.
+    """
+    gains = _field(document, "gains", path)
+    if not (isinstance(gains, dict) and "kp" in gains and "kf" in gains):
+        raise ValueError(f"{path}: 'gains' must hold 'kp' and 'kf'; got {gains!r}")
+    values = {k: _finite(v, f"gains.{k}", path) for k, v in gains.items() if k in _GAIN_KEYS}
+    kf = values["kf"]
+    twins = {}
+    if operator.method == "tustin" and "ki" in values:
+        twins["ki"] = (values["ki"], kf, "the same gain as kf")
+    if operator.method == "gl" and "kd_lab" in values:
+        expected = kf * operator.ts ** (-(1.0 + operator.order))
+        twins["kd_lab"] = (values["kd_lab"], expected, "kf T^-(1+order)")
+    for key, (given, expected, rule) in twins.items():
+        if not math.isclose(given, expected, rel_tol=TWIN_TOLERANCE, abs_tol=1e-300):
+            raise ValueError(
+                f"{path}: gains.{key} = {given!r} disagrees with gains.kf = {kf!r} ({key} is"
+                f" {rule}, {expected:.10g}): the two keys hold one gain; edit both, or remove"
+                f" gains.{key}"
+            )
+    return values["kp"], kf
+
+
+#: The gains a controller file may hold.
+_GAIN_KEYS = ("kp", "kf", "ki", "kd_lab")
+
+
 def _operator(document: dict[str, Any], path: Path) -> DiscreteOperator:
-    ts = float(_field(document, "ts", path))
-    order = float(_field(document, "order", path))
+    ts = _finite(_field(document, "ts", path), "ts", path)
+    order = _finite(_field(document, "order", path), "order", path)
     spec = _field(document, "discretisation", path)
     method = spec.get("method") if isinstance(spec, dict) else None
     if method == "tustin":
@@ -250,24 +294,28 @@ def load_controller(path: str | Path) -> DesignedController:
             f" version {VERSION}"
         )
     operator = _operator(document, file)
-    gains = _field(document, "gains", file)
-    if not (isinstance(gains, dict) and "kp" in gains and "kf" in gains):
-        raise ValueError(f"{file}: 'gains' must hold 'kp' and 'kf'; got {gains!r}")
+    kp, kf = _gains(document, operator, file)
+    limit = document.get("command_limit")
+    if limit is not None:
+        _finite(limit, "command_limit", file)
     schedule = None
     if document.get("schedule") is not None:
         table = document["schedule"]
-        schedule = GainSchedule(
-            np.asarray(table.get("inclinations"), dtype=np.float64),
-            np.asarray(table.get("kp"), dtype=np.float64),
-            np.asarray(table.get("kf"), dtype=np.float64),
-        )
+        try:
+            schedule = GainSchedule(
+                np.asarray(table.get("inclinations"), dtype=np.float64),
+                np.asarray(table.get("kp"), dtype=np.float64),
+                np.asarray(table.get("kf"), dtype=np.float64),
+            )
+        except (ValueError, TypeError, AttributeError) as exc:
+            raise ValueError(f"{file}: schedule: {exc}") from None
     info = {
         k: document.get(k) for k in ("model", "spec", "achieved") if document.get(k) is not None
     }
     info.update(document.get("design") or {})
     controller = DesignedController(
-        float(gains["kp"]),
-        float(gains["kf"]),
+        kp,
+        kf,
         operator,
         command_limit=document.get("command_limit"),
         schedule=schedule,
