@@ -200,10 +200,11 @@ class Lags:
     """
 
     def __init__(
-        self, outputs: LagSpec = 0, inputs: LagSpec = 0, conditions: Sequence[str] = ()
+        self, outputs: LagSpec = 0, inputs: LagSpec = 0, conditions: Sequence[str] | None = ()
     ) -> None:
         self.outputs = self._normalise(outputs, "outputs", minimum=1)
         self.inputs = self._normalise(inputs, "inputs", minimum=0)
+        conditions = () if conditions is None else conditions  # None: no condition
         if isinstance(conditions, str) or not all(isinstance(c, str) for c in conditions):
             raise TypeError(f"conditions must be a list of names (str); got {conditions!r}")
         if len(set(conditions)) != len(tuple(conditions)):
@@ -211,6 +212,26 @@ class Lags:
         self.conditions = tuple(conditions)
         if self.max_lag == 0 and not self._has_terms():
             raise ValueError("Lags has no term at all; give output lags, input lags or both")
+
+    def conditioned(self, data: IOData | Sequence[IOData]) -> IOData | Sequence[IOData]:
+        """``data`` with this regressor's conditions as inputs, as a model adds them when it fits.
+
+        A label condition becomes its one-hot inputs over the logs given
+        (:meth:`neckid.IOData.label_indicators`); conditions that are inputs already, or no
+        conditions, leave ``data`` as it is. What :meth:`resolve` and :meth:`build` need when a
+        caller holds logs whose conditions are still conditions.
+        """
+        if not self.conditions:
+            return data
+        logs = as_experiments(data)
+        if all(c in logs[0].input_names for c in self.conditions):
+            return data
+        names = IOData.label_indicators(self.conditions, logs)
+        if all(n in logs[0].input_names for n in names):
+            return data
+        if isinstance(data, IOData):
+            return data.conditions_as_inputs(names)
+        return [d.conditions_as_inputs(names) for d in logs]
 
     @staticmethod
     def _normalise(

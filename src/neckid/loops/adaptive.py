@@ -4,7 +4,8 @@ The real soft neck changes between runs (payload, tendon slack, controller), so 
 on some runs misses a new one by an offset and a little dynamics. Two protocols measure how much
 of that an adaptation on the new run's own first data wins back:
 
-- :func:`adaptive_free_run`: adapt a copy of the model on the first ``warmup_s`` seconds of a
+- :func:`adaptive_free_run` (defined in :mod:`neckid.models.online`, where the selection's
+  folds reach it too): adapt a copy of the model on the first ``warmup_s`` seconds of a
   test run (``partial_fit``, a constant output offset, both or neither), then free-run the rest
   from the measured outputs at the warm-up's end and score that rest only.
 - :func:`streaming_ahead`: ``k``-step-ahead prediction over a whole run while the model is
@@ -20,14 +21,14 @@ from __future__ import annotations
 import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from neckid.data.iodata import IOData
 from neckid.models.base import ModelResult, check_is_fitted
 from neckid.models.kstep import predict_ahead
-from neckid.models.online import estimate_offset, simulate_with_offset
+from neckid.models.online import ADAPT_MODES, AdaptiveRun, adaptive_free_run
 from neckid.utils.checks import check_number
 from neckid.utils.types import FloatArray
 
@@ -40,46 +41,8 @@ __all__ = [
     "streaming_ahead",
 ]
 
-Adapt = Literal["none", "offset", "update", "both"]
-
-#: The adaptations of :func:`adaptive_free_run`.
-ADAPT_MODES: tuple[str, ...] = ("none", "offset", "update", "both")
-
 #: Default chunk of :func:`streaming_ahead`, in seconds of data between two updates.
 DEFAULT_UPDATE_SECONDS = 1.0
-
-
-@dataclass(frozen=True)
-class AdaptiveRun:
-    """The result of :func:`adaptive_free_run`.
-
-    Attributes
-    ----------
-    result : ModelResult
-        Free run over :attr:`scored` (``kind="simulation"``); its first ``n_initial`` rows are the
-        measured outputs at the end of the warm-up (the initial conditions).
-    fit : ndarray, shape (n_outputs,)
-        NRMSE fit [%] per output on the samples after the warm-up (``result.fit_percent(scored)``).
-    scored : IOData
-        The part of the run after the warm-up, with the initial-condition samples before it.
-    model : estimator
-        The adapted copy (the given model itself when ``adapt`` is ``"none"`` or ``"offset"``,
-        which leave it as it is).
-    offset : ndarray, shape (n_outputs,)
-        The output offset added (zeros without offset adaptation), output units.
-    adapt : str
-        Which adaptation ran.
-    warmup_samples : int
-        Samples of the warm-up.
-    """
-
-    result: ModelResult
-    fit: FloatArray
-    scored: IOData
-    model: Any
-    offset: FloatArray
-    adapt: str
-    warmup_samples: int
 
 
 @dataclass(frozen=True)
@@ -105,117 +68,6 @@ class StreamingRun:
     fit: FloatArray
     model: Any
     n_updates: int
-
-
-def _shift_outputs(data: IOData, shift: FloatArray) -> IOData:
-    """``data`` with ``shift`` added to every output sample (everything else kept)."""
-    if not np.any(shift):
-        return data
-    return data.replace(y=data.y + shift)
-
-
-def _warmup_samples(data: IOData, warmup_s: float) -> int:
-    """Number of samples with ``t < t0 + warmup_s``."""
-    seconds = check_number(warmup_s, "warmup_s", low=0, closed="neither")
-    return int(np.searchsorted(data.time, data.t0 + seconds - 1e-9 * data.ts, side="left"))
-
-
-def adaptive_free_run(
-    model: Any,
-    data: IOData,
-    warmup_s: float = 5.0,
-    *,
-    adapt: Adapt = "update",
-    update_options: Mapping[str, Any] | None = None,
-) -> AdaptiveRun:
-    r"""Adapt a copy of ``model`` on the first ``warmup_s`` seconds of ``data``, free-run the rest.
-
-    Parameters
-    ----------
-    model : fitted estimator
-        Any registered model (it is not changed).
-    data : IOData
-        A new run: inputs and measured outputs.
-    warmup_s : float, default 5.0
-        Seconds from the start of ``data`` that the adaptation may use (the issue's 5 s).
-    adapt : {"update", "offset", "both", "none"}, default "update"
-        ``"update"``: ``partial_fit`` of the copy on the warm-up; ``"offset"``: a constant
-        output offset estimated on the warm-up (:func:`~neckid.models.online.estimate_offset`)
-        and added to the free run (:func:`~neckid.models.online.simulate_with_offset`);
-        ``"both"``: the offset of the given model, then the update on the warm-up with that
-        offset taken off its outputs, the free run with the offset (the update learns what the
-        offset does not explain); ``"none"``: neither, the baseline (the same scored samples).
-    update_options : mapping, optional
-        Keyword arguments of the model's ``partial_fit`` (``prior="keep"``, ``epochs=5``, ...).
-
-    Returns
-    -------
-    AdaptiveRun
-        The free run from the measured outputs at the warm-up's end and its fit on the samples
-        after the warm-up only.
-
-    Raises
-    ------
-    NotFittedError
-        If ``model`` is not fitted.
-    ValueError
-        For an unknown ``adapt``, a warm-up not longer than the model's ``max_lag_`` or one that
-        leaves nothing to score; what the model's ``partial_fit`` raises.
-    DivergenceError
-        If the free run after the warm-up diverges.
-
-    Notes
-    -----
-    The scored run starts at the first sample after the warm-up, ``t_w``; its initial
-    conditions are the ``max_lag_`` measured outputs before ``t_w`` (part of the warm-up), so
-    adaptation and baseline are scored on exactly the same samples.
-
-    Why ``"both"`` takes the offset first: a model that interpolates its data (Set Membership)
-    reproduces the warm-up it was just updated on, so an offset measured after the update
-    would be about zero whatever the run's offset; measured before, it is the run's offset,
-    and the update then adds warm-up points consistent with the old ones up to it.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from neckid import IOData, Lags, LinearARX
-    >>> rng = np.random.default_rng(0)
-    >>> u = rng.normal(size=1000)
-    >>> y = np.zeros(1000)
-    >>> for t in range(1, 1000):
-    ...     y[t] = 0.9 * y[t - 1] + 0.5 * u[t - 1]
-    >>> model = LinearARX(Lags.arx(1, 1)).fit(IOData(u[:500], y[:500], ts=0.1))
-    >>> shifted = IOData(u[500:], y[500:] + 1.0, ts=0.1)  # a sensor offset in the new run
-    >>> runs = {a: adaptive_free_run(model, shifted, 10.0, adapt=a) for a in ("none", "offset")}
-    >>> bool(runs["offset"].fit[0] > runs["none"].fit[0] + 20), runs["none"].model is model
-    (True, True)
-    """
-    check_is_fitted(model)
-    if adapt not in ADAPT_MODES:
-        raise ValueError(f"adapt must be one of {list(ADAPT_MODES)}; got {adapt!r}")
-    n_warmup = _warmup_samples(data, warmup_s)
-    m = int(model.max_lag_)
-    if n_warmup <= m or n_warmup >= data.n_samples:
-        raise ValueError(
-            f"warmup_s = {warmup_s!r} s gives {n_warmup} warm-up samples of {data.n_samples}: it"
-            f" must hold more than max_lag = {m} samples and leave some to score"
-        )
-    warmup = data[:n_warmup]
-    scored = data[n_warmup - m :]
-    offset = np.zeros(int(model.n_outputs_))
-    if adapt in ("offset", "both"):
-        offset = estimate_offset(model, warmup)
-    adapted = model
-    if adapt in ("update", "both"):
-        adapted = copy.deepcopy(model)
-        adapted.partial_fit(_shift_outputs(warmup, -offset), **dict(update_options or {}))
-    if adapt in ("offset", "both"):
-        result = simulate_with_offset(adapted, scored, offset)
-    else:
-        result = adapted.simulate(scored)
-    return AdaptiveRun(
-        result, result.fit_percent(scored), scored, adapted, offset, str(adapt), n_warmup
-    )
 
 
 def streaming_ahead(

@@ -38,7 +38,7 @@ from neckid.models.kstep import predict_ahead
 from neckid.utils.checks import check_number
 from neckid.utils.types import FloatArray
 
-__all__ = ["adaptive_band"]
+__all__ = ["adaptive_band", "band_around"]
 
 
 def _level_quantile(window: FloatArray, level: float) -> float:
@@ -148,14 +148,51 @@ def adaptive_band(
     def run(log: IOData) -> ModelResult:
         return model.simulate(log) if steps is None else predict_ahead(model, log, steps)
 
-    result = run(data)
     warmup = None
     if calibration is not None:
         calibrated = run(calibration)
         warmup = np.abs(calibration.y - calibrated.y)[calibrated.n_initial :]
+    return band_around(
+        run(data), data, steps=steps, coverage=level, step=gamma, window=window, scores=warmup
+    )
+
+
+def band_around(
+    result: ModelResult,
+    data: IOData,
+    *,
+    steps: int | None = None,
+    coverage: float = 0.95,
+    step: float = 0.005,
+    window: int = 500,
+    scores: FloatArray | None = None,
+) -> ModelResult:
+    """:func:`adaptive_band` around a result already computed (an adapted run, say).
+
+    Parameters
+    ----------
+    result : ModelResult
+        A free run (``steps=None``) or ``steps``-ahead prediction of ``data``'s outputs.
+    data : IOData
+        The log, read in time order.
+    steps, coverage, step, window
+        As in :func:`adaptive_band`.
+    scores : ndarray, shape (n, n_outputs), optional
+        Absolute residuals known before ``data`` starts (a calibration log, or the warm-up
+        an adaptation read), the first contents of the window.
+
+    Returns
+    -------
+    ModelResult
+        As :func:`adaptive_band` returns it.
+    """
+    level = check_number(coverage, "coverage", low=0, high=1, closed="neither")
+    gamma = check_number(step, "step", low=0, high=1, closed="right")
+    if isinstance(window, bool) or not isinstance(window, int) or window < 1:
+        raise ValueError(f"window must be an integer >= 1; got {window!r}")
     start = result.n_initial
     delay = 1 if steps is None else int(steps)
-    half, missed, levels = _aci(data.y, result.y, start, delay, level, gamma, window, warmup)
+    half, missed, levels = _aci(data.y, result.y, start, delay, level, gamma, window, scores)
     counted = np.nan_to_num(1.0 - missed, nan=0.0).cumsum(axis=0)
     seen = np.maximum(np.arange(data.n_samples) - start + 1, 1)[:, None]
     running = np.where(np.isnan(missed), np.nan, counted / seen)

@@ -58,6 +58,7 @@ from neckid.data.folds import (
 )
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
+from neckid.models.adapted import adaptation_label, adapted_run, check_adaptation
 from neckid.models.bands import band_meaning
 from neckid.models.base import DivergenceError, ModelResult
 from neckid.registry import get_method, methods
@@ -227,7 +228,9 @@ def _folds_of(train: list[IOData], n_blocks: int) -> tuple[list[IOData], str]:
 
 def _n_terms(estimator: Any, data: IOData) -> int:
     lags = estimator.get_params().get("lags")
-    return lags.resolve(data).n_terms if isinstance(lags, Lags) else 0
+    if not isinstance(lags, Lags):
+        return 0
+    return lags.resolve(lags.conditioned(data)).n_terms  # conditions as the model adds them
 
 
 def _stress_reason(estimator: Any, train: list[IOData], stress: float) -> str:
@@ -277,6 +280,7 @@ def select_safely(
     n_jobs: int | None = None,
     backend: str | None = None,
     progress: bool = False,
+    adapt: tuple[float, str] | None = None,
 ) -> SafeSelection:
     """Choose among candidate estimators on the training logs only (see the module's rule).
 
@@ -303,6 +307,10 @@ def select_safely(
         :func:`~neckid.selection.lags.score_candidates`.
     progress : bool, default False
         Show a progress bar.
+    adapt : (float, str), optional
+        ``(seconds, mode)``: each fold scores the free run after ``seconds`` of adaptation on
+        the held-out record's start (``mode`` ``"offset"``, ``"update"`` or ``"both"``;
+        :func:`neckid.selection.lags.free_run`), the candidates and the baselines alike.
 
     Returns
     -------
@@ -348,6 +356,7 @@ def select_safely(
         backend=backend,
         progress=progress,
         blocks_per_log=None if len(experiments) >= 2 else 1,
+        adapt=adapt,
     )
     fold_fits = scored.fold_fits["fit_simulation"]
     ranks = [int((complexity or {}).get(name, 0)) for name in names]
@@ -421,6 +430,9 @@ class Comparison:
     warnings : list of str
         One line when the recommended candidate fits below 0 % or below a baseline on the
         training folds (:attr:`SafeSelection.warnings`); empty otherwise.
+    kind : str
+        What was scored: ``"free run"``, or ``"free run after 5 s of adaptation (offset)"``
+        (:func:`compare` with ``adapt``).
     """
 
     selection: SafeSelection
@@ -431,6 +443,7 @@ class Comparison:
     reasons: list[str] = field(default_factory=list)
     runs: list[dict[str, ModelResult]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    kind: str = "free run"
 
     def summary(self) -> pd.DataFrame:
         """Per method: the mean over test logs and outputs of fit, RMSE and outside shares."""
@@ -461,6 +474,7 @@ class Comparison:
                 }
             )
         return {
+            "kind": self.kind,
             "recommended": self.recommended,
             "reasons": self.reasons,
             "warnings": list(self.warnings),
@@ -576,6 +590,46 @@ def _test_rows(
     return rows, result
 
 
+def _adapted_test_rows(
+    method: str, model: Any, record: IOData, outside_range: float, adapt: tuple[float, str]
+) -> tuple[list[dict[str, Any]], ModelResult | None]:
+    """:func:`_test_rows` after ``adapt`` of adaptation, with the un-adapted fit and the band."""
+    base: dict[str, Any] = {"method": method, "log": record.name or "test", "error": ""}
+    base["outside_training_range"] = outside_range
+    base["outside_domain"] = _outside_domain(model, record)
+    names = list(zip(record.output_names, record.output_units, strict=True))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            run = adapted_run(model, record, *adapt)
+    except DivergenceError as exc:
+        failed: dict[str, Any] = {"fit_percent": -np.inf, "fit_percent_unadapted": np.nan}
+        failed.update(rmse=np.inf, band="", band_width=np.nan, band_coverage=np.nan)
+        return [
+            {**base, "output": n, "unit": u, **failed, "error": f"diverged: {exc}"}
+            for n, u in names
+        ], None
+    scored, result = run.adapted.scored, run.adapted.result
+    errors = rmse(scored.y, result.y, skip=result.n_initial)
+    plain = run.unadapted.fit if run.unadapted is not None else np.full(len(names), -np.inf)
+    coverage_held, widths = run.band_coverage, run.band_width
+    rows = [
+        {
+            **base,
+            "output": n,
+            "unit": u,
+            "fit_percent": float(run.adapted.fit[j]),
+            "fit_percent_unadapted": float(plain[j]),
+            "rmse": float(errors[j]),
+            "band": "adaptive conformal 95 %" if run.band is not None else "",
+            "band_width": float(widths[j]),
+            "band_coverage": float(coverage_held[j]),
+        }
+        for j, (n, u) in enumerate(names)
+    ]
+    return rows, result if run.band is None else run.band
+
+
 def _method_pick(
     table: pd.DataFrame, method: str, method_of: Mapping[str, str], chosen: str
 ) -> pd.Series:
@@ -628,6 +682,7 @@ def compare(
     seed: int = 0,
     n_jobs: int | None = None,
     progress: bool = False,
+    adapt: tuple[float, str] | None = None,
 ) -> Comparison:
     """Choose on the training logs, then run every method once on every test log.
 
@@ -650,6 +705,13 @@ def compare(
         are looked at. 0 turns the check off.
     seed : int, default 0
         Seed of the methods that draw random numbers.
+    adapt : (float, str), optional
+        ``(seconds, mode)``: every free run, in the training folds and on the test logs, comes
+        after ``seconds`` of adaptation of a copy of the model on the record's own start
+        (``mode`` ``"offset"``, ``"update"`` or ``"both"``; :mod:`neckid.models.adapted`), and
+        is scored on what follows; the test rows add the un-adapted fit on the same samples
+        (``fit_percent_unadapted``) and a 95 % adaptive conformal band (``band_coverage`` its
+        running coverage at the log's end).
 
     Returns
     -------
@@ -677,6 +739,8 @@ def compare(
     experiments = as_experiments(train, "train")
     tests = as_experiments(test, "test")
     as_experiments([experiments[0], tests[0]], "[train[0], test[0]]")
+    if adapt is not None:
+        adapt = check_adaptation(*adapt)
     options, method_of, lags_of = _candidates(methods, regressors, seed)
     # The stress check reaches as far as the test inputs go beyond the training range: the
     # inputs the models will be run on are known (their outputs are not looked at).
@@ -689,6 +753,7 @@ def compare(
         complexity={name: COMPLEXITY.get(method_of[name], 99) for name, _ in options},
         n_jobs=n_jobs,
         progress=progress,
+        adapt=adapt,
     )
     table = selection.table
     reaches = {record.name: outside_training_range(experiments, record) for record in tests}
@@ -705,7 +770,11 @@ def compare(
             warnings.simplefilter("ignore")
             models[method] = estimator.fit(experiments if len(experiments) > 1 else experiments[0])
         for record, by_method in zip(tests, runs, strict=True):
-            made, result = _test_rows(method, models[method], record, reaches[record.name])
+            made, result = (
+                _test_rows(method, models[method], record, reaches[record.name])
+                if adapt is None
+                else _adapted_test_rows(method, models[method], record, reaches[record.name], adapt)
+            )
             rows.extend(made)
             if result is not None:
                 by_method[method] = result
@@ -728,4 +797,5 @@ def compare(
         reasons,
         runs,
         list(selection.warnings),
+        "free run" if adapt is None else adaptation_label(*adapt),
     )
