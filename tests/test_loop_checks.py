@@ -216,6 +216,9 @@ def test_map_is_honoured_and_tilt_refused(pi_run, tmp_path) -> None:
     code, output = _in_loop(model_path, header, "--map", "inclination=incl_sensor", "--tilt")
     assert code == 2, output
     assert "--tilt: the lab's loop measures the inclination alone" in output
+    code, output = _in_loop(model_path, header, "--channel", "inclination=/imu:x:output:deg")
+    assert code == 2, output
+    assert "--channel names the channels of a ROS 2 bag (--layout rosbag)" in output
 
 
 def test_in_loop_plot_draws_the_loop(pi_run, tmp_path, monkeypatch) -> None:

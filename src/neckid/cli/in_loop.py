@@ -10,9 +10,10 @@ What the loop must agree with is checked first (:mod:`neckid.loops.loop_checks`)
 whose commands, fed the logged inclination, differ from the logged ones by more than 1e-4 rad/s
 is refused (exit status 2, one line naming the log, the controller and the check) unless
 ``--force``; so are a controller at another sampling period than the log, and adaptive parameter
-logs given for a log that another controller made. ``--map`` (and the model's stored mapping),
-``--channel`` and ``--condition`` apply to the log as in a free run; ``--tilt`` is refused (the
-lab's controllers measure the inclination alone). A loop that diverges exits with status 3, as a
+logs given for a log that another controller made. ``--map`` (and the model's stored mapping)
+and ``--condition`` apply to the log as in a free run, ``--channel`` to a ROS 2 bag
+(``--layout rosbag``; refused for another layout); ``--tilt`` is refused (the lab's controllers
+measure the inclination alone). A loop that diverges exits with status 3, as a
 diverging free run does; ``--plot`` draws each log's loop (:mod:`neckid.report.loop_plots`).
 """
 
@@ -86,6 +87,12 @@ def _read(path: Path, model: Any, spec: LogSpec) -> Any:
             "--tilt: the lab's loop measures the inclination alone (its controllers read the raw"
             " inclination), so a model of the tilt vector has no lab loop; validate it without"
             " --in-loop"
+        )
+    if spec.channels and spec.layout != "rosbag":
+        raise ValueError(
+            f"--channel {spec.channels[0]!r}: --channel names the channels of a ROS 2 bag"
+            f" (--layout rosbag); {path.name} is read with --layout {spec.layout}, whose"
+            " columns have names of their own (rename them with --map MODEL=LOG)"
         )
     sep = _sep(spec.sep)
     softneck = spec.layout == "softneck" or (spec.layout == "csv" and _headerless(path, sep))
