@@ -306,11 +306,11 @@ def test_select_lags_and_score_candidates_agree():
     selection = select_lags(data[:350], data[350:], grid, "arx", progress=False)
     scores = score_candidates(
         [(repr(lags), methods()["arx"].make(lags)) for lags in grid], data[:350], data[350:]
-    )
+    ).table
     by_candidate = selection.table.set_index("candidate").sort_index()
     for kind in ("prediction", "simulation"):
         np.testing.assert_array_equal(by_candidate[f"fit_{kind}"], scores[f"fit_{kind}"])
-    assert selection.best_lags == grid[int(scores["fit_simulation"].idxmax())]
+    assert selection.best() == grid[int(scores["fit_simulation"].idxmax())]
     assert (scores["rmse_simulation"] > 0).all() and (scores["error"] == "").all()
 
 
@@ -322,7 +322,7 @@ def test_score_candidates_marks_a_diverging_free_run():
     unstable = LinearARX(Lags.arx(1, 1, 1))
     table = score_candidates(
         [("stable", LinearARX(Lags.arx(2, 2, 1))), ("x", unstable)], data, data
-    )
+    ).table
     assert list(table["name"]) == ["stable", "x"]
     assert not hasattr(unstable, "max_lag_")  # the estimators given are not fitted
     with pytest.raises(TypeError, match=r"candidates\[0\] must be a \(name, estimator\) pair"):

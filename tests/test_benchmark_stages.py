@@ -64,7 +64,7 @@ def reference(data_dir: Path, method: str, benchmark: str) -> tuple[str, list[fl
         fit_part, check_part = bench.train.split(SELECTION_FRACTION)
         table = score_candidates(
             options, fit_part, check_part, criteria=("simulation",), n_initial=bench.n_initial
-        )
+        ).table
         chosen = options[int(np.argmin(table["rmse_simulation"].to_numpy()))]
     model = clone(chosen[1]).fit(bench.train)
     errors = []
@@ -218,7 +218,7 @@ def test_a_score_unit_gives_the_row_score_candidates_gives():
     data = IOData(u, y, ts=1.0)
     options = [(f"na={na}", LinearARX(Lags.arx(na, 2))) for na in (1, 2, 3)]
     fit_part, check_part = data.split(SELECTION_FRACTION)
-    table = score_candidates(options, fit_part, check_part, criteria=("simulation",))
+    table = score_candidates(options, fit_part, check_part, criteria=("simulation",)).table
     rows = [
         score_unit(name, est, data, None, fraction=SELECTION_FRACTION, folds=None).value
         for name, est in options

@@ -54,12 +54,13 @@ def test_stretched_inputs_reach_beyond_the_range_by_the_fraction() -> None:
 def test_a_runaway_candidate_is_rejected_with_its_reason_even_if_it_would_score_well() -> None:
     options = [("arx", LinearARX(Lags.arx(1, 1))), ("unstable", _Unstable(Lags.arx(1, 1)))]
     found = select_safely(options, [_run(1), _run(2), _run(3)])
-    assert found.scheme == "leave-one-experiment-out" and len(found.folds) == 3
+    # three logs, each held out in 2 time blocks: 6 folds (fold_plan's rule)
+    assert found.scheme == "experiments × time-blocks" and len(found.folds) == 6
     assert found.chosen == "arx"
     assert "ran away" in found.rejected["unstable"]
     table = found.table.set_index("name")
     assert table.loc["unstable", "status"] == "rejected"
-    assert len(table.loc["arx", "fold_fits"]) == 3
+    assert len(table.loc["arx", "fold_fits"]) == 6
 
 
 def test_one_standard_error_rule_prefers_the_simpler_candidate() -> None:

@@ -95,9 +95,9 @@ def test_a_joblib_context_moves_a_seeded_sweep_to_dask(client: Any) -> None:
         for s in (0, 1)
         for lag in lag_grid([1, 2], [2], [3])
     ]  # fmt: skip
-    local = score_candidates(options, data[:300], data[300:], n_jobs=1)
+    local = score_candidates(options, data[:300], data[300:], n_jobs=1).table
     with parallel_config(backend="dask"):
-        remote = score_candidates(options, data[:300], data[300:])
+        remote = score_candidates(options, data[:300], data[300:]).table
     pd.testing.assert_frame_equal(without_wall_times(remote), without_wall_times(local))
     # The seeds travel with the estimators: different seeds give different networks.
     assert local["fit_simulation"].nunique() > 1

@@ -90,7 +90,10 @@ def test_select_lags_finds_true_orders(selection: LagSelection) -> None:
     for column in ("lags", "n_terms", "max_lag", "fit_prediction", "fit_time_s"):
         assert column in table
     assert "fit_simulation[incl]" in table
-    assert selection.best_lags == selection.candidates[int(table["candidate"].iloc[0])]
+    # One validation fold: no standard error, so the safe rule takes the fewest terms within
+    # MIN_GAIN (half a point) of the top: the true orders, not a longer memory fitting noise.
+    assert selection.best_lags == TRUE_LAGS
+    assert selection.best() == selection.candidates[int(table["candidate"].iloc[0])]
 
 
 def test_select_lags_prediction_criterion_and_single_candidate() -> None:
@@ -200,7 +203,8 @@ def test_best_tolerance_validated(selection: LagSelection) -> None:
 
 def test_validation_scheme_is_named_and_worst_equals_mean(selection: LagSelection) -> None:
     table = selection.table
-    assert selection.scheme == "validation" == table.attrs["scheme"]
+    assert selection.scheme == "validation" and selection.folds == [["validation[0]"]]
+    assert not table.attrs  # the folds travel in the result, not in DataFrame.attrs
     assert (table["scheme"] == "validation").all() and (table["n_folds"] == 1).all()
     for kind in ("prediction", "simulation"):
         np.testing.assert_array_equal(table[f"fit_{kind}_worst"], table[f"fit_{kind}"])
@@ -220,11 +224,12 @@ def three_runs() -> list[IOData]:
 def test_leave_one_experiment_out_equals_hand_computed_average() -> None:
     runs = three_runs()
     grid = [TRUE_LAGS, Lags.arx(1, 1, 1), Lags.arx(2, 1, 3)]
-    result = select_lags(runs, None, grid, LinearARX(), n_jobs=2, progress=False)
+    # folds=3 of 3 runs: plain leave-one-experiment-out (no time blocks)
+    result = select_lags(runs, None, grid, LinearARX(), n_jobs=2, progress=False, folds=3)
     assert result.scheme == "leave-one-experiment-out"
     table = result.table.set_index("candidate")
     assert (table["scheme"] == "leave-one-experiment-out").all() and (table["n_folds"] == 3).all()
-    assert result.table.attrs["folds"] == [["run0"], ["run1"], ["run2"]]
+    assert result.folds == [["run0"], ["run1"], ["run2"]]
     for i, lags in enumerate(grid):
         fits: dict[str, list[float]] = {"prediction": [], "simulation": []}
         for held in range(3):
@@ -247,8 +252,9 @@ def test_grouped_k_fold_holds_out_every_kth_experiment() -> None:
     runs = three_runs()
     lags = Lags.arx(1, 1, 1)
     options = [("arx", LinearARX(lags))]
-    table = score_candidates(options, runs, criteria=["simulation"], folds=2)
-    assert table.attrs["folds"] == [["run0", "run2"], ["run1"]]
+    scores = score_candidates(options, runs, criteria=["simulation"], folds=2)
+    table = scores.table
+    assert scores.folds == [["run0", "run2"], ["run1"]]
     assert table["scheme"].iloc[0] == "grouped-k-fold" and table["n_folds"].iloc[0] == 2
     # Fold 0 fits on run1 and scores run0 and run2 (mean of the two); fold 1 the other way.
     first = LinearARX(lags).fit(runs[1])
@@ -319,7 +325,7 @@ def test_score_candidates_and_select_lags_agree_on_grouped_scores() -> None:
     runs = three_runs()
     grid = [TRUE_LAGS, Lags.arx(1, 1, 1)]
     selection = select_lags(runs, None, grid, LinearARX(), folds=3, progress=False)
-    scores = score_candidates([(repr(g), LinearARX(g)) for g in grid], runs, n_jobs=2)
+    scores = score_candidates([(repr(g), LinearARX(g)) for g in grid], runs, n_jobs=2).table
     by_candidate = selection.table.set_index("candidate").sort_index()
     for column in ("fit_simulation", "fit_simulation_worst", "fit_prediction_worst"):
         np.testing.assert_array_equal(by_candidate[column], scores[column])
@@ -330,7 +336,7 @@ def test_score_candidates_and_select_lags_agree_on_grouped_scores() -> None:
     ("train", "kwargs", "error", "match"),
     [
         (1, {"folds": 2}, ValueError, r"validation is None.* at least 2 experiments; got 1"),
-        (3, {"rule": "top"}, ValueError, r"rule must be 'safe' or 'best'; got 'top'"),
+        (3, {"rule": "top"}, ValueError, r"rule must be 'safe', 'unpaired' or 'best'; got 'top'"),
         (3, {"folds": 1}, ValueError, r"folds must be in \[2, 3\] .*; got 1"),
         (3, {"folds": 4}, ValueError, r"folds must be in \[2, 3\] .*; got 4"),
         (3, {"folds": 2.0}, TypeError, r"folds must be an int or None; got 2.0"),
@@ -359,7 +365,7 @@ def test_one_record_is_cut_into_time_blocks() -> None:
     run = three_runs()[0]
     selection = select_lags(run, None, [Lags.arx(1, 1, 1)], LinearARX(), progress=False)
     assert selection.scheme == "time-blocks"
-    assert selection.table.attrs["folds"] == [[f"{run.name} [block {i}/3]"] for i in (1, 2, 3)]
+    assert selection.folds == [[f"{run.name} [block {i}/3]"] for i in (1, 2, 3)]
     with pytest.raises(ValueError, match=r"too few for 3 time blocks"):
         select_lags(run[:5], None, [Lags.arx(1, 1, 1)], LinearARX(), progress=False)
 

@@ -1,47 +1,78 @@
-"""Folds that test the next run, and the one-standard-error rule: what every selection shares.
+"""Folds that test the next run, and the ranking every selection applies to them.
 
-:func:`~neckid.select_lags`, :func:`~neckid.select_safely` and :func:`~neckid.compare` choose on
-the training logs only, by one rule:
+:func:`~neckid.select_lags`, :func:`~neckid.select_safely`, :func:`~neckid.compare`, the
+multi-step SM settings and the benchmark's candidates are chosen on the training logs only, by
+one engine (:func:`rank_candidates`, here beside the folds because the model families, which
+must not import :mod:`neckid.selection`, choose with it too):
 
-1. **Folds over runs.** With two or more training experiments each fold holds one out; with one,
-   the record is cut into ``n_blocks >= 3`` contiguous time blocks (:func:`time_blocks`) and each
-   fold holds one block out, so that some fold tests the edges of the range. A record whose
-   input repeats exactly (a periodic excitation, :func:`input_period`) is first averaged over
-   its periods (:func:`period_average`) and the blocks cut from one period: blocks of the raw
-   record would hold out samples the other periods already show.
+1. **Folds over runs** (:func:`fold_plan`). With two or more training experiments each fold
+   holds one out and fits on the others; when there are fewer than :data:`MIN_FOLDS` (6) logs,
+   each held-out log is also cut into ``ceil(6 / k)`` contiguous time blocks
+   (:func:`blocks_per_log`, each at least :data:`MIN_BLOCK_SAMPLES` samples) scored one by one:
+   a fold is one block of one held-out log, the model is fitted on the *other logs only* (never
+   on another block of the held-out run), and no fold mixes time from two blocks. With one
+   record, it is cut into ``n_blocks >= 3`` contiguous time blocks (:func:`time_blocks`) and
+   each fold holds one block out, so that some fold tests the edges of the range. A record
+   whose input repeats exactly (a periodic excitation, :func:`input_period`) is first averaged
+   over its periods (:func:`period_average`) and the blocks cut from one period: blocks of the
+   raw record would hold out samples the other periods already show.
 2. **No runaway.** A candidate that fails or whose free run diverges in any fold is out.
-3. **One standard error toward the simpler candidate** (:func:`one_standard_error`): among the
-   rest, the best mean fold fit ``m*`` and its standard error ``s*`` set the bar ``m* − s*``; the
-   simplest candidate above the bar is chosen.
+3. **Paired one standard error toward the simpler candidate** (:func:`rank_candidates`): every
+   candidate is scored on the same folds; candidate ``j`` is eligible when its mean per-fold
+   difference to the best, ``d̄_j``, is within one standard error of that difference (or
+   within :data:`MIN_GAIN`, half a point); the simplest eligible candidate is chosen. The unpaired rule of earlier versions
+   (:func:`one_standard_error`: ``m_j >= m* − s*`` with ``s*`` the spread between folds) is
+   kept for comparison.
 
 References
 ----------
 T. Hastie, R. Tibshirani and J. Friedman, *The Elements of Statistical Learning*, 2nd ed.,
-Springer, 2009, §7.10 (the one-standard-error rule).
+Springer, 2009, §7.10 (the one-standard-error rule; here on paired differences).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData
+from neckid.utils.types import FloatArray
 
 __all__ = [
     "MIN_BLOCKS",
+    "MIN_BLOCK_SAMPLES",
+    "MIN_FOLDS",
+    "MIN_GAIN",
+    "RULES",
+    "FoldPlan",
+    "Ranking",
+    "Split",
+    "blocks_per_log",
+    "fold_plan",
     "fold_records",
     "fold_statistics",
     "input_period",
     "one_standard_error",
     "period_average",
+    "rank_candidates",
     "time_blocks",
 ]
 
+BoolArray = NDArray[np.bool_]
+
 #: Fewest contiguous blocks a single training record is cut into.
 MIN_BLOCKS = 3
+
+#: Fewest folds :func:`fold_plan` makes from several logs (logs × time blocks below it).
+MIN_FOLDS = 6
+
+#: Fewest samples of a time block when held-out logs are cut into blocks.
+MIN_BLOCK_SAMPLES = 100
 
 
 def time_blocks(data: IOData, n_blocks: int = MIN_BLOCKS) -> list[IOData]:
@@ -142,6 +173,125 @@ def fold_records(train: Sequence[IOData], n_blocks: int = MIN_BLOCKS) -> tuple[l
     return time_blocks(record, n_blocks), "time-blocks"
 
 
+def blocks_per_log(
+    train: Sequence[IOData], min_folds: int = MIN_FOLDS, min_samples: int = MIN_BLOCK_SAMPLES
+) -> int:
+    """Time blocks each held-out log is cut into: ``ceil(min_folds / k)`` for ``k`` logs.
+
+    At most as many as leave every block of the shortest log ``min_samples`` samples; at
+    least 1 (plain leave-one-experiment-out, the case from :data:`MIN_FOLDS` logs on).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> logs = [IOData(np.zeros(900), np.zeros(900), ts=0.1) for _ in range(3)]
+    >>> blocks_per_log(logs), blocks_per_log(logs[:2]), blocks_per_log(logs * 2)
+    (2, 3, 1)
+    """
+    if not train:
+        raise ValueError("blocks_per_log needs at least one log; got none")
+    wanted = math.ceil(int(min_folds) / len(train))
+    room = min(d.n_samples for d in train) // max(int(min_samples), 1)
+    return max(1, min(wanted, room))
+
+
+@dataclass(frozen=True)
+class Split:
+    """One fit and the folds it is scored on.
+
+    Attributes
+    ----------
+    fit_on : tuple of IOData
+        The records the model of this split is fitted on.
+    folds : tuple of tuple of IOData
+        The held-out records of each fold this fit is scored on (one score per fold).
+    """
+
+    fit_on: tuple[IOData, ...]
+    folds: tuple[tuple[IOData, ...], ...]
+
+
+@dataclass(frozen=True)
+class FoldPlan:
+    """Every fit and fold of a selection (:func:`fold_plan`).
+
+    Attributes
+    ----------
+    splits : tuple of Split
+        The fits, each with the folds it is scored on, in fold order.
+    names : list of list of str
+        The held-out records of each fold, by name.
+    scheme : str
+        ``"leave-one-experiment-out"``, ``"experiments × time-blocks"``, ``"time-blocks"`` or
+        ``"time-blocks of one period"``.
+    """
+
+    splits: tuple[Split, ...]
+    names: list[list[str]]
+    scheme: str
+
+    @property
+    def n_folds(self) -> int:
+        """Folds in all (scores per candidate)."""
+        return len(self.names)
+
+
+def fold_plan(
+    train: Sequence[IOData],
+    n_blocks: int = MIN_BLOCKS,
+    min_folds: int = MIN_FOLDS,
+    *,
+    blocks: int | None = None,
+) -> FoldPlan:
+    """The folds every candidate of a selection is scored on (the module's rule 1).
+
+    Several logs: each held out in turn, fitted on the others, and cut into
+    :func:`blocks_per_log` time blocks scored one by one when there are fewer than
+    ``min_folds`` logs (``"experiments × time-blocks"``; with ``min_folds=0``, plain
+    ``"leave-one-experiment-out"``); ``blocks`` (an int >= 1) sets the blocks per log instead.
+    One log: :func:`fold_records` (``n_blocks`` blocks).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> logs = [IOData(np.zeros(600), np.zeros(600), ts=0.1, name=f"run{i}") for i in range(3)]
+    >>> plan = fold_plan(logs)
+    >>> plan.scheme, plan.n_folds, plan.names[1]
+    ('experiments × time-blocks', 6, ['run0 [block 2/2]'])
+    """
+    experiments = list(train)
+    if len(experiments) < 2:
+        records, scheme = fold_records(experiments, n_blocks)
+        splits = tuple(
+            Split(tuple(r for j, r in enumerate(records) if j != i), ((held,),))
+            for i, held in enumerate(records)
+        )
+        return FoldPlan(splits, [[r.name or f"block {i}"] for i, r in enumerate(records)], scheme)
+    if blocks is None:
+        blocks = blocks_per_log(experiments, min_folds) if min_folds > 0 else 1
+    elif isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 1:
+        raise ValueError(f"blocks must be an int >= 1 or None; got {blocks!r}")
+    splits_list, names = [], []
+    for i, held in enumerate(experiments):
+        parts = [held] if blocks < 2 else _blocks_of(held, blocks)
+        others = tuple(r for j, r in enumerate(experiments) if j != i)
+        splits_list.append(Split(others, tuple((p,) for p in parts)))
+        names.extend([p.name or f"train[{i}]"] for p in parts)
+    scheme = "leave-one-experiment-out" if blocks < 2 else "experiments × time-blocks"
+    return FoldPlan(tuple(splits_list), names, scheme)
+
+
+def _blocks_of(record: IOData, blocks: int) -> list[IOData]:
+    """``record`` in ``blocks`` contiguous parts (2 allowed here: the fit is on other logs)."""
+    edges = np.ceil(np.linspace(0, record.n_samples, blocks + 1)).astype(int)
+    return [
+        record[int(edges[b]) : int(edges[b + 1])].renamed(
+            f"{record.name or 'log'} [block {b + 1}/{blocks}]"
+        )
+        for b in range(blocks)
+    ]
+
+
 def fold_statistics(fits: ArrayLike) -> tuple[float, float, float]:
     """``(mean, standard error, worst)`` of one candidate's fold fits [%].
 
@@ -208,3 +358,194 @@ def one_standard_error(
     eligible = [i for i in kept if float(means[i]) >= bar]
     pick = min(eligible, key=lambda i: (simplicity[i], -float(means[i])))
     return pick, bar
+
+
+#: Rules :func:`rank_candidates` applies: the paired one-standard-error rule (the default of
+#: every selection), the unpaired one of earlier versions, or the top mean fold fit.
+RULES = ("paired", "unpaired", "best")
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """What :func:`rank_candidates` chose and why.
+
+    Attributes
+    ----------
+    chosen : int
+        The chosen candidate (its position in the fold fits given).
+    best : int
+        The candidate with the best mean fold fit (among the accepted ones).
+    rule : {"paired", "unpaired", "best"}
+        The rule applied.
+    means : ndarray, shape (n_candidates,)
+        Mean fold fit [%] of every candidate (``-inf`` for a rejected one).
+    standard_errors : ndarray, shape (n_candidates,)
+        Standard error of each candidate's mean fold fit [points] (the spread between folds).
+    differences : ndarray, shape (n_candidates, n_folds)
+        Each candidate's fold fit minus the best candidate's on the same fold [points].
+    difference_means, difference_errors : ndarray, shape (n_candidates,)
+        The mean of those differences and its standard error
+        ``std(d, ddof=1) / sqrt(n_folds)`` [points].
+    bars : ndarray, shape (n_candidates,)
+        The mean fold fit a candidate needed to be eligible: ``m* − max(SE(d_j), min_gain)`` (paired),
+        ``m* − s*`` (unpaired, the same for all), ``m*`` (best).
+    eligible : ndarray of bool, shape (n_candidates,)
+        The candidates the rule let through; the simplest of them is chosen.
+    """
+
+    chosen: int
+    best: int
+    rule: str
+    means: FloatArray
+    standard_errors: FloatArray
+    differences: FloatArray
+    difference_means: FloatArray
+    difference_errors: FloatArray
+    bars: FloatArray
+    eligible: BoolArray
+
+    @property
+    def bar(self) -> float:
+        """The bar the chosen candidate cleared (mean fold fit, %)."""
+        return float(self.bars[self.chosen])
+
+    @property
+    def n_folds(self) -> int:
+        """Folds every candidate was scored on."""
+        return int(self.differences.shape[1])
+
+    def explain(self, names: Sequence[str]) -> str:
+        """One sentence: the best, the chosen, the rule and the bar, in the candidates' names."""
+        best, chosen = names[self.best], names[self.chosen]
+        head = f"best {best} (mean fold fit {self.means[self.best]:.1f} %)"
+        if self.chosen == self.best:
+            return f"{head}, chosen: no simpler candidate is within the {RULE_WORDS[self.rule]}"
+        return (
+            f"{head}; chosen {chosen} ({self.means[self.chosen]:.1f} %): the simplest within the"
+            f" {RULE_WORDS[self.rule]} (bar {self.bar:.1f} %; mean difference to the best"
+            f" {self.difference_means[self.chosen]:+.1f} ± {self.difference_errors[self.chosen]:.1f}"
+            f" points over {self.n_folds} folds)"
+        )
+
+
+#: How each rule reads in a sentence.
+RULE_WORDS = {
+    "paired": "paired one-standard-error rule",
+    "unpaired": "unpaired one-standard-error rule",
+    "best": "best-mean rule",
+}
+
+
+#: Points of mean fold fit a simpler candidate may always give up under the paired rule: a
+#: gain smaller than this is not worth a more complex model, however consistent it is.
+MIN_GAIN = 0.5
+
+
+def rank_candidates(
+    fold_fits: ArrayLike,
+    simplicity: Sequence[Any] | None = None,
+    accepted: Sequence[bool] | None = None,
+    rule: str = "paired",
+    min_gain: float = MIN_GAIN,
+) -> Ranking:
+    """Choose among candidates scored on the same folds: the one ranking every selection uses.
+
+    Parameters
+    ----------
+    fold_fits : array_like, shape (n_candidates, n_folds)
+        Each candidate's fit [%] (higher is better) on each fold, every candidate on the same
+        folds. A fold that is not finite (a failed or diverged fit) puts the candidate out.
+    simplicity : sequence, optional
+        A sort key per candidate, smaller is simpler (``(rank, n_terms)``); ties go to the
+        better mean, then the earlier candidate. Default: all equal.
+    accepted : sequence of bool, optional
+        ``False`` for a candidate that is out for another reason (a stress check).
+    rule : {"paired", "unpaired", "best"}, default "paired"
+        ``"paired"``: candidate ``j`` is eligible when its mean difference to the best,
+        ``d̄_j = mean_f(fit_jf − fit_*f)``, is within one standard error of that difference, or
+        within ``min_gain``: ``d̄_j >= −max(SE(d_j), min_gain)``,
+        ``SE(d_j) = std_f(d_j, ddof=1) / sqrt(k)``. ``"unpaired"``: within
+        one standard error of the best mean, ``m_j >= m* − s*`` (the rule of earlier versions).
+        ``"best"``: the best mean (ties: the simplest).
+    min_gain : float, default MIN_GAIN (0.5)
+        Points of fit below which a consistent gain is not worth a more complex model (paired
+        rule only; 0 for the pure paired test).
+
+    Returns
+    -------
+    Ranking
+
+    Raises
+    ------
+    ValueError
+        If no candidate is accepted, the shapes disagree, or ``rule`` is unknown.
+
+    Notes
+    -----
+    The paired rule is Hastie, Tibshirani & Friedman's one-standard-error rule (§7.10) applied
+    to paired differences: every candidate is scored on the same folds, so what makes one fold
+    hard for all of them (a run with its own gain, a short block) cancels in ``fit_jf − fit_*f``
+    and only how the candidates differ is left. Its standard error is that of a paired t-test;
+    the rule keeps a simpler candidate when the test could not tell it from the best at
+    ``t >= −1`` (not a significance level: a tolerance of one standard error, as in §7.10);
+    a gain under ``min_gain`` points never outweighs simplicity. The
+    unpaired rule compares the mean to the best mean minus the *between-fold* spread: with
+    three folds of different runs that spread is large, and a model better on every fold by a
+    few points is lost in it (the simplest candidate wins almost always). With one fold both
+    standard errors are 0 and the rules choose the best.
+
+    Examples
+    --------
+    >>> fits = [[60.0, 80.0, 100.0], [62.0, 82.0, 102.0]]  # the second better on every fold
+    >>> rank_candidates(fits, [0, 1]).chosen, rank_candidates(fits, [0, 1], rule="unpaired").chosen
+    (1, 0)
+    """
+    if rule not in RULES:
+        raise ValueError(f"rule must be one of {RULES}; got {rule!r}")
+    fits = np.atleast_2d(np.asarray(fold_fits, dtype=np.float64))
+    n = fits.shape[0]
+    if fits.ndim != 2 or fits.shape[1] == 0:
+        raise ValueError(f"fold_fits must be (n_candidates, n_folds >= 1); got {fits.shape}")
+    keys = list(simplicity) if simplicity is not None else [0] * n
+    flags = list(accepted) if accepted is not None else [True] * n
+    if len(keys) != n or len(flags) != n:
+        raise ValueError(
+            f"simplicity and accepted need one entry per candidate ({n}); got {len(keys)}"
+            f" and {len(flags)}"
+        )
+    finite = np.all(np.isfinite(fits), axis=1) & np.asarray(flags, dtype=bool)
+    if not finite.any():
+        raise ValueError("no candidate is accepted: every one failed or ran away in a fold")
+    statistics = [fold_statistics(row) for row in fits]
+    means = np.where(finite, [s[0] for s in statistics], -np.inf)
+    errors = np.array([s[1] for s in statistics])
+    kept = np.flatnonzero(finite)
+    best = int(kept[np.argmax(means[kept])])
+    with np.errstate(invalid="ignore"):
+        differences = fits - fits[best]
+    k = fits.shape[1]
+    with np.errstate(invalid="ignore"):
+        d_means = np.where(finite, differences.mean(axis=1), -np.inf)
+        spread = differences.std(axis=1, ddof=1) / np.sqrt(k) if k > 1 else np.zeros(n)
+    d_errors = np.where(finite, spread, np.nan)
+    if rule == "paired":
+        bars = means[best] - np.maximum(np.nan_to_num(d_errors, nan=np.inf), float(min_gain))
+    elif rule == "unpaired":
+        bars = np.full(n, means[best] - errors[best])
+    else:
+        bars = np.full(n, means[best])
+    # A tolerance of 1e-9 points: the best is always eligible, rounding never decides.
+    eligible = finite & (means >= bars - 1e-9)
+    pick = min(np.flatnonzero(eligible), key=lambda i: (keys[i], -means[i], i))
+    return Ranking(
+        chosen=int(pick),
+        best=best,
+        rule=rule,
+        means=means,
+        standard_errors=errors,
+        differences=differences,
+        difference_means=d_means,
+        difference_errors=d_errors,
+        bars=bars,
+        eligible=eligible,
+    )

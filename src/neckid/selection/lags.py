@@ -22,7 +22,7 @@ import math
 import time
 import warnings
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -30,17 +30,27 @@ import pandas as pd
 from joblib import delayed
 from sklearn.base import clone
 
-from neckid.data.folds import fold_records, fold_statistics, one_standard_error
+from neckid.data.folds import (
+    FoldPlan,
+    Ranking,
+    Split,
+    fold_plan,
+    fold_records,
+    rank_candidates,
+)
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
+from neckid.models.adapted import adapted_outputs
 from neckid.models.base import DivergenceError, ExtrapolationWarning, check_is_fitted
 from neckid.registry import get_method
 from neckid.regressors import Lags
+from neckid.selection.baselines import baseline_candidates, baseline_warnings
 from neckid.selection.lipschitz import lipschitz_quotients
 from neckid.utils.parallel import check_backend, run_jobs
 from neckid.utils.types import FloatArray
 
 __all__ = [
+    "CandidateScores",
     "LagSelection",
     "free_run",
     "lag_grid",
@@ -54,12 +64,17 @@ Criterion = Literal["prediction", "simulation"]
 Scheme = Literal[
     "validation",
     "leave-one-experiment-out",
+    "experiments × time-blocks",
     "grouped-k-fold",
     "time-blocks",
     "time-blocks of one period",
 ]
-#: How :func:`select_lags` picks: the safe rule of :mod:`neckid.data.folds`, or the top mean fit.
-Rule = Literal["safe", "best"]
+#: How :func:`select_lags` picks: the safe rule of :mod:`neckid.data.folds` (the paired one
+#: standard error), the unpaired rule of earlier versions, or the top mean fit.
+Rule = Literal["safe", "unpaired", "best"]
+
+#: The rule of :func:`neckid.data.folds.rank_candidates` each :data:`Rule` applies.
+RULE_OF = {"safe": "paired", "unpaired": "unpaired", "best": "best"}
 
 
 # ---------------------------------------------------------------------- candidates
@@ -142,6 +157,8 @@ class LagSelection:
         failed candidate), ``fit_prediction_worst`` and ``fit_simulation_worst`` (the fit of the
         worst fold), ``fit_prediction[<output>]`` / ``fit_simulation[<output>]`` per output (mean
         over folds), ``fit_<criterion>_se`` (the standard error of the mean over folds),
+        ``fit_<criterion>_diff`` and ``fit_<criterion>_diff_se`` (the mean per-fold difference
+        to the best candidate and its standard error: what the paired rule reads),
         ``fit_<criterion>_folds`` (each fold's fit),
         ``fit_time_s`` (seconds to train, summed over folds), ``scheme``, ``n_folds``, ``error``
         (empty, or the error of a failed candidate), ``status`` (``"chosen"``, ``"accepted"``
@@ -158,8 +175,16 @@ class LagSelection:
     chosen : int or None
         The candidate the rule chose (its position in :attr:`candidates`); ``None`` when every
         candidate was rejected.
-    rule : {"safe", "best"}
+    rule : {"safe", "unpaired", "best"}
         The rule :attr:`best_lags` follows.
+    folds : list of list of str
+        The held-out records of each fold.
+    ranking : Ranking or None
+        What :func:`neckid.data.folds.rank_candidates` chose and why (indices are positions in
+        :attr:`candidates`); ``None`` when every candidate was rejected.
+    baselines : dict of str to float
+        The naive references scored on the same folds (:mod:`neckid.selection.baselines`):
+        name -> mean fold fit [%]; a reference that does not apply is left out.
     """
 
     table: pd.DataFrame
@@ -168,6 +193,9 @@ class LagSelection:
     scheme: Scheme = "validation"
     chosen: int | None = None
     rule: Rule = "best"
+    folds: list[list[str]] = field(default_factory=list)
+    ranking: Ranking | None = None
+    baselines: dict[str, float] = field(default_factory=dict)
     column: str = field(init=False)
 
     def __post_init__(self) -> None:
@@ -178,11 +206,12 @@ class LagSelection:
         """The lag set the rule chose.
 
         With ``rule="safe"``: the fewest regressor terms among the candidates that never failed
-        nor diverged and whose mean fold fit is within one standard error of the best
-        (:func:`neckid.data.folds.one_standard_error`); with ``rule="best"``: the first row of
-        :attr:`table`.
+        nor diverged and whose mean difference to the best, fold by fold, is within one
+        standard error of that difference (:func:`neckid.data.folds.rank_candidates`);
+        ``rule="unpaired"``: within one standard error of the best mean; ``rule="best"``: the
+        first row of :attr:`table`.
         """
-        if self.rule == "safe":
+        if self.rule != "best":
             if self.chosen is None:
                 raise ValueError(
                     "every candidate was rejected (failed or diverged in a fold); see the"
@@ -190,6 +219,21 @@ class LagSelection:
                 )
             return self.candidates[self.chosen]
         return self.best()
+
+    @property
+    def warnings(self) -> list[str]:
+        """One line when the chosen lag set fits below 0 % or below a baseline on the folds."""
+        if self.chosen is None:
+            return []
+        row = self.table[self.table["candidate"] == self.chosen].iloc[0]
+        return baseline_warnings(str(row["lags"]), float(row[self.column]), self.baselines)
+
+    def explain(self) -> str:
+        """The best, the chosen, the rule and the bar in one sentence ('' when none chosen)."""
+        if self.ranking is None:
+            return ""
+        names = [repr(c) for c in self.candidates]
+        return self.ranking.explain(names)
 
     def best(self, tolerance: float = 0.0) -> Lags:
         """The most parsimonious lag set whose fit is within ``tolerance`` points of the best.
@@ -227,12 +271,42 @@ class LagSelection:
         return self.candidates[int(row["candidate"])]
 
 
+@dataclass(frozen=True)
+class CandidateScores:
+    """The result of :func:`score_candidates`: every candidate on the same folds.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per candidate, in the order given (see :func:`score_candidates`).
+    fold_fits : dict of str to ndarray
+        ``"fit_<criterion>"`` -> ``(n_candidates, n_folds)``: each candidate's fit [%] on each
+        fold (``-inf`` where it failed or diverged).
+    folds : list of list of str
+        The held-out records of each fold, by name.
+    scheme : str
+        How the folds were made (``"validation"``, ``"leave-one-experiment-out"``,
+        ``"grouped-k-fold"``, ``"experiments × time-blocks"``, ``"time-blocks"``).
+    """
+
+    table: pd.DataFrame
+    fold_fits: dict[str, FloatArray]
+    folds: list[list[str]]
+    scheme: str
+
+    @property
+    def n_folds(self) -> int:
+        """Folds every candidate was scored on."""
+        return len(self.folds)
+
+
 def free_run(
     model: Any,
     record: IOData,
     n_initial: int | None = None,
     *,
     diverged: Literal["raise", "keep"] = "raise",
+    adapt: tuple[float, str] | None = None,
 ) -> tuple[FloatArray, int]:
     """Free-run simulation of ``record`` by a fitted ``model``, with a protocol's initial samples.
 
@@ -251,6 +325,11 @@ def free_run(
     diverged : {"raise", "keep"}, default "raise"
         When the run leaves the finite numbers: raise the model's ``DivergenceError``, or return
         the run as it is, non-finite from there (a benchmark that reports where it diverged).
+    adapt : (float, str), optional
+        ``(seconds, mode)``: a copy of the model first adapts on the record's first ``seconds``
+        (:func:`~neckid.models.online.adaptive_free_run`, ``mode`` ``"offset"``, ``"update"``
+        or ``"both"``), then runs free from there; ``skip`` is then the warm-up's samples, so a
+        figure of merit counts only what the adaptation had not read.
 
     Returns
     -------
@@ -284,6 +363,8 @@ def free_run(
     if diverged not in ("raise", "keep"):
         raise ValueError(f"diverged must be 'raise' or 'keep'; got {diverged!r}")
     check_is_fitted(model)
+    if adapt is not None:
+        return adapted_outputs(model, record, *adapt, diverged=diverged)
     lag = int(model.max_lag_)
     if n_initial is None or n_initial < lag:
         start, skip = 0, lag
@@ -306,41 +387,53 @@ def free_run(
 def _fit_and_score(
     name: str,
     estimator: Any,
-    train: list[IOData],
-    validation: list[IOData],
+    train: Sequence[IOData],
+    groups: Sequence[Sequence[IOData]],
     criteria: Sequence[Criterion],
     n_initial: int | None,
-) -> dict[str, Any]:
-    """Fit a clone and score it; never raises (a failure becomes the ``error`` entry)."""
-    output_names = validation[0].output_names
-    row: dict[str, Any] = {"name": name}
+    adapt: tuple[float, str] | None = None,
+) -> list[dict[str, Any]]:
+    """Fit a clone once and score it on every fold of ``groups``; one row per fold.
+
+    Never raises (a failure becomes the ``error`` entry of every fold it stopped).
+    """
+    output_names = groups[0][0].output_names
     start = time.perf_counter()
     try:
         model = clone(estimator)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model.fit(train if len(train) > 1 else train[0])
-        row["fit_time_s"] = time.perf_counter() - start
-        with np.errstate(all="ignore"):
-            for kind in criteria:
-                fits, errors = [], []
-                for record in validation:
-                    if kind == "prediction":
-                        result = model.predict(record)
-                        y, skip = result.y, max(result.n_initial, n_initial or 0)
-                    else:
-                        y, skip = free_run(model, record, n_initial)
-                    fits.append(fit_percent(record.y, y, skip=skip))
-                    errors.append(rmse(record.y, y, skip=skip))
-                for label, values in (("fit", fits), ("rmse", errors)):
-                    per_output = np.mean(values, axis=0)
-                    for channel, value in zip(output_names, per_output, strict=True):
-                        row[f"{label}_{kind}[{channel}]"] = float(value)
-                    row[f"{label}_{kind}"] = float(np.mean(per_output))
+            model.fit(list(train) if len(train) > 1 else train[0])
     except Exception as exc:  # a failing candidate must not stop the search
-        row.setdefault("fit_time_s", time.perf_counter() - start)
-        row["error"] = f"{type(exc).__name__}: {exc}"
-    return row
+        spent = time.perf_counter() - start
+        error = f"{type(exc).__name__}: {exc}"
+        return [{"name": name, "fit_time_s": spent, "error": error} for _ in groups]
+    spent = time.perf_counter() - start
+    rows = []
+    for j, validation in enumerate(groups):
+        # the fit's time is counted once, on the split's first fold
+        row: dict[str, Any] = {"name": name, "fit_time_s": spent if j == 0 else 0.0}
+        try:
+            with np.errstate(all="ignore"):
+                for kind in criteria:
+                    fits, errors = [], []
+                    for record in validation:
+                        if kind == "prediction":
+                            result = model.predict(record)
+                            y, skip = result.y, max(result.n_initial, n_initial or 0)
+                        else:
+                            y, skip = free_run(model, record, n_initial, adapt=adapt)
+                        fits.append(fit_percent(record.y, y, skip=skip))
+                        errors.append(rmse(record.y, y, skip=skip))
+                    for label, values in (("fit", fits), ("rmse", errors)):
+                        per_output = np.mean(values, axis=0)
+                        for channel, value in zip(output_names, per_output, strict=True):
+                            row[f"{label}_{kind}[{channel}]"] = float(value)
+                        row[f"{label}_{kind}"] = float(np.mean(per_output))
+        except Exception as exc:  # a diverged or failing run is this fold's score
+            row["error"] = f"{type(exc).__name__}: {exc}"
+        rows.append(row)
+    return rows
 
 
 def _experiment_folds(n: int, folds: int | None) -> tuple[list[list[int]], Scheme]:
@@ -367,16 +460,29 @@ def _experiment_folds(n: int, folds: int | None) -> tuple[list[list[int]], Schem
 
 
 def _splits(
-    train: list[IOData], validation: IOData | Sequence[IOData] | None, folds: int | None
-) -> tuple[list[tuple[list[IOData], list[IOData]]], list[list[str]], Scheme]:
-    """``(fit on, score on)`` per fold, the names of the records scored per fold, the scheme."""
+    train: list[IOData],
+    validation: IOData | Sequence[IOData] | None,
+    folds: int | None,
+    blocks: int | None = 1,
+) -> FoldPlan:
+    """Every fit with the folds it is scored on, their names and the scheme.
+
+    ``blocks``: time blocks per held-out experiment (``None``: :func:`~neckid.data.folds.fold_plan`'s
+    rule); only with leave-one-experiment-out.
+    """
     if validation is None:
+        if folds is None and len(train) >= 2 and blocks != 1:
+            return fold_plan(train, blocks=blocks)
         held_out, scheme = _experiment_folds(len(train), folds)
-        splits = [
-            ([d for i, d in enumerate(train) if i not in fold], [train[i] for i in fold])
+        splits = tuple(
+            Split(
+                tuple(d for i, d in enumerate(train) if i not in fold),
+                (tuple(train[i] for i in fold),),
+            )
             for fold in held_out
-        ]
-        return splits, [[train[i].name or f"train[{i}]" for i in f] for f in held_out], scheme
+        )
+        names = [[train[i].name or f"train[{i}]" for i in f] for f in held_out]
+        return FoldPlan(splits, names, scheme)
     if folds is not None:
         raise ValueError(
             f"folds applies only when validation is None; got folds={folds!r} and validation"
@@ -385,7 +491,7 @@ def _splits(
     records = as_experiments(validation, "validation")
     as_experiments([train[0], records[0]], "[train[0], validation[0]]")
     names = [d.name or f"validation[{i}]" for i, d in enumerate(records)]
-    return [(train, records)], [names], "validation"
+    return FoldPlan((Split(tuple(train), (tuple(records),)),), [names], "validation")
 
 
 def _combine_folds(
@@ -422,7 +528,9 @@ def score_candidates(
     progress: bool = False,
     folds: int | None = None,
     backend: str | None = None,
-) -> pd.DataFrame:
+    blocks_per_log: int | None = 1,
+    adapt: tuple[float, str] | None = None,
+) -> CandidateScores:
     """Fit a copy of every candidate estimator and score it on held-out records.
 
     Each estimator is copied with ``sklearn.base.clone`` (the ones given are not changed), fitted
@@ -441,7 +549,10 @@ def score_candidates(
       by default (``"leave-one-experiment-out"``), ``folds=k`` otherwise (``"grouped-k-fold"``).
       A model is scored on whole experiments it has not seen, so the score says how a setting
       carries over to another run (payload, controller, tendon slack), which the tail of one
-      record does not.
+      record does not. With ``blocks_per_log`` other than 1 (and ``folds=None``), every
+      held-out experiment is scored in contiguous time blocks, one fold each, by the model
+      fitted on the other experiments (``"experiments × time-blocks"``,
+      :func:`neckid.data.folds.fold_plan`; ``None``: enough blocks for 6 folds).
 
     Parameters
     ----------
@@ -471,20 +582,26 @@ def score_candidates(
         The joblib backend the fits run on: ``None`` is the active ``joblib.parallel_config``
         (joblib's default outside one), ``"dask"`` the cluster of the active
         ``distributed.Client`` (``pip install neckid[dask]``), or any joblib backend name.
+    blocks_per_log : int or None, default 1
+        Time blocks each held-out experiment is scored in (see above); ``None``: the rule of
+        :func:`neckid.data.folds.blocks_per_log`.
+    adapt : (float, str), optional
+        ``(seconds, mode)``: score each held-out record's free run after ``seconds`` of
+        adaptation on its own start (:func:`free_run`), as ``compare --adapt`` runs the test logs.
 
     Returns
     -------
-    pandas.DataFrame
-        One row per candidate, in the order given: ``candidate`` (position), ``name``, then per
+    CandidateScores
+        ``table``: one row per candidate, in the order given: ``candidate`` (position), ``name``, then per
         criterion ``fit_<kind>``, ``fit_<kind>_worst`` (the worst fold's fit), ``rmse_<kind>``,
         ``rmse_<kind>_worst`` (the worst fold's RMSE), ``fit_<kind>[<output>]``,
         ``rmse_<kind>[<output>]`` (means over folds), and ``fit_time_s`` (seconds to train,
         summed over folds), ``scheme``, ``n_folds`` and ``error`` (empty, or the error of a
         failed candidate, per fold). A candidate that fails in a fold (a training error, a free
         run that diverges) has fit ``-inf`` and RMSE ``inf`` for every score not computed there,
-        so its mean and worst fold are ``-inf`` / ``inf`` too. ``table.attrs["folds"]`` lists
-        the names (or positions) of the held-out experiments per fold, and
-        ``table.attrs["fold_scores"]["fit_<kind>"][candidate]`` the fit of each fold.
+        so its mean and worst fold are ``-inf`` / ``inf`` too. ``folds``: the names of the
+        held-out records per fold; ``fold_fits["fit_<kind>"]``: every candidate's fit on every
+        fold, ``(n_candidates, n_folds)``, the same folds for all (what the paired rule needs).
 
     Raises
     ------
@@ -520,13 +637,13 @@ def score_candidates(
     ...     y[t] = 0.8 * y[t - 1] + u[t - 2]
     >>> data = IOData(u, y, ts=0.02)
     >>> options = [(f"delay {d}", methods()["arx"].make(Lags.arx(1, 1, d))) for d in (1, 2)]
-    >>> table = score_candidates(options, data[:300], data[300:], criteria=["simulation"])
+    >>> table = score_candidates(options, data[:300], data[300:], criteria=["simulation"]).table
     >>> table["name"][table["rmse_simulation"].idxmin()]
     'delay 2'
     >>> runs = [data[:130], data[130:260], data[260:]]
     >>> grouped = score_candidates(options, runs, criteria=["simulation"])
-    >>> grouped["scheme"][0], int(grouped["n_folds"][0])
-    ('leave-one-experiment-out', 3)
+    >>> grouped.scheme, grouped.fold_fits["fit_simulation"].shape
+    ('leave-one-experiment-out', (2, 3))
     """
     kinds = list(criteria)
     if not kinds or any(k not in ("prediction", "simulation") for k in kinds):
@@ -540,50 +657,45 @@ def score_candidates(
         if not (isinstance(option, tuple) and len(option) == 2 and isinstance(option[0], str)):
             raise TypeError(f"candidates[{i}] must be a (name, estimator) pair; got {option!r}")
     train_list = as_experiments(train, "train")
-    splits, names, scheme = _splits(train_list, validation, folds)
+    plan = _splits(train_list, validation, folds, blocks_per_log)
     jobs = (
-        delayed(_fit_and_score)(name, estimator, fit_part, held_out, kinds, n_initial)
+        delayed(_fit_and_score)(name, estimator, split.fit_on, split.folds, kinds, n_initial, adapt)
         for name, estimator in options
-        for fit_part, held_out in splits
+        for split in plan.splits
     )
-    fold_rows = run_jobs(
+    split_rows = run_jobs(
         jobs,
-        total=len(options) * len(splits),
+        total=len(options) * len(plan.splits),
         n_jobs=n_jobs,
         backend=backend,
         progress=progress,
         label="score_candidates",
     )
-
-    output_names = train_list[0].output_names
-    n_folds = len(splits)
-    rows = [
-        _combine_folds(fold_rows[i * n_folds : (i + 1) * n_folds], kinds, output_names)
+    per_candidate = len(plan.splits)
+    fold_rows = [
+        [row for rows in split_rows[i * per_candidate : (i + 1) * per_candidate] for row in rows]
         for i in range(len(options))
     ]
+    output_names = train_list[0].output_names
+    rows = [_combine_folds(candidate, kinds, output_names) for candidate in fold_rows]
     columns = ["candidate", "name"]
     for kind in kinds:
         columns += [f"fit_{kind}", f"fit_{kind}_worst", f"rmse_{kind}", f"rmse_{kind}_worst"]
         columns += [f"{label}_{kind}[{n}]" for label in ("fit", "rmse") for n in output_names]
     columns += ["fit_time_s", "scheme", "n_folds", "error"]
     for i, row in enumerate(rows):
-        row.update(candidate=i, scheme=scheme, n_folds=n_folds)
+        row.update(candidate=i, scheme=plan.scheme, n_folds=plan.n_folds)
         row.setdefault("error", "")
-    table = pd.DataFrame(rows, columns=columns)
-    table.attrs["scheme"] = scheme
-    table.attrs["folds"] = names
-    # Every fold's score of every candidate (the standard error of the mean needs them).
-    table.attrs["fold_scores"] = {
-        f"fit_{kind}": [
-            [
-                float(f.get(f"fit_{kind}", -np.inf))
-                for f in fold_rows[i * n_folds : (i + 1) * n_folds]
-            ]
-            for i in range(len(options))
-        ]
+    # Every fold's score of every candidate, on the same folds (the paired rule needs them).
+    fold_fits = {
+        f"fit_{kind}": np.array(
+            [[float(f.get(f"fit_{kind}", -np.inf)) for f in candidate] for candidate in fold_rows],
+            dtype=np.float64,
+        ).reshape(len(options), plan.n_folds)
         for kind in kinds
     }
-    return table
+    table = pd.DataFrame(rows, columns=columns)
+    return CandidateScores(table, fold_fits, plan.names, plan.scheme)
 
 
 def _checked_candidates(
@@ -739,105 +851,119 @@ def select_lags(
         raise ValueError(f"criterion must be 'simulation' or 'prediction'; got {criterion!r}")
     check_backend(backend)  # before any work: a missing cluster is said at once
     estimator, lag_list = _checked_candidates(candidates, estimator)
-    if rule not in ("safe", "best"):
-        raise ValueError(f"rule must be 'safe' or 'best'; got {rule!r}")
+    if rule not in RULE_OF:
+        raise ValueError(f"rule must be 'safe', 'unpaired' or 'best'; got {rule!r}")
     train_list = as_experiments(train, "train")
-    blocks = validation is None and folds is None and len(train_list) == 1
-    if blocks:  # one record: contiguous time blocks (of one period if periodic), each held out
+    # several logs: each held out, in time blocks when there are few (fold_plan's rule)
+    blocks = None if len(train_list) >= 2 else 1
+    if validation is None and folds is None and len(train_list) == 1:
+        # one record: contiguous time blocks (of one period if periodic), each held out
         train_list, block_scheme = fold_records(train_list)
-    _, fold_names, scheme = _splits(train_list, validation, folds)
-    if blocks:
-        scheme = block_scheme  # type: ignore[assignment]
-    n_folds = len(fold_names)
-
+        plan = replace(_splits(train_list, None, None, 1), scheme=block_scheme)
+    else:
+        plan = _splits(train_list, validation, folds, blocks)
     rows: list[dict[str, Any]] = []
     for i, lags in enumerate(lag_list):
         row: dict[str, Any] = {"candidate": i, "lags": repr(lags), "max_lag": lags.max_lag}
         try:
-            row["n_terms"] = lags.resolve(train_list).n_terms
+            row["n_terms"] = lags.resolve(lags.conditioned(train_list)).n_terms
         except (KeyError, ValueError) as exc:  # not fitted: the regressor itself is impossible
             row.update(n_terms=np.nan, fit_time_s=np.nan, error=f"{type(exc).__name__}: {exc}")
-        rows.append({**row, "scheme": scheme, "n_folds": n_folds})
-    fitted = [row for row in rows if "error" not in row]
-    if fitted:
-        scores = score_candidates(
-            [
-                (row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
-                for row in fitted
-            ],
-            train_list,
-            validation,
-            n_jobs=n_jobs,
-            progress=progress,
-            folds=folds,
-            backend=backend,
-        )
-        fold_fits = scores.attrs["fold_scores"][f"fit_{criterion}"]
-        for row, score, fits in zip(
-            fitted, scores.to_dict(orient="records"), fold_fits, strict=True
-        ):
-            row.update({str(k): v for k, v in score.items() if k not in ("candidate", "name")})
-            row[f"fit_{criterion}_se"] = fold_statistics(fits)[1]
-            row[f"fit_{criterion}_folds"] = [float(f) for f in fits]
-            row["scheme"] = scheme
-
-    output_names = train_list[0].output_names
-    columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]
-    columns += ["fit_prediction_worst", "fit_simulation_worst"]
-    columns += [f"fit_{k}[{n}]" for k in ("prediction", "simulation") for n in output_names]
-    columns += [f"fit_{criterion}_se", f"fit_{criterion}_folds"]
-    columns += ["fit_time_s", "scheme", "n_folds", "error"]
-    columns += ["status", "reason"]
-    chosen = _rule_status(rows, columns, criterion)
-    table = pd.DataFrame(rows, columns=columns)
-    table["n_terms"] = table["n_terms"].astype("Int64")
+        rows.append({**row, "scheme": plan.scheme, "n_folds": plan.n_folds})
     column = f"fit_{criterion}"
-    table = table.sort_values(
-        [column, "n_terms"], ascending=[False, True], kind="mergesort", na_position="last"
-    ).reset_index(drop=True)
-    table.attrs.update(criterion=criterion, scheme=scheme, folds=fold_names, rule=rule)
-    if rule == "best":
-        top = table.iloc[0]
-        chosen = int(top["candidate"]) if np.isfinite(float(top[column])) else None
-    if chosen is not None:
-        table.loc[table["candidate"] == chosen, "status"] = "chosen"
+    fold_fits = np.full((len(rows), plan.n_folds), -np.inf)
+    fitted = [row for row in rows if "error" not in row]
+    references = [(name, model) for name, model in baseline_candidates()]
+    options = [
+        (row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
+        for row in fitted
+    ]
+    scores = score_candidates(
+        [*options, *references],
+        train_list,
+        validation,
+        n_jobs=n_jobs,
+        progress=progress,
+        folds=folds,
+        backend=backend,
+        blocks_per_log=blocks,
+    )
+    records = scores.table.to_dict(orient="records")
+    for row, score, fits in zip(fitted, records, scores.fold_fits[column], strict=False):
+        kept = {str(k): v for k, v in score.items() if k not in ("candidate", "name", "scheme")}
+        row.update(kept)
+        fold_fits[row["candidate"]] = fits
+    baselines = {
+        str(score["name"]).removeprefix("baseline: "): float(score[column])
+        for score in records[len(fitted) :]
+        if not score["error"]
+    }
+    table, chosen, ranking = _ranked_lags(rows, fold_fits, train_list, criterion, rule)
     return LagSelection(
         table=table,
         candidates=tuple(lag_list),
         criterion=criterion,
-        scheme=scheme,
+        scheme=plan.scheme,  # type: ignore[arg-type]
         chosen=chosen,
         rule=rule,
+        folds=plan.names,
+        ranking=ranking,
+        baselines=baselines,
     )
 
 
-def _rule_status(
-    rows: list[dict[str, Any]], columns: list[str], criterion: Criterion
-) -> int | None:
-    """Fill missing scores, ``status`` and ``reason``; the safe rule's choice (None: all out).
+def _ranked_lags(
+    rows: list[dict[str, Any]],
+    fold_fits: FloatArray,
+    train: list[IOData],
+    criterion: Criterion,
+    rule: Rule,
+) -> tuple[pd.DataFrame, int | None, Ranking | None]:
+    """The table best first with ``status``, ``reason`` and the paired columns; the choice.
 
-    A candidate is out when it failed to fit or its free run (or one-step run) was not finite
-    in a fold; the rest go to :func:`~neckid.data.folds.one_standard_error`, simpler meaning fewer
-    regressor terms, then a shorter memory.
+    A candidate is out when it failed to fit or its run was not finite in a fold (for
+    ``rule="best"`` only a fit that is not finite puts it out); the rest go to
+    :func:`~neckid.data.folds.rank_candidates`, simpler meaning fewer regressor terms, then a
+    shorter memory.
     """
     column = f"fit_{criterion}"
-    for row in rows:
-        for name in columns:
-            if name.startswith("fit_") and name not in ("fit_time_s", f"{column}_se"):
+    output_names = train[0].output_names
+    for row, fits in zip(rows, fold_fits, strict=True):
+        for kind in ("prediction", "simulation"):
+            for name in (f"fit_{kind}", f"fit_{kind}_worst"):
                 row.setdefault(name, -np.inf)
-        row.setdefault(f"{column}_se", np.nan)
-        row[f"{column}_folds"] = row.get(f"{column}_folds", [])
+            for n in output_names:
+                row.setdefault(f"fit_{kind}[{n}]", -np.inf)
+        row[f"{column}_folds"] = [float(f) for f in fits]
         error = row.get("error") if isinstance(row.get("error"), str) else ""
-        finite = bool(np.isfinite(float(row[column])))
+        finite = bool(np.all(np.isfinite(fits)))
         row["status"] = "accepted" if finite and not error else "rejected"
         row["reason"] = error or ("" if finite else f"{column} not finite in a fold (diverged)")
+    usable = [row["status"] == "accepted" or rule == "best" for row in rows]
     try:
-        pick, _ = one_standard_error(
-            [float(row[column]) for row in rows],
-            [float(row[f"{column}_se"]) for row in rows],
+        ranking: Ranking | None = rank_candidates(
+            fold_fits,
             [(float(row["n_terms"]), int(row["max_lag"])) for row in rows],
-            [row["status"] == "accepted" for row in rows],
+            usable,
+            rule=RULE_OF[rule],
         )
     except ValueError:
-        return None
-    return int(rows[pick]["candidate"])
+        ranking = None
+    for i, row in enumerate(rows):
+        row[f"{column}_se"] = np.nan if ranking is None else ranking.standard_errors[i]
+        row[f"{column}_diff"] = np.nan if ranking is None else ranking.difference_means[i]
+        row[f"{column}_diff_se"] = np.nan if ranking is None else ranking.difference_errors[i]
+    chosen = None if ranking is None else int(rows[ranking.chosen]["candidate"])
+    if chosen is not None:
+        rows[chosen]["status"] = "chosen"
+    columns = ["candidate", "lags", "n_terms", "max_lag", "fit_prediction", "fit_simulation"]
+    columns += ["fit_prediction_worst", "fit_simulation_worst"]
+    columns += [f"fit_{k}[{n}]" for k in ("prediction", "simulation") for n in output_names]
+    columns += [f"{column}_se", f"{column}_diff", f"{column}_diff_se", f"{column}_folds"]
+    columns += ["fit_time_s", "scheme", "n_folds", "error", "status", "reason"]
+    table = pd.DataFrame(rows, columns=columns)
+    table["n_terms"] = table["n_terms"].astype("Int64")
+    table = table.sort_values(
+        [column, "n_terms"], ascending=[False, True], kind="mergesort", na_position="last"
+    ).reset_index(drop=True)
+    return table, chosen, ranking

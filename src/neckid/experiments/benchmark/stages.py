@@ -148,10 +148,10 @@ def score_unit(
         options = [(name, estimator)]
         common: dict[str, Any] = {"criteria": ("simulation",), "n_initial": n_initial, "n_jobs": 1}
         if len(experiments) > 1:
-            table = score_candidates(options, experiments, None, folds=folds, **common)
+            table = score_candidates(options, experiments, None, folds=folds, **common).table
         else:
             fit_part, check_part = experiments[0].split(fraction)
-            table = score_candidates(options, fit_part, check_part, **common)
+            table = score_candidates(options, fit_part, check_part, **common).table
         row = table.iloc[0]
         return {
             "name": str(row["name"]),
