@@ -23,11 +23,11 @@ def _describe_model(model: Any) -> str:
 
 def _print_prior(model: Any) -> None:
     """ε and γ of a Set Membership model (or of the SM map of a parallel one), with units."""
-    sm = getattr(model, "sm_", model)
-    if not hasattr(sm, "gamma_") or getattr(sm.gamma_, "ndim", 1) != 1:
+    prior = model.set_membership_prior()
+    if prior is None or prior.horizons is not None:
         return  # a model with one prior per horizon describes itself (neckid info)
     for name, unit, epsilon, gamma in zip(
-        model.output_names_, model.output_units_, sm.epsilon_, sm.gamma_, strict=True
+        model.output_names_, model.output_units_, prior.epsilon, prior.gamma, strict=True
     ):
         shown = f" {unit}" if unit else ""
         console.print(
@@ -63,7 +63,8 @@ def _print_horizons(model: Any, data: Any) -> None:
     band of ``predict_ahead`` (its mean width and the share of the measured samples it holds),
     ε_k, and the smallest ε_k that would hold every sample (γ_k kept).
     """
-    if not hasattr(model, "horizons_"):
+    prior = model.set_membership_prior()
+    if prior is None or prior.horizons is None:
         return
     from neckid.metrics import coverage, mean_width
 
@@ -101,12 +102,12 @@ def _print_horizons(model: Any, data: Any) -> None:
 
 def _print_horizon_settings(model: Any, named: list[int]) -> None:
     """Each named horizon's ε factor, input weight and constants, and whether they were chosen."""
-    settings = getattr(model, "settings_", None)
+    settings = model.settings_
     if not settings:
         return
     how = (
         f"chosen by held-out coverage ≥ {float(model.target_coverage):.0%} on the training logs"
-        if getattr(model, "selection_", None) is not None
+        if model.selection_ is not None
         else "as given"
     )
     for k in named:
@@ -123,11 +124,11 @@ def _print_horizon_settings(model: Any, named: list[int]) -> None:
 
 def _print_prior_check(model: Any, data: Any) -> None:
     """For an SM model: does the log contradict its prior, one step ahead? And what to do."""
-    check = getattr(model, "invalidation", None)
-    epsilon = getattr(model, "epsilon_", None)
-    if check is None or epsilon is None or hasattr(model, "horizons_") or epsilon.ndim != 1:
+    prior = model.set_membership_prior()
+    if prior is None or prior.horizons is not None:
         return
-    found = check(data)
+    epsilon = prior.epsilon
+    found = model.invalidation(data)
     for j, name in enumerate(data.output_names):
         unit = f" {data.output_units[j]}" if data.output_units[j] else ""
         share = float(found.fraction[j])
@@ -156,7 +157,7 @@ def _print_prior_check(model: Any, data: Any) -> None:
 
 def _print_domain(model: Any, data: Any) -> Any:
     """The share of the log outside the model's domain (regressor box, SM nearest regressor)."""
-    if not getattr(model, "regressor_ranges_", None) or data.n_samples <= model.max_lag_:
+    if not model.regressor_box() or data.n_samples <= model.max_lag_:
         return None
     domain = model.domain(data)
     worst = sorted(domain.by_term.items(), key=lambda kv: -kv[1])[:3]

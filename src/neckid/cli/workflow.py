@@ -404,7 +404,7 @@ def prepare_log(model: Any, data: IOData) -> IOData:
 
     Give it the raw log: a step such as a low-pass filter applied twice is not the same.
     """
-    pipeline = getattr(model, "preprocessing_", None)
+    pipeline = model.preprocessing_
     return pipeline.apply(data) if pipeline is not None else data
 
 
@@ -434,7 +434,7 @@ def read_log_for_model(
     preprocessing : Pipeline or None
         The model's steps that were applied (None for a model without any).
     """
-    pipeline = getattr(model, "preprocessing_", None)
+    pipeline = model.preprocessing_
     if pipeline is not None and not len(pipeline):
         pipeline = None
     used = set(model._condition_names())
@@ -683,7 +683,7 @@ def describe_model(model: Any) -> dict[str, Any]:
     from neckid.registry import method_of
 
     method = method_of(model)
-    lags = getattr(model, "lags_", None)
+    lags = model.fitted_lags()
     info: dict[str, Any] = {
         "method": method.label if method is not None else type(model).__name__,
         "method_name": method.name if method is not None else None,
@@ -694,36 +694,34 @@ def describe_model(model: Any) -> dict[str, Any]:
         "output_units": list(model.output_units_),
         "ts_s": float(model.ts_),
         "initial_samples": int(model.max_lag_),
-        "training_samples": int(getattr(model, "n_samples_", 0)),
-        "training_ranges": {k: list(v) for k, v in getattr(model, "training_ranges_", {}).items()},
+        "training_samples": int(model.training_samples() or 0),
+        "training_ranges": {k: list(v) for k, v in model.training_box().items()},
         "conditions": list(model._condition_names()),
     }
-    pipeline = getattr(model, "preprocessing_", None)
+    pipeline = model.preprocessing_
     if pipeline is not None and len(pipeline):
         info["preprocessing"] = pipeline.to_list()
     mapping = getattr(model, "channel_map_", None)
     if mapping:
         info["channel_map"] = dict(mapping)
-    sm = getattr(model, "sm_", model)
-    if hasattr(sm, "gamma_"):
-        horizons = getattr(model, "horizons_", None)
+    prior = model.set_membership_prior()
+    if prior is not None:
+        horizons = prior.horizons
         if horizons is not None:  # one prior per horizon: {horizon: [value per output]}
-            info["horizons"] = [int(k) for k in horizons]
-            for key, values in (("epsilon", sm.epsilon_), ("gamma", sm.gamma_)):
+            info["horizons"] = list(horizons)
+            for key, values in (("epsilon", prior.epsilon), ("gamma", prior.gamma)):
                 info[key] = {
-                    str(int(k)): [float(v) for v in row]
-                    for k, row in zip(horizons, values, strict=True)
+                    str(k): [float(v) for v in row] for k, row in zip(horizons, values, strict=True)
                 }
         else:
-            info["epsilon"] = [float(v) for v in sm.epsilon_]
-            info["gamma"] = [float(v) for v in sm.gamma_]
-        info["lipschitz"] = str(getattr(sm, "lipschitz", "global"))
-        scaling = getattr(sm, "scaling", "std")
-        info["distance"] = scaling if isinstance(scaling, str) else "user weights"
-        if hasattr(model, "estimate"):
-            info["estimate"] = str(model.estimate)
-    values = getattr(model, "singular_values_", None)
-    if values is not None:  # subspace model: the order chosen and what it was chosen from
-        info["order"] = int(model.order_)
-        info["singular_values"] = [float(v) for v in values]
+            info["epsilon"] = [float(v) for v in prior.epsilon]
+            info["gamma"] = [float(v) for v in prior.gamma]
+        info["lipschitz"] = prior.lipschitz
+        info["distance"] = prior.distance
+        if prior.estimate is not None:
+            info["estimate"] = prior.estimate
+    order = model.state_order()
+    if order is not None:  # subspace model: the order chosen and what it was chosen from
+        info["order"] = order.order
+        info["singular_values"] = [float(v) for v in order.singular_values]
     return info

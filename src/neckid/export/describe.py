@@ -59,7 +59,7 @@ def is_linear(model: Any) -> bool:
 # ============================================================================ header
 def _regressor(model: Any) -> dict[str, Any] | None:
     """The regressor terms (what rows of a coefficient matrix multiply), or None."""
-    lags = getattr(model, "lags_", None)
+    lags = model.fitted_lags()
     if lags is None:
         return None
     names = (lags.output_names, lags.input_names)
@@ -74,7 +74,7 @@ def _regressor(model: Any) -> dict[str, Any] | None:
 
 def _channel_lags(model: Any, source: int) -> list[IntArray] | None:
     """Per channel (outputs: ``source`` 0, inputs: 1), its lags in the regressor [samples]."""
-    lags = getattr(model, "lags_", None)
+    lags = model.fitted_lags()
     if lags is None:
         return None
     n_channels = len(lags.output_names if source == 0 else lags.input_names)
@@ -92,8 +92,8 @@ def _ranges(box: dict[str, tuple[float, float]], names: Any) -> FloatArray:
 
 def _units(model: Any, kind: str) -> list[str]:
     """The unit of every input or output channel (``""`` where the model recorded none)."""
-    names = getattr(model, f"{kind}_names_")
-    units = list(getattr(model, f"{kind}_units_", ()) or ())
+    names = model.input_names_ if kind == "input" else model.output_names_
+    units = list((model.input_units_ if kind == "input" else model.output_units_) or ())
     return [str(u) for u in units] if len(units) == len(names) else [""] * len(names)
 
 
@@ -102,10 +102,10 @@ def _header(model: Any) -> dict[str, Any]:
     from neckid.registry import method_of
 
     method = method_of(model)
-    training = dict(getattr(model, "training_ranges_", {}) or {})
+    training = model.training_box()
     regressor = _regressor(model)
-    terms = dict(getattr(model, "regressor_ranges_", {}) or {})
-    n_samples = getattr(model, "n_samples_", None)
+    terms = model.regressor_box()
+    n_samples = model.training_samples()
     return {
         "model_class": type(model).__name__,
         "method": None if method is None else method.name,
@@ -214,7 +214,7 @@ def export_model(model: Any) -> dict[str, Any]:
         "neckid_version": __version__,
         **_describe(model),
     }
-    pipeline = getattr(model, "preprocessing_", None)
+    pipeline = model.preprocessing_
     description["preprocessing"] = [] if pipeline is None else list(pipeline.to_list())
     return description
 
@@ -291,7 +291,7 @@ def describe_arx(model: Any) -> tuple[str, dict[str, Any]]:
     return "arx", {
         "equation": _ARX_EQUATION,
         "coef": _array(model.coef_),
-        "intercept": _array(getattr(model, "intercept_", np.zeros(len(model.output_names_)))),
+        "intercept": _array(model.intercept_),
         **_arx_polynomials(model),
     }
 
@@ -396,7 +396,7 @@ _SM_EQUATION = (
 def describe_set_membership(model: Any) -> tuple[str, dict[str, Any]]:
     """``(structure, parameters)`` of a fitted SetMembership (its registry entry's describer)."""
     core = model.core_
-    curve = getattr(model, "gamma_curve_", None)
+    curve = model.gamma_curve_
     point_gamma = model.point_gamma_
     return "set_membership", {
         "equation": _SM_EQUATION,
@@ -525,23 +525,34 @@ def describe_greybox_ode(model: Any) -> tuple[str, dict[str, Any]]:
 def describe_pnlss(model: Any) -> tuple[str, dict[str, Any]]:
     """``(structure, parameters)`` of a fitted PolynomialStateSpace (its registry entry's describer)."""
     names = [f"x{k + 1}" for k in range(int(model.order_))] + list(model.input_names_)
+    a, b, c, d, intercept, e, f = model.matrices_
     return "polynomial_state_space", {
         "equation": "x(t+1) = A x + B v + E zeta(x, v); w(t) = C x + D v + intercept + F zeta(x,"
         " v), v = (u - u_center) ./ u_scale, y = y_center + y_scale .* w; zeta: the monomials"
         " (powers rows, over [x; v]) of z = ([x; v] - center) ./ scale held in [low, high]; the"
         " free run starts from the state start_A ... start_intercept fit to the first max_lag"
         " samples",
-        **{key: _array(getattr(model, f"{key}_")) for key in ("A", "B", "C", "D", "E", "F")},
-        "intercept": _array(model.intercept_),
+        "A": _array(a),
+        "B": _array(b),
+        "C": _array(c),
+        "D": _array(d),
+        "E": _array(e),
+        "F": _array(f),
+        "intercept": _array(intercept),
         "monomials": _monomial_names(model.powers_, names),
         "powers": np.asarray(model.powers_, dtype=np.int64),
-        **{
-            key: _array(getattr(model, f"{key}_"))
-            for key in ("u_center", "u_scale", "y_center", "y_scale", "center", "scale")
-        },
+        "u_center": _array(model.u_center_),
+        "u_scale": _array(model.u_scale_),
+        "y_center": _array(model.y_center_),
+        "y_scale": _array(model.y_scale_),
+        "center": _array(model.center_),
+        "scale": _array(model.scale_),
         "low": _array(model.low_),
         "high": _array(model.high_),
-        **{f"start_{k}": _array(getattr(model, f"start_{k}_")) for k in ("A", "B", "C", "D")},
+        "start_A": _array(model.start_A_),
+        "start_B": _array(model.start_B_),
+        "start_C": _array(model.start_C_),
+        "start_D": _array(model.start_D_),
         "start_intercept": _array(model.start_intercept_),
         "order": int(model.order_),
     }

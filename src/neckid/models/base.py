@@ -35,6 +35,7 @@ from sklearn.base import BaseEstimator
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.domain import Domain, box_shares, regressor_box, regressor_domain
 from neckid.models.envelope import input_reach, reach_widening
+from neckid.models.facts import ModelFacts
 from neckid.models.io import ModelFile
 from neckid.models.results import (
     DIVERGENCE_SPANS,
@@ -70,8 +71,11 @@ __all__ = [
 LARGEST_VALUE = 1e150
 
 
-class Estimator(BaseEstimator, ModelFile):
+class Estimator(BaseEstimator, ModelFile, ModelFacts):
     """What every neckid estimator shares (see the module docstring for the contract).
+
+    What a fitted model tells about itself (its preprocessing, lags, training ranges, Set
+    Membership prior, state order) is :class:`~neckid.models.facts.ModelFacts`.
 
     Subclasses declare ``_parameter_constraints`` (one entry per ``__init__`` argument), call
     :meth:`_validate_params` at the start of ``fit``, and set ``max_lag_``, ``ts_``,

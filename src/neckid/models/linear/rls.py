@@ -595,6 +595,12 @@ class RecursiveARX(NarxModel):
         coef[self._output_terms] *= -1.0
         return coef
 
+    @property
+    def intercept_(self) -> FloatArray:
+        """Zeros, one per output: CFF-RLS fits no intercept (as a ``LinearARX`` without one)."""
+        check_is_fitted(self)
+        return np.zeros(len(self.output_names_))
+
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         return np.asarray(x @ self.coef_, dtype=np.float64)
 

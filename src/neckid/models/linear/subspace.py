@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.facts import StateOrder
 from neckid.models.linear.subspace_order import order_by_folds
 from neckid.models.linear.subspace_steps import (
     STABILITY_MARGIN,
@@ -295,6 +296,11 @@ class SubspaceStateSpace(Estimator):
         return self
 
     # ------------------------------------------------------------------ use
+    def state_order(self) -> StateOrder:
+        """The order and the singular values it was read from (fitted)."""
+        check_is_fitted(self)
+        return StateOrder(int(self.order_), self.singular_values_)
+
     @property
     def matrices_(self) -> Matrices:
         """``(A_, B_, C_, D_, intercept_)``."""

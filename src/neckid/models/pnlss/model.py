@@ -35,6 +35,7 @@ from scipy.optimize import least_squares
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import DIVERGENCE_SPANS, Estimator, ModelResult, check_is_fitted
+from neckid.models.facts import StateOrder
 from neckid.models.linear.subspace import StateSpaceSimulator, SubspaceStateSpace
 from neckid.models.linear.subspace_steps import estimate_state
 from neckid.models.online import extend_training_ranges, update_experiments
@@ -322,6 +323,12 @@ class PolynomialStateSpace(Estimator):
         return self
 
     # ------------------------------------------------------------------ use
+    def state_order(self) -> StateOrder | None:
+        """The order and the singular values of the ``ss`` start it came from (fitted)."""
+        check_is_fitted(self)
+        values = getattr(self, "singular_values_", None)
+        return None if values is None else StateOrder(int(self.order_), values)
+
     @property
     def matrices_(
         self,

@@ -42,6 +42,7 @@ from neckid.models.base import (
     check_is_fitted,
     stepped_run,
 )
+from neckid.models.facts import SetMembershipPrior
 from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.set_membership.core import SMSettings
 from neckid.models.set_membership.horizon_fit import (
@@ -513,6 +514,15 @@ class MultiStepSetMembership(NarxModel):
         self._set_horizon_arrays()
         extend_training_ranges(self, experiments)
         return self
+
+    def set_membership_prior(self) -> SetMembershipPrior:
+        """ε and γ per horizon (rows) and output, with the horizons (fitted)."""
+        check_is_fitted(self)
+        horizons = tuple(int(k) for k in self.horizons_)
+        distance = SetMembershipPrior.distance_of(self.scaling)
+        return SetMembershipPrior(
+            self.epsilon_, self.gamma_, horizons, str(self.lipschitz), distance
+        )
 
     def _set_horizon_arrays(self) -> None:
         self.epsilon_ = np.vstack([m.epsilon_ for m in self.estimators_])

@@ -23,6 +23,7 @@ from neckid.models.base import (
     check_is_fitted,
     stepped_run,
 )
+from neckid.models.facts import SetMembershipPrior
 from neckid.models.linear.arx import least_squares
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.set_membership._kernels import (
@@ -322,6 +323,12 @@ class SetMembership(NarxModel):
     local_neighbours_ = property(
         lambda self: self.core_.local_neighbours, doc="Points the local bounds combine."
     )
+
+    def set_membership_prior(self) -> SetMembershipPrior:
+        """ε and γ per output, the Lipschitz constants' kind and the distance (fitted)."""
+        check_is_fitted(self)
+        distance = SetMembershipPrior.distance_of(self.scaling)
+        return SetMembershipPrior(self.epsilon_, self.gamma_, None, str(self.lipschitz), distance)
 
     @property
     def _tree(self) -> SMTree:

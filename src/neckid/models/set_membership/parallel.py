@@ -60,6 +60,7 @@ from neckid.models.base import (
     check_is_fitted,
     history_rows,
 )
+from neckid.models.facts import SetMembershipPrior
 from neckid.models.linear.arx import LinearARX
 from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.models.polynomial.narx import PolynomialNARX
@@ -367,6 +368,13 @@ class ParallelSetMembership(Estimator):
         self.n_samples_ = self.sm_.n_samples_
         self.epsilon_ = self.sm_.epsilon_
         self.gamma_ = self.sm_.gamma_
+
+    def set_membership_prior(self) -> SetMembershipPrior:
+        """The SM map's prior (:meth:`SetMembership.set_membership_prior`) and the estimate."""
+        check_is_fitted(self)
+        sm, distance = self.sm_, SetMembershipPrior.distance_of(self.sm_.scaling)
+        lipschitz, estimate = str(sm.lipschitz), str(self.estimate)
+        return SetMembershipPrior(sm.epsilon_, sm.gamma_, None, lipschitz, distance, estimate)
 
     @property
     def gamma_curve_(self) -> GammaCurve | None:
