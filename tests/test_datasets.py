@@ -127,7 +127,7 @@ def test_trailing_comma_and_blank_lines_are_accepted(tmp_path):
 )
 def test_bad_logs_are_refused_with_the_row(tmp_path, rows, match):
     path = tmp_path / "bad.csv"
-    path.write_text("\n".join(rows))
+    path.write_text("\n".join(rows) + "\n")
     with pytest.raises(ValueError, match=match):
         load_softneck_log(path)
 

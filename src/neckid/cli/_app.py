@@ -130,11 +130,25 @@ def _fail(message: str) -> None:
 
 
 def _message(exc: BaseException) -> str:
+    from neckid.utils.files import disk_full_message
+
     if isinstance(exc, KeyError) and exc.args:
         return str(exc.args[0])
+    full = disk_full_message(exc) if isinstance(exc, OSError) else None
+    if full is not None:
+        return full
     if isinstance(exc, OSError) and exc.strerror and exc.filename:
         return f"{exc.filename}: {exc.strerror}"
     return str(exc) or type(exc).__name__
+
+
+def _fail_if_missing_extra(exc: ImportError) -> None:
+    """A missing optional dependency (pyarrow, h5py, ...) is the environment: say what to install."""
+    from neckid.utils.extras import missing_extra_message
+
+    message = missing_extra_message(exc)
+    if message is not None:
+        _fail(message)
 
 
 def _show_warning(
@@ -235,6 +249,8 @@ def handled(command: Command) -> Command:
         except _USER_ERRORS as exc:
             _fail(_message(exc))
         except Exception as exc:
+            if isinstance(exc, ImportError):
+                _fail_if_missing_extra(exc)
             if _STATE["debug"]:
                 raise
             error_console.print(

@@ -29,16 +29,55 @@ ORDERS_OPTION = typer.Option(
 
 
 def refuse_repeated_paths(paths: Sequence[Path], what: str = "log") -> None:
-    """The same file given twice (by any spelling of its path) is refused, naming it."""
-    seen: dict[Path, Path] = {}
+    """The same run given twice is refused, naming both.
+
+    By any spelling of its path (a symlink), as a hard link (the same device and inode) or as a
+    copy (the same bytes: SHA-256): training logs among themselves, test logs against them.
+    """
+    seen: dict[Any, Path] = {}
     for path in paths:
-        key = Path(path).resolve()
+        path = Path(path)
+        key: Any = path.resolve()
+        try:
+            status = path.stat()
+        except OSError:
+            status = None  # a missing file: its reader says so
+        if status is not None:
+            key = (status.st_dev, status.st_ino)
         if key in seen:
+            how = "also as" if seen[key].resolve() == path.resolve() else "a hard link to"
             raise ValueError(
-                f"{path} is given twice (also as {seen[key]}): the same {what} would count twice;"
+                f"{path} is given twice ({how} {seen[key]}): the same {what} would count twice;"
                 " give each run once"
             )
-        seen[key] = Path(path)
+        seen[key] = path
+    by_content: dict[tuple[int, str], Path] = {}
+    for path in map(Path, paths):
+        digest = _content_key(path)
+        if digest is None:
+            continue
+        if digest in by_content:
+            raise ValueError(
+                f"{path} holds the same bytes as {by_content[digest]} (a copy of one run): the"
+                f" same {what} would count twice; give each run once"
+            )
+        by_content[digest] = path
+
+
+def _content_key(path: Path) -> tuple[int, str] | None:
+    """A regular file's size and SHA-256 (None for a folder, a missing or unreadable file)."""
+    import hashlib
+
+    try:
+        if not path.is_file():
+            return None
+        digest = hashlib.sha256()
+        with path.open("rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+        return path.stat().st_size, digest.hexdigest()
+    except OSError:
+        return None
 
 
 def _regressor(

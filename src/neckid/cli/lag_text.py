@@ -21,9 +21,16 @@ __all__ = [
 
 _RANGE = re.compile(r"^\s*(\d+)\s*(?:-\s*(\d+))?\s*$")
 
+#: The longest lag (and the most lags) a regressor text may give, in samples: what a model file
+#: may claim (:mod:`neckid.models.io`). Checked before the list of lags is built.
+MAX_LAG = 100_000
+
+#: The most candidates ``--orders`` ranges may give ``select``: checked before they are built.
+MAX_CANDIDATES = 10_000
+
 
 def _parse_lag_list(text: str, argument: str) -> list[int]:
-    lags: list[int] = []
+    spans: list[tuple[int, int]] = []
     for part in text.split(","):
         if not part.strip():
             continue
@@ -36,8 +43,16 @@ def _parse_lag_list(text: str, argument: str) -> list[int]:
         hi = int(match.group(2)) if match.group(2) is not None else lo
         if hi < lo:
             raise ValueError(f"{argument}: range {part.strip()!r} goes backwards")
-        lags.extend(range(lo, hi + 1))
-    return lags
+        if hi > MAX_LAG:
+            raise ValueError(
+                f"{argument}: lag {hi} in {part.strip()!r} is beyond {MAX_LAG} samples, more than"
+                " a model can remember: give shorter lags (e.g. 1-10), or resample the log"
+                " (--resample) so that the same time spans fewer samples"
+            )
+        spans.append((lo, hi))
+    if sum(hi - lo + 1 for lo, hi in spans) > MAX_LAG:
+        raise ValueError(f"{argument}: {text.strip()!r} lists more than {MAX_LAG} lags; give fewer")
+    return [lag for lo, hi in spans for lag in range(lo, hi + 1)]
 
 
 def parse_lags(text: str) -> Lags:
@@ -101,6 +116,12 @@ def parse_order_grid(text: str) -> list[Lags]:
     from neckid.selection.lags import lag_grid
 
     na, nb, nk = _order_ranges(text, "--orders")
+    count = len(na) * len(nb) * len(nk)
+    if count > MAX_CANDIDATES:
+        raise ValueError(
+            f"--orders {text}: {count} candidates ({len(na)} x {len(nb)} x {len(nk)}), more than"
+            f" {MAX_CANDIDATES} a selection fits in reasonable time: narrow the ranges"
+        )
     return lag_grid(na, nb, nk)
 
 

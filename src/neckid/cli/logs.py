@@ -161,7 +161,9 @@ def info(
         return
     if not path.exists():
         raise FileNotFoundError(f"{str(path)!r} does not exist")
-    if path.suffix == ".npz":
+    from neckid.utils.formats import file_format
+
+    if path.suffix.lower() == ".npz" or (path.is_file() and file_format(path) in ("npz", "zip")):
         _info_model(path, as_json)
         return
     mapping = parse_mapping(maps or [])

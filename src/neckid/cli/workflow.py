@@ -187,9 +187,8 @@ def _read_channels(
     if path.suffix.lower() not in (".parquet", ".mat"):
         _refuse_headerless(path, sep)
     suffix = path.suffix.lower()
-    if ts is not None:
-        time = None
-    if restamp is not None and time is not None and suffix != ".mat":
+    # With --ts, the time column is only checked against it (the reader refuses a contradiction).
+    if restamp is not None and ts is None and time is not None and suffix != ".mat":
         return _read_restamped(path, inputs, outputs or (), time, sep, restamp)
     if suffix == ".parquet":
         return IOData.from_parquet(path, list(inputs), list(outputs or ()), time=time, ts=ts)
@@ -209,7 +208,7 @@ def _read_restamped(
     restamp: Restamp,
 ) -> IOData:
     """A CSV or Parquet log whose repeated time stamps are dealt with by ``restamp`` first."""
-    import pandas as pd
+    from neckid.data.readers import read_csv_frame
 
     if path.suffix.lower() == ".parquet":
         from neckid.data.parquet import read_parquet_columns
@@ -218,7 +217,7 @@ def _read_restamped(
     else:
         if not sep:
             raise ValueError("--sep must be one character or more; got an empty separator")
-        frame = pd.read_csv(path, sep=sep)
+        frame = read_csv_frame(path, sep=sep)
     if time not in frame.columns:
         raise KeyError(
             f"{path.name} has no time column {time!r}; it has {list(map(str, frame.columns))}"

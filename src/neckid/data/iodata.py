@@ -8,6 +8,7 @@ channel has a name and a unit. Angles are in degrees unless a unit says otherwis
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -106,8 +107,8 @@ class IOData:
         conditions: Mapping[str, ConditionValue] | None = None,
         condition_units: Mapping[str, str] | None = None,
     ) -> None:
-        u_arr = as_2d(u, "u")
-        y_arr = as_2d(y, "y", n_samples=u_arr.shape[0])
+        u_arr = as_2d(u, "u", names=input_names)
+        y_arr = as_2d(y, "y", n_samples=u_arr.shape[0], names=output_names)
         if u_arr.shape[0] != y_arr.shape[0]:
             raise ValueError(
                 f"u and y must have the same number of samples (rows); got u with {u_arr.shape[0]}"
@@ -125,7 +126,13 @@ class IOData:
         self.input_units = channel_units(input_units, u_arr.shape[1], "input_units")
         self.output_units = channel_units(output_units, y_arr.shape[1], "output_units")
         self.ts = check_ts(ts)
-        t0_value = float(t0)
+        start: Any = t0[()] if isinstance(t0, np.ndarray) and t0.ndim == 0 else t0
+        if isinstance(start, bool | np.bool_) or not isinstance(start, numbers.Real):
+            raise TypeError(f"t0 must be a number of seconds; got {t0!r}")
+        try:
+            t0_value = float(start)
+        except OverflowError:  # a Python integer beyond the float range
+            t0_value = math.inf
         if not math.isfinite(t0_value):
             raise ValueError(f"t0 must be a finite number of seconds; got {t0!r}")
         self.t0 = t0_value
@@ -392,7 +399,8 @@ class IOData:
         kind : {"input", "output"}
             Where to put it.
         """
-        column = as_2d(values, name)
+        channel_names([name], 1, name, "name")  # a name that files can hold
+        column = as_2d(values, "values", names=[name])
         if column.shape != (self.n_samples, 1):
             raise ValueError(
                 f"channel {name!r} must have shape ({self.n_samples},); got {np.shape(values)}"
@@ -812,15 +820,22 @@ def as_experiments(data: IOData | Sequence[IOData], argument: str = "data") -> l
         if not isinstance(d, IOData):
             raise TypeError(f"{argument}[{i}] must be an IOData; got {type(d).__name__}")
     first = items[0]
+
+    def label(i: int, d: IOData) -> str:  # the file the user gave, when the run has its name
+        return f"{d.name} ({argument}[{i}])" if d.name else f"{argument}[{i}]"
+
     for i, d in enumerate(items[1:], start=1):
         if d.input_names != first.input_names or d.output_names != first.output_names:
             raise ValueError(
-                f"{argument}[{i}] has channels {list(d.input_names)} -> {list(d.output_names)},"
-                f" but {argument}[0] has {list(first.input_names)} -> {list(first.output_names)}"
+                f"{label(i, d)} has channels {list(d.input_names)} -> {list(d.output_names)},"
+                f" but {label(0, first)} has {list(first.input_names)} ->"
+                f" {list(first.output_names)}"
             )
         if not math.isclose(d.ts, first.ts, rel_tol=1e-6):
             raise ValueError(
-                f"{argument}[{i}] has ts={d.ts!r} but {argument}[0] has ts={first.ts!r}"
+                f"{label(i, d)} is sampled every {d.ts:.6g} s, but {label(0, first)} every"
+                f" {first.ts:.6g} s: runs fitted together share one sampling period; resample"
+                " one of them (--resample)"
             )
         _check_same_units(d, first, f"{argument}[{i}]", f"{argument}[0]")
     return items

@@ -59,9 +59,11 @@ def read_parquet_columns(path: str | Path, names: Sequence[str] | None) -> pd.Da
     path = Path(path)
     try:
         import pyarrow.parquet as pq
-    except ImportError as exc:
+    except ImportError:
         raise ImportError(
-            f"reading {path.name} needs pyarrow: pip install neckid[parquet] ({exc})"
+            f"reading {path.name} needs pyarrow, which is not installed: pip install"
+            " 'neckid[parquet]' (or pip install pyarrow)",
+            name="pyarrow",
         ) from None
     try:
         columns = [str(name) for name in pq.read_schema(path).names]

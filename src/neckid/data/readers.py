@@ -13,8 +13,11 @@ seconds that must be sorted, distinct and uniform within 5 %
 
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import multiprocessing
+import re
+import warnings
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -23,10 +26,17 @@ import numpy as np
 import pandas as pd
 
 from neckid.utils.checks import check_uniform_time
+from neckid.utils.formats import not_this_kind
 from neckid.utils.memory import check_allocation
 from neckid.utils.types import FloatArray
 
-__all__ = ["file_fields", "frame_fields", "not_text_message"]
+__all__ = [
+    "file_fields",
+    "frame_fields",
+    "not_text_message",
+    "read_csv_frame",
+    "time_unit_scale",
+]
 
 
 def frame_fields(
@@ -91,9 +101,12 @@ def frame_fields(
     if (time is None) == (ts is None):
         raise ValueError("give exactly one of time= (a time column) and ts= (the sampling period)")
     t0 = 0.0
+    units = dict(units) if units is not None else dict(frame.attrs.get("units", {}))
     if time is not None:
         _check_exact_integers(frame[time], f"time column {time!r}")
         times = _time_seconds(frame[time], time)
+        if _time_kind(frame[time]) is None:
+            times = times * time_unit_scale(time, units.get(time, ""))
         bad = np.flatnonzero(times.isna().to_numpy())
         if bad.size:
             row = int(bad[0])
@@ -104,7 +117,6 @@ def frame_fields(
         ts_value, t0 = check_uniform_time(times.to_numpy(dtype=np.float64), time)
     elif ts is not None:  # always true here: exactly one of time and ts was given
         ts_value = ts
-    units = dict(units) if units is not None else dict(frame.attrs.get("units", {}))
 
     def columns(names: Sequence[str]) -> FloatArray:
         if not names:
@@ -136,6 +148,59 @@ def frame_fields(
 
 #: The largest integer a float64 holds exactly: larger integers in a log would be rounded.
 LARGEST_EXACT_INTEGER = 2**53
+
+#: Units of time a time column may be in (its header ``time [ms]``, ``time (us)``, ``time_ms``,
+#: or its unit in the file), in seconds.
+TIME_UNITS = {
+    "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+    "ms": 1e-3, "msec": 1e-3, "millisecond": 1e-3, "milliseconds": 1e-3,
+    "us": 1e-6, "\u00b5s": 1e-6, "\u03bcs": 1e-6, "usec": 1e-6, "microsecond": 1e-6,
+    "microseconds": 1e-6,
+    "ns": 1e-9, "nsec": 1e-9, "nanosecond": 1e-9, "nanoseconds": 1e-9,
+    "min": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0, "hour": 3600.0, "hours": 3600.0,
+}  # fmt: skip
+
+_BRACKETED_UNIT = re.compile(r"[\[(]\s*([^\[\]()]*?)\s*[\])]\s*$")
+_SUFFIX_UNIT = re.compile(r"[_ ](s|sec|ms|msec|us|\u00b5s|\u03bcs|usec|ns|nsec|min)$")
+
+
+def time_unit_scale(name: str, unit: str = "") -> float:
+    """Seconds per unit of a time column: from its header (``time [ms]``) or its ``unit``.
+
+    A header that names a unit in brackets (``[ms]``, ``(us)``) or ends in one (``time_ms``) is
+    honoured, as is a unit stored with the column; none means seconds. A unit that is not one of
+    time, or a header and a stored unit that disagree, is refused.
+
+    Examples
+    --------
+    >>> time_unit_scale("time [ms]")
+    0.001
+    >>> time_unit_scale("t_us"), time_unit_scale("time"), time_unit_scale("time", "ns")
+    (1e-06, 1.0, 1e-09)
+    """
+    found = _BRACKETED_UNIT.search(str(name))
+    header_unit = found.group(1) if found else None
+    if header_unit is None:
+        suffix = _SUFFIX_UNIT.search(str(name))
+        header_unit = suffix.group(1) if suffix else None
+    known = ", ".join(["s", "ms", "us", "ns", "min", "h"])
+    scales = []
+    for where, text in (("its header", header_unit), ("its stored unit", unit or None)):
+        if text is None:
+            continue
+        scale = TIME_UNITS.get(text.strip().lower()) if text.strip() else 1.0
+        if scale is None:
+            raise ValueError(
+                f"time column {name!r} is in {text!r} ({where}), not a unit of time neckid"
+                f" knows ({known}): convert the stamps to seconds"
+            )
+        scales.append(scale)
+    if len(set(scales)) > 1:
+        raise ValueError(
+            f"time column {name!r}: its header says {header_unit!r} but its stored unit is"
+            f" {unit!r}; correct one of them"
+        )
+    return scales[0] if scales else 1.0
 
 
 def _time_kind(column: pd.Series) -> str | None:
@@ -283,16 +348,24 @@ def file_fields(
         raise ValueError(f"{path} is a folder, not a {kind} file")
     if not path.exists():
         raise FileNotFoundError(f"{kind} file {str(path)!r} does not exist")
+    # With ts given, the time column (the default "time" or the one named) is not read as time
+    # stamps but checked against ts: a ts that contradicts the stamps is refused.
+    stamps = time if ts is not None else None
+    time = None if ts is not None else time
     if kind == "mat":
-        frame, period = _mat_frame(path, [*inputs, *outputs, *([time] if time else [])], ts)
+        channels = [*inputs, *outputs, *([time] if time else [])]
+        try:
+            frame, period = _mat_frame(path, [*channels, *([stamps] if stamps else [])], ts)
+        except KeyError:
+            if not stamps:
+                raise
+            frame, period = _mat_frame(path, channels, ts)
     else:
         if path.stat().st_size == 0:
             raise ValueError(f"log file {str(path)!r} is empty")
         if isinstance(ts, str):
             raise TypeError(f"ts must be a number of seconds for a {kind} file; got {ts!r}")
         period = ts
-        if period is not None and time == "time":
-            time = None
         wanted = [*inputs, *outputs, *([time] if time is not None else [])]
         if kind == "csv":
             frame = _read_csv(path, read_csv)
@@ -300,8 +373,13 @@ def file_fields(
             from neckid.data.parquet import read_parquet_columns
 
             frame = read_parquet_columns(path, wanted)
+            if stamps is not None and stamps not in frame.columns:
+                with contextlib.suppress(KeyError):  # no such column: ts alone gives the time
+                    frame[stamps] = read_parquet_columns(path, [stamps])[stamps].to_numpy()
         _check_cells(path, frame, wanted)
     try:
+        if stamps is not None and period is not None:
+            _check_ts_agrees(frame, stamps, float(period), units)
         fields = frame_fields(frame, inputs, outputs, time=time, ts=period, units=units)
     except KeyError as exc:
         hint = _header_hint(frame) if kind == "csv" else ""
@@ -311,12 +389,86 @@ def file_fields(
     return {**fields, "name": path.name}
 
 
+def _check_ts_agrees(
+    frame: pd.DataFrame, name: str, ts: float, units: Mapping[str, str] | None
+) -> None:
+    """Refuse a ``ts`` that departs by more than 1 % from the step of the time column ``name``.
+
+    A table without that column, or whose column holds no readable time stamps, has nothing to
+    contradict ``ts``: ``ts`` gives the time alone.
+    """
+    if name not in frame.columns or isinstance(frame[name], pd.DataFrame):
+        return
+    column = frame[name]
+    try:
+        stored = dict(units if units is not None else frame.attrs.get("units", {}))
+        seconds = _time_seconds(column, name)
+        if _time_kind(column) is None:
+            seconds = seconds * time_unit_scale(name, stored.get(name, ""))
+    except ValueError:
+        return
+    values = seconds.to_numpy(dtype=np.float64)
+    steps = np.diff(values[np.isfinite(values)])
+    steps = steps[steps > 0]
+    if not steps.size:
+        return
+    step = float(np.median(steps))
+    if abs(step - ts) > 0.01 * ts:
+        raise ValueError(
+            f"ts={ts:g} s (--ts) contradicts the time column {name!r}, whose stamps are"
+            f" {step:.6g} s apart: give no ts to use the time column, correct ts (one within 1 %"
+            " of the stamps' step is taken as given), or ignore the column (time=None, --time '')"
+        )
+
+
+def read_csv_frame(path: str | Path, **read_csv: Any) -> pd.DataFrame:
+    """A CSV log as a DataFrame, checked as :func:`file_fields` checks it.
+
+    Comment lines (``#``) above the header are skipped; a header repeating a name, a last line
+    with fewer fields than the header (refused) or without a line break (left out, with a
+    warning naming it) are dealt with as :func:`file_fields` does. Errors are ValueErrors that
+    name the file.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not a csv file")
+    if not path.exists():
+        raise FileNotFoundError(f"csv file {str(path)!r} does not exist")
+    if path.stat().st_size == 0:
+        raise ValueError(f"log file {str(path)!r} is empty")
+    return _read_csv(path, dict(read_csv))
+
+
+def _leading_comments(path: Path, read_csv: Mapping[str, Any]) -> int:
+    """How many lines above the header start with ``#`` (skipped, unless the caller decides)."""
+    if {"skiprows", "header", "comment", "names"} & set(read_csv):
+        return 0
+    count = 0
+    with path.open("rb") as handle:
+        for line in handle:
+            if not line.lstrip(b"\xef\xbb\xbf").lstrip().startswith(b"#"):
+                break
+            count += 1
+            if count > 10_000:
+                break
+    return count
+
+
 def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
     """``pandas.read_csv`` whose failures are ValueErrors naming the file and the reason."""
+    binary = not_this_kind(path, "a CSV log (text)")
+    if binary is not None:
+        raise ValueError(
+            f"{binary}: a log is a CSV file, or a Parquet or .mat file by its extension (.parquet,"
+            " .mat); a model file goes where the command takes a model"
+        )
+    comments = _leading_comments(path, read_csv)
+    if comments:
+        read_csv = {**read_csv, "skiprows": comments}
     try:
         frame = pd.read_csv(path, **read_csv)
         _check_header(path, frame, read_csv)
-        _check_last_line(path, frame, read_csv)
+        frame = _check_last_line(path, frame, read_csv)
     except UnicodeDecodeError as exc:
         encoding = str(read_csv.get("encoding") or "utf-8")
         message = not_text_message(path, path.read_bytes(), encoding, exc)
@@ -332,45 +484,61 @@ def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
 
 
 #: read_csv options under which the last line's fields are counted (others change what a line is).
-_PLAIN_CSV_OPTIONS = frozenset({"sep", "delimiter", "encoding", "header", "names", "dtype"})
+_PLAIN_CSV_OPTIONS = frozenset(
+    {"sep", "delimiter", "encoding", "header", "names", "dtype", "skiprows"}
+)
 
 
-def _check_last_line(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> None:
+def _check_last_line(path: Path, frame: pd.DataFrame, read_csv: dict[str, Any]) -> pd.DataFrame:
     """Refuse a CSV whose last line has fewer fields than the header: a line cut short.
 
-    A writer still writing leaves such a line; pandas would fill the missing cells with NaN.
+    A writer still writing leaves such a line; pandas would fill the missing cells with NaN. A
+    last line with every field but no line break may be cut inside its last number (``0.12``
+    of ``0.1234``), which would be read as another number: it is left out, with a warning that
+    names it. Returns the frame (without that line).
     """
     import csv
     import io
 
     separator = read_csv.get("sep", read_csv.get("delimiter", ","))
     if set(read_csv) - _PLAIN_CSV_OPTIONS or not isinstance(separator, str) or len(separator) != 1:
-        return
+        return frame
     if not len(frame) or not len(frame.columns):
-        return
+        return frame
     with path.open("rb") as handle:
         size = handle.seek(0, io.SEEK_END)
         handle.seek(max(0, size - 65536))
         tail = handle.read()
     lines = [line for line in tail.splitlines() if line.strip()]
     if not lines:
-        return
+        return frame
     encoding = str(read_csv.get("encoding") or "utf-8")
     try:
         last = lines[-1].decode(encoding)
     except (UnicodeDecodeError, LookupError):
-        return  # the reader reports the encoding
+        return frame  # the reader reports the encoding
     if last.count('"') % 2:
-        return  # a quoted field over several lines: pandas parsed it
+        return frame  # a quoted field over several lines: pandas parsed it
     fields = next(csv.reader([last], delimiter=separator), [])
+    row = len(frame) - 1
+    broken = tail.endswith((b"\n", b"\r"))
     if 0 < len(fields) < len(frame.columns):
-        row = len(frame) - 1
-        ends = "" if tail.endswith((b"\n", b"\r")) else " and no line break"
+        ends = "" if broken else " and no line break"
         raise ValueError(
             f"{path.name}: the last line (row {row}, {last[:60]!r}) has {len(fields)} field(s)"
             f" where the header has {len(frame.columns)}{ends}: the file seems cut short (a"
             " writer still writing?); wait until it is complete, or drop that line"
         )
+    if not broken and len(frame) > 1:
+        warnings.warn(
+            f"{path.name}: the last line (row {row}, {last[:60]!r}) has no line break: it may be"
+            " cut short (a writer still writing?), so it is left out; end the file with a line"
+            " break to keep it",
+            UserWarning,
+            stacklevel=4,
+        )
+        return frame.iloc[:-1]
+    return frame
 
 
 def not_text_message(path: Path, data: bytes, encoding: str, error: UnicodeDecodeError) -> str:

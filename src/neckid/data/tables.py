@@ -15,7 +15,14 @@ import numpy as np
 import pandas as pd
 
 from neckid.data.parquet import read_parquet_columns
-from neckid.data.readers import _mat_variables, _time_seconds, _Unreadable
+from neckid.data.readers import (
+    _mat_variables,
+    _time_kind,
+    _time_seconds,
+    _Unreadable,
+    read_csv_frame,
+    time_unit_scale,
+)
 
 __all__ = ["whole_table"]
 
@@ -83,10 +90,14 @@ def whole_table(path: str | Path, *, sep: str = ",", time: str = "time") -> dict
     elif suffix == ".mat":
         (frame, skipped), kind = _mat_table(path), "mat"
     else:
-        frame, kind = pd.read_csv(path, sep=sep), "csv"
+        frame, kind = read_csv_frame(path, sep=sep), "csv"
     if time in frame.columns:
         try:
-            frame[time] = _time_seconds(frame[time], time)
+            seconds = _time_seconds(frame[time], time)
+            if _time_kind(frame[time]) is None:
+                units = frame.attrs.get("units", {})
+                seconds = seconds * time_unit_scale(time, units.get(time, ""))
+            frame[time] = seconds
         except ValueError as exc:
             raise ValueError(f"{path.name}: {exc}") from None
     return {"frame": frame, "format": kind, "skipped": skipped}

@@ -28,6 +28,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +39,7 @@ from numpy.typing import NDArray
 
 from neckid.data.iodata import IOData
 from neckid.utils.checks import check_ts, check_uniform_time
+from neckid.utils.formats import not_this_kind
 
 __all__ = [
     "CHANNELS",
@@ -135,6 +137,9 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
         raise ValueError(f"{path} is a folder, not a soft-neck log")
     if not path.is_file():
         raise FileNotFoundError(f"soft-neck log {str(path)!r} does not exist")
+    binary = not_this_kind(path, "a soft-neck log (text)")
+    if binary is not None:
+        raise ValueError(binary)
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")  # a byte-order mark (Windows editors) is dropped
@@ -146,6 +151,16 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
     lines = text.splitlines()
     # Blank lines at the end (or anywhere) carry no sample.
     numbered = [(i + 1, line) for i, line in enumerate(lines) if line.strip()]
+    if len(numbered) > 1 and not text.endswith(("\n", "\r")):
+        # A log still being written may end inside its last number (0.12 of 0.1234).
+        line_no, last = numbered.pop()
+        warnings.warn(
+            f"{path.name}: the last line (line {line_no}, {_clip(last)}) has no line break: it"
+            " may be cut short (a writer still writing?), so it is left out; end the file with a"
+            " line break to keep it",
+            UserWarning,
+            stacklevel=3,
+        )
     if not numbered:
         raise ValueError(f"{path} holds no data row")
     first_line_no, first = numbered[0]
@@ -408,7 +423,7 @@ def load_softneck_directory(
     >>> os.makedirs(os.path.join(folder, "step"))
     >>> for name in ("200stepresponse.csv", "400stepresponse.csv"):
     ...     rows = [f"{0.025 * k}, {0.1 * k}, {0.5 + 0.01 * k}" for k in range(5)]
-    ...     _ = open(os.path.join(folder, "step", name), "w").write("\n".join(rows))
+    ...     _ = open(os.path.join(folder, "step", name), "w").write("\n".join(rows) + "\n")
     >>> sorted(load_softneck_directory(folder))
     ['step/200stepresponse.csv', 'step/400stepresponse.csv']
     """

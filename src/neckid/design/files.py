@@ -49,6 +49,7 @@ from neckid.design.operators import (
     oustaloup_operator,
     tustin_integrator,
 )
+from neckid.utils.formats import not_this_kind
 
 __all__ = [
     "FORMAT",
@@ -282,10 +283,18 @@ def load_controller(path: str | Path) -> DesignedController:
         If it cannot be read.
     """
     file = Path(path)
+    binary = not_this_kind(file, "a controller file (JSON, written by neckid design)")
+    if binary is not None:
+        raise ValueError(binary)
     try:
         document = json.loads(file.read_text(encoding="utf-8"))
     except json.JSONDecodeError as exc:
         raise ValueError(f"{file}: not a JSON file ({exc.msg} at line {exc.lineno})") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{file} is not a controller file: not UTF-8 text (byte {exc.start}); a controller"
+            " file is the JSON that neckid design writes"
+        ) from None
     if not isinstance(document, dict) or document.get("format") != FORMAT:
         raise ValueError(f"{file}: not a neckid controller file (its 'format' is not {FORMAT!r})")
     if document.get("version") != VERSION:

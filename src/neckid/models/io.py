@@ -68,7 +68,7 @@ def write_model_file(
 ) -> Path:
     """Write a model file; returns the path written (``.npz`` is appended if missing)."""
     path = Path(path)
-    if path.suffix != ".npz":
+    if path.suffix.lower() != ".npz":
         path = path.with_name(path.name + ".npz")
     header = {
         "format": "neckid-model",

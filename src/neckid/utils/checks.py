@@ -296,7 +296,10 @@ def check_ts(ts: Any) -> float:
         ts = ts[()]
     if isinstance(ts, bool | np.bool_) or not isinstance(ts, numbers.Real):
         raise TypeError(f"ts must be a number of seconds; got {ts!r}")
-    value = float(ts)
+    try:
+        value = float(ts)
+    except OverflowError:  # a Python integer beyond the float range
+        value = math.inf
     if not math.isfinite(value) or value <= 0:
         raise ValueError(f"ts must be a positive number of seconds; got {value!r}")
     if value > LARGEST_TS:

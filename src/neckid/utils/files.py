@@ -38,6 +38,7 @@ __all__ = [
     "StagedFolder",
     "atomic_path",
     "check_output_file",
+    "disk_full_message",
     "lock_path",
     "output_folder",
     "output_name",
@@ -114,10 +115,13 @@ def _refuse_degenerate(target: Path, given: str | Path, option: str) -> None:
         )
 
 
-def _refuse_special(target: Path, option: str) -> None:
+def _refuse_special(target: Path, option: str, suffixes: Sequence[str] | None = None) -> None:
     kind = _kind(target)
     if kind == "a folder":
-        raise OutputError(f"{option} {str(target)!r} is a folder; give a file name")
+        example = target / f"out{(suffixes or WRITTEN_AS.get(option) or ('.csv',))[0]}"
+        raise OutputError(
+            f"{option} {str(target)!r} is a folder; give a file name, e.g. {str(example)!r}"
+        )
     if kind is not None:
         raise OutputError(
             f"{option} {str(target)!r} is {kind}, not a regular file; neckid replaces only regular"
@@ -234,13 +238,13 @@ def check_output_file(
                 " choose another file"
             )
     allowed = tuple(suffixes) if suffixes is not None else WRITTEN_AS.get(option)
+    _refuse_special(target, option, allowed)
     if allowed and target.suffix.lower() not in {s.lower() for s in allowed}:
         what = " or ".join(allowed)
         raise OutputError(
             f"{option} {str(target)!r}: the file is written as {what[1:].upper()}, so its name"
             f" must end in {what}; got {target.suffix or 'no extension'!r}"
         )
-    _refuse_special(target, option)
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise FileNotFoundError(f"{option}: folder {str(folder)!r} does not exist; create it first")
@@ -260,6 +264,31 @@ def check_output_file(
         )
     _remove_stale(target)
     return target
+
+
+def disk_full_message(error: OSError) -> str | None:
+    """The message for a write that failed for want of space, else None.
+
+    ENOSPC, or Python's "no usable temporary directory" (ENOENT), which a full disk causes.
+    """
+    import errno
+
+    if error.errno == errno.ENOSPC:
+        where = f" holding {str(error.filename)!r}" if error.filename else ""
+        return (
+            f"no space left on the device{where}: free some space or write elsewhere (outputs"
+            " are written whole or not at all: nothing was left half written)"
+        )
+    if "No usable temporary directory" in str(error):
+        folder = os.environ.get("TMPDIR", "/tmp")
+        with contextlib.suppress(OSError):
+            free = shutil.disk_usage(folder).free
+            folder = f"{folder} ({free / 1e6:.3g} MB free)"
+        return (
+            f"no room for temporary files in {folder}: the disk is full or not writable; free"
+            " some space, or set TMPDIR to a folder with room"
+        )
+    return None
 
 
 def _remove_stale(target: Path) -> None:

@@ -18,13 +18,14 @@ were given, never in the order they finish: a sweep on a cluster returns what it
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Iterable, Iterator
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
 from joblib import Parallel, parallel_config
 
-__all__ = ["DASK_INSTALL_HINT", "check_backend", "run_jobs"]
+__all__ = ["DASK_INSTALL_HINT", "check_backend", "check_jobs", "run_jobs"]
 
 #: What to do when the Dask backend is asked for and ``distributed`` is missing.
 DASK_INSTALL_HINT = "pip install neckid[dask]"
@@ -110,6 +111,30 @@ def _with_progress(results: Iterable[Any], total: int, label: str) -> Iterator[A
             advance()
 
 
+def check_jobs(n_jobs: Any, argument: str = "n_jobs (--jobs)") -> int | None:
+    """The number of parallel workers: None, a positive integer, or -1 (-2 ...: all cores but 1 ...).
+
+    Examples
+    --------
+    >>> check_jobs(4), check_jobs(-1), check_jobs(None)
+    (4, -1, None)
+    >>> check_jobs(0)
+    Traceback (most recent call last):
+    ...
+    ValueError: n_jobs (--jobs) must be a positive number of parallel workers, or -1 for one per core; got 0
+    """
+    if n_jobs is None:
+        return None
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral):
+        raise TypeError(f"{argument} must be a whole number of parallel workers; got {n_jobs!r}")
+    if n_jobs == 0:
+        raise ValueError(
+            f"{argument} must be a positive number of parallel workers, or -1 for one per core;"
+            f" got {n_jobs}"
+        )
+    return int(n_jobs)
+
+
 def run_jobs(
     jobs: Iterable[Any],
     *,
@@ -157,6 +182,7 @@ def run_jobs(
     [1, 2, 4, 8, 16]
     """
     check_backend(backend)
+    check_jobs(n_jobs)
     with _backend_context(backend):
         results = Parallel(n_jobs=n_jobs, return_as="generator")(jobs)
         if progress:
