@@ -116,11 +116,18 @@ def main(argv: list[str] | None = None) -> None:
             )
         for name, reason in selection.rejected.items():
             print(f"rejected on the training logs: {name}: {reason[:160]}")
-        chosen, arx = selection.chosen, means["arx"]
+        chosen, best, arx = selection.chosen, selection.best, means["arx"]
+        print(
+            f"best on the folds {best} ({table.loc[best, 'fit_mean']:.1f} %), test"
+            f" {means.get(best, float('nan')):.1f} %"
+        )
         print(
             f"recommended {chosen}: {means[chosen]:.1f} %, {means[chosen] - arx:+.1f} points"
-            f" from ARX; stress reach {reach:.0%}"
+            f" from ARX ({arx:.1f} %); stress reach {reach:.0%}"
         )
+        for line in [*selection.explain(), *selection.warnings]:
+            print(line)
+        print(f"baselines on the folds: {selection.baselines}")
         print(f"fold fits of the chosen: {np.round(table.loc[chosen, 'fold_fits'], 1)}")
 
 

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from neckid.data.folds import MIN_BLOCKS, fold_records
+from neckid.data.folds import MIN_BLOCKS, fold_records, rank_candidates
 from neckid.data.iodata import IOData
 from neckid.models.linear.arx import linear_sum
 from neckid.models.set_membership._kernels.priors import prior_bounds
@@ -436,7 +436,10 @@ def _choose(
     """Index of the chosen setting (None if all failed) and whether it meets the target.
 
     ``coverage`` and ``width`` are means over folds, ``(n_settings, n_outputs)``, NaN where a
-    setting failed in some fold.
+    setting failed in some fold. The choice is the one ranking of every selection
+    (:func:`neckid.data.folds.rank_candidates`, ``"best"`` rule): among the settings that meet
+    the target, the narrowest band (width over the residual scale, summed over outputs; ties:
+    the first); when none does, the highest worst-output coverage, the narrower band on a tie.
     """
     ok = ~np.isnan(coverage).any(axis=1)
     if not ok.any():
@@ -444,10 +447,11 @@ def _choose(
     score = np.where(ok, np.sum(width / np.where(scale > 0, scale, 1.0), axis=1), np.inf)
     meets = ok & np.all(coverage >= target, axis=1)
     if meets.any():
-        return int(np.argmin(np.where(meets, score, np.inf))), True
+        narrow = rank_candidates(-score[:, None], accepted=list(meets), rule="best")
+        return narrow.chosen, True
     worst = np.where(ok, coverage.min(axis=1), -np.inf)
-    best = np.flatnonzero(worst == worst.max())
-    return int(best[np.argmin(score[best])]), False
+    covered = rank_candidates(worst[:, None], list(score), accepted=list(ok), rule="best")
+    return covered.chosen, False
 
 
 @dataclass(frozen=True)
