@@ -1135,6 +1135,205 @@ def _lone_output_lag(tmp: Path) -> None:
     )
 
 
+# ---------------------------------------------------------------------------- a model in the lab's loop
+def _pi_run(tmp: Path) -> tuple[Path, Path, object]:
+    """A model file and a bench log (six columns) that the lab's PI made with it as the neck."""
+    from test_lab_loop import _logged_loop, _plant_model
+    from test_loop_checks import _softneck_file
+
+    model = _plant_model(np.random.default_rng(0))
+    log = _logged_loop(model)
+    return model.save(tmp / "model.npz"), _softneck_file(log, tmp / "int000stepresponse.csv"), log
+
+
+def _loop_wrong_controller(tmp: Path) -> None:
+    model, log, _ = _pi_run(tmp)
+    args = ("validate", model, log, "--in-loop", "--controller", "fra", "--json", tmp / "l.json")
+    refused(
+        tmp,
+        *args,
+        match=r"int000stepresponse\.csv: the controller fra does not reproduce"
+        r" the log's commands: the controller check .* is \d\.\d+ rad/s, beyond the"
+        r" tolerance 1e-04 rad/s .*--force runs it anyway",
+    )
+    assert not (tmp / "l.json").exists()
+    code, output = cli(*args, "--force")
+    assert code == 0 and "warning (--force)" in output, output
+
+
+def _loop_parameter_logs(tmp: Path) -> None:
+    from test_loop_checks import _adaptive_file
+
+    model, log, _ = _pi_run(tmp)
+    folder = tmp / "adaptive"
+    folder.mkdir()
+    _adaptive_file(folder, "000")
+    refused(
+        tmp,
+        "validate",
+        model,
+        log,
+        "--in-loop",
+        "--controller",
+        folder,
+        match=r"int000stepresponse\.csv was made by the PI \(int\), as its name says",
+    )
+    ada = tmp / "ada200response.csv"
+    ada.write_bytes(log.read_bytes())
+    refused(
+        tmp,
+        "validate",
+        model,
+        ada,
+        "--in-loop",
+        "--controller",
+        _adaptive_file(folder, "400"),
+        match=r"ada200response\.csv is the 200 g adaptive run but the parameter log"
+        r" adacon400\.csv is the 400 g one",
+    )
+
+
+def _loop_controller_period(tmp: Path) -> None:
+    from test_loop_checks import _designed
+
+    model, log, _ = _pi_run(tmp)
+    slow = _designed(tmp, "slow.json", ts=0.05)
+    refused(
+        tmp,
+        "validate",
+        model,
+        log,
+        "--in-loop",
+        "--controller",
+        slow,
+        match=r"runs every 0\.05 s but the log is sampled every 0\.025 s",
+    )
+
+
+def _loop_controller_gains(tmp: Path) -> None:
+    from test_loop_checks import _designed, _edit
+
+    model, log, _ = _pi_run(tmp)
+    nan = _edit(_designed(tmp, "nan.json"), lambda d: d["gains"].__setitem__("kp", float("nan")))
+    refused(
+        tmp,
+        "validate",
+        model,
+        log,
+        "--in-loop",
+        "--controller",
+        nan,
+        match=r"nan\.json: gains\.kp must be a finite number; got nan",
+    )
+    lonely = _edit(_designed(tmp, "ki.json"), lambda d: d["gains"].__setitem__("ki", 0.9))
+    refused(
+        tmp,
+        "validate",
+        model,
+        log,
+        "--in-loop",
+        "--controller",
+        lonely,
+        match=r"ki\.json: gains\.ki = 0\.9 disagrees with gains\.kf = 0\.8237 .* edit both",
+    )
+
+
+def _loop_diverges(tmp: Path) -> None:
+    from test_lab_loop import _plant_model
+
+    _, log, _ = _pi_run(tmp)
+    unstable = _plant_model(np.random.default_rng(5))
+    unstable.coef_ = unstable.coef_.copy()
+    unstable.coef_[0] = 1.6
+    model = unstable.save(tmp / "unstable.npz")
+    out = tmp / "loop.json"
+    code, output = cli("validate", model, log, "--in-loop", "--json", out)
+    assert code == 3, output
+    assert re.search(r"diverged: int000stepresponse\.csv: .* at row \d+ \(t = ", output), output
+    assert json.loads(out.read_text())["logs"][0]["diverged_at"] is not None
+
+
+def _loop_log_options(tmp: Path) -> None:
+    import pandas as pd
+
+    model, _, log = _pi_run(tmp)
+    header = tmp / "int000stepresponse.csv"
+    columns = {n: log.channel(n) for n in ("motor_position", "velocity_command", "motor_velocity")}
+    pd.DataFrame({"time": log.time, **columns, "incl_sensor": log.channel("inclination")}).to_csv(
+        header, index=False
+    )
+    code, output = cli("validate", model, header, "--in-loop", "--map", "inclination=incl_sensor")
+    assert code == 0 and "in the loop with int" in output, output
+    refused(
+        tmp,
+        "validate",
+        model,
+        header,
+        "--in-loop",
+        "--map",
+        "inclination=incl_sensor",
+        "--tilt",
+        match="--tilt: the lab's loop measures the inclination alone",
+    )
+    refused(
+        tmp,
+        "validate",
+        model,
+        header,
+        "--in-loop",
+        "--channel",
+        "inclination=/imu:x:output:deg",
+        match=r"--channel names the channels of a ROS 2 bag \(--layout rosbag\)",
+    )
+
+
+def _two_outputs_drawn(tmp: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    import neckid.cli.models as models
+
+    rng = np.random.default_rng(0)
+    u = np.repeat(rng.uniform(-1, 1, (30, 2)), 20, axis=0)
+    y = np.zeros((600, 2))
+    for t in range(1, 600):
+        y[t] = [0.9 * y[t - 1, 0] + 0.8 * u[t - 1, 0], 0.7 * y[t - 1, 1] - 0.5 * u[t - 1, 1] + 3]
+    IOData(u, y, ts=0.02, input_names=["m1", "m2"], output_names=["tilt_x", "tilt_y"]).to_csv(
+        tmp / "run.csv"
+    )
+    model = tmp / "m.npz"
+    code, output = cli(
+        "identify",
+        tmp / "run.csv",
+        "--inputs",
+        "m1,m2",
+        "--outputs",
+        "tilt_x,tilt_y",
+        "--method",
+        "arx",
+        "--orders",
+        "1,1,1",
+        "--save",
+        model,
+    )
+    assert code == 0, output
+    drawn: list = []
+    original = models._save_figure
+    models._save_figure = lambda fig, path: drawn.append(fig)
+    try:
+        code, output = cli("validate", model, tmp / "run.csv", "--plot", tmp / "v.png")
+    finally:
+        models._save_figure = original
+    assert code == 0, output
+    (fig,) = drawn
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["tilt_x [-]", "error y − ŷ [-]", "tilt_y [-]", "error y − ŷ [-]"], labels
+    np.testing.assert_allclose(fig.axes[2].lines[0].get_ydata(), y[:, 1], atol=1e-9)
+    plt.close(fig)
+
+
 CASES = [
     Case("C1", "CLI", "`simulate --out` names the measured log", "refused: is an input of this command (even with --force); the log is unchanged", "clear", _simulate_onto_the_log),
     Case("C2", "CLI", "`simulate --out` names the model file", "refused: is an input; the model is unchanged", "clear", _simulate_onto_the_model),
@@ -1205,6 +1404,13 @@ CASES = [
     Case("U6", "API", "a label condition the model was not identified with", "ValueError: ... has neck='C', a label the model was not identified with (it knows A, B)", "clear", _label_not_seen),
     Case("U7", "CLI", "`benchmark --data-dir` of a folder with none of the data sets", "refused: nothing to run: none of the data sets ... is under ...; no output folder", "clear", _empty_benchmark_folder),
     Case("U8", "CLI", "`--lags 3/1` (meant as na = 3); `--lags` with `--orders`", "a note: the output lag 3 alone, y(t-3); for the lags 1 to 3 write --lags 1-3/... or --orders 3,NB,NK / refused: give the regressor once", "clear", _lone_output_lag),
+    Case("K1", "CLI", "`validate --in-loop` with a controller that did not make the log (the fra controller on a PI's log; the adaptive replay on a fra log)", "refused: LOG: the controller fra does not reproduce the log's commands: the controller check ... is 9.97 rad/s, beyond the tolerance 1e-04 rad/s (...); --force runs it anyway (then a warning: the figures compare two different loops); nothing written", "clear", _loop_wrong_controller),
+    Case("K2", "CLI", "`--in-loop --controller FOLDER` of adaptive parameter logs on a log another controller made; a parameter file of another payload", "refused: int000stepresponse.csv was made by the PI (int), as its name says; ... give --controller int / ada200response.csv is the 200 g adaptive run but the parameter log adacon400.csv is the 400 g one", "clear", _loop_parameter_logs),
+    Case("K3", "CLI", "`--in-loop --controller` a designed controller at 0.05 s on a log at 0.025 s", "refused: LOG: the controller ... runs every 0.05 s but the log is sampled every 0.025 s", "clear", _loop_controller_period),
+    Case("K4", "CLI", "a controller file with a NaN gain, or `ki` edited and its twin `kf` left unchanged", "refused: FILE: gains.kp must be a finite number; got nan / FILE: gains.ki = 0.9 disagrees with gains.kf = 0.8237 (ki is the same gain as kf ...): edit both, or remove gains.ki", "clear", _loop_controller_gains),
+    Case("K5", "CLI", "`validate --in-loop` of a model whose loop diverges", "diverged: LOG: the loop's inclination left ±1000 deg ... at row N (t = ... s); the JSON written; exit 3, as a diverged free run", "clear", _loop_diverges),
+    Case("K6", "CLI", "`validate --in-loop` with `--map`, `--tilt`, `--channel`", "--map renames the log's columns (and the model's stored mapping applies); refused: --tilt: the lab's loop measures the inclination alone ... / --channel names the channels of a ROS 2 bag (--layout rosbag)", "clear", _loop_log_options),
+    Case("K7", "CLI", "`validate --plot` of a two-output model (tilt_x, tilt_y)", "each output in its own axes with its unit (and its errors below), its band and the domain marks on it", "correct", _two_outputs_drawn),
     Case("A1", "API", "a complex array given to IOData", "TypeError: u holds complex numbers", "clear", _complex_array),
     Case("A2", "API", "a free run that diverges", "DivergenceError naming sample and time; the run in .result", "clear", _diverging_api),
     Case("A3", "API", "an SM model file with gamma < 0", "ValueError on load: gamma must be > 0", "clear", _sm_negative_gamma),
