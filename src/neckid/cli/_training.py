@@ -110,7 +110,7 @@ def _regressor_text(model: Any) -> str:
     """The fitted model's regressor in the --lags syntax when it has one shape, else its repr."""
     from neckid.cli.workflow import format_lags
 
-    resolved = getattr(model, "lags_", None)
+    resolved = model.fitted_lags()
     return format_lags(resolved) if resolved is not None else "-"
 
 

@@ -327,7 +327,7 @@ def set_membership_check(
         )
     from neckid.design.linearise import POSITION_CHANNELS, equilibrium
 
-    ranges: dict[str, tuple[float, float]] = getattr(model, "training_ranges_", {}) or {}
+    ranges = model.training_box()
     low, high = ranges.get(model.output_names_[0], (-np.inf, np.inf))
     r = np.asarray(reference, dtype=np.float64).reshape(-1)
     if clip_to_data:

@@ -399,7 +399,7 @@ def _run(
         "set_membership": {
             name: {"epsilon": model.epsilon_.tolist(), "gamma": model.gamma_.tolist()}
             for name, model in models.items()
-            if hasattr(model, "gamma_")
+            if model.set_membership_prior() is not None
         },
         "files": {k: v.name for k, v in files.items()},
     }

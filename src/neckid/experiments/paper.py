@@ -389,7 +389,7 @@ def _metrics(
         "set_membership": {
             name: {"epsilon": float(model.epsilon_[0]), "gamma": float(model.gamma_[0])}
             for name, model in narx_models.items()
-            if hasattr(model, "gamma_")
+            if model.set_membership_prior() is not None
         },
         "schedule": {
             "gain_coefficients": scheduled.gain_coefficients_.tolist(),

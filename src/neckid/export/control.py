@@ -83,7 +83,7 @@ def _linear_parts(model: Any) -> tuple[FloatArray, FloatArray, FloatArray]:
     for j in range(lags.n_terms):
         target = a if lags.source[j] == 0 else b
         target[lags.lag[j], :, lags.channel[j]] += coef[j]
-    intercept = np.asarray(getattr(model, "intercept_", np.zeros(n_out)), dtype=np.float64)
+    intercept = np.asarray(model.intercept_, dtype=np.float64)
     return a, b, intercept
 
 
@@ -248,7 +248,7 @@ def _scheduled_frozen(
     n_x = 2 + d
     c_mat = np.zeros((1, n_x))
     a_mat = np.zeros((n_x, n_x))
-    if getattr(model, "form", "rate") == "position":
+    if model.form == "position":
         # i(t) = P i(t−1) + N x(t−d); r(t) = (i(t) − i(t−1)) / ts, kept as a state for the names.
         c_mat[0, [0, 2]] = [pole, gain]
         a_mat[0] = c_mat[0]

@@ -500,9 +500,9 @@ def _outside_domain(model: Any, data: IOData) -> float:
     Its regressors' training box and, for SM models, farther than the radius from every training
     regressor; the channels' training ranges for a model without regressor ranges.
     """
-    if getattr(model, "regressor_ranges_", None) and hasattr(model, "lags_"):
+    if model.regressor_box() and model.fitted_lags() is not None:
         return model.domain(data).share
-    ranges: dict[str, tuple[float, float]] = getattr(model, "training_ranges_", {})
+    ranges = model.training_box()
     outside = np.zeros(data.n_samples, dtype=bool)
     for name in (*data.input_names, *data.output_names):
         if name in ranges:
