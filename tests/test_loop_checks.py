@@ -192,7 +192,7 @@ def test_a_diverged_loop_exits_3_as_a_diverged_free_run_does(pi_run, tmp_path) -
 
 
 def test_map_is_honoured_and_tilt_refused(pi_run, tmp_path) -> None:
-    model_path, _, _, log = pi_run
+    model_path, _, model, log = pi_run
     header = tmp_path / "int000stepresponse.csv"
     columns = {
         "time": log.time,
@@ -213,6 +213,10 @@ def test_map_is_honoured_and_tilt_refused(pi_run, tmp_path) -> None:
     )
     assert code == 0, output
     assert json.loads(out.read_text())["logs"][0]["inclination_fit_percent"] > 99.9
+    model.channel_map_ = {"incl_sensor": "inclination"}  # as identify --map stores it
+    mapped = model.save(tmp_path / "mapped.npz")
+    code, output = _in_loop(mapped, header)
+    assert code == 0, output  # the model's stored mapping, replayed
     code, output = _in_loop(model_path, header, "--map", "inclination=incl_sensor", "--tilt")
     assert code == 2, output
     assert "--tilt: the lab's loop measures the inclination alone" in output
