@@ -80,12 +80,14 @@ def test_frozen_models_are_the_arx_at_one_payload(spring) -> None:
     assert frozen.input_names_ == ("force",) and frozen.lags_.conditions == ()
     # the frozen ARX runs the 0.2 kg log as the LPV model does (the payload held at 0.2 kg)
     np.testing.assert_allclose(frozen.simulate(test[0]).y, model.simulate(test[0]).y, atol=1e-9)
-    system = to_control(model, scheduling={"payload": 0.2})
+    system = to_control(model, scheduling={"payload": 0.2}, form="tf")
     assert system.input_labels == ["force"] and system.output_labels == ["position"]
     a1, a2 = frozen.coef_[:2, 0]
     np.testing.assert_allclose(system.den[0][0], [1.0, -a1, -a2], rtol=1e-12)
     poles = np.abs(np.roots([1.0, -a1, -a2]))
     assert poles.max() < 1.0
+    default = to_control(model, scheduling={"payload": 0.2})  # the lpv entry's form: ss
+    assert type(default).__name__ == "StateSpace" and default.input_labels == ["force"]
     with pytest.raises(ValueError, match="scheduling is required"):
         to_control(model)
     with pytest.raises(ValueError, match="scheduling values must name"):

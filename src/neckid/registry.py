@@ -238,6 +238,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=3.0,
         describer="neckid.models.lpv.summary:describe_lpv",
+        control_form="ss",
     ),
     Method(
         "nn",
