@@ -28,7 +28,9 @@ def test_adapted_run_is_causal_and_labelled() -> None:
     model = LinearARX(Lags.arx(1, 1)).fit([_run(1, 0.0), _run(2, 0.1)])
     test = _run(3, 1.5)
     run = adapted_run(model, test, 2.0)
-    assert run.label == adaptation_label(2.0, "offset") == "free run after 2 s of adaptation (offset)"
+    assert (
+        run.label == adaptation_label(2.0, "offset") == "free run after 2 s of adaptation (offset)"
+    )
     assert run.adapted.fit[0] > run.unadapted.fit[0] + 30
     assert run.adapted.offset[0] == pytest.approx(1.45, abs=0.15)  # 1.5 less the training mean
     # what follows the warm-up is never read before it is predicted: change it, nothing moves
@@ -89,3 +91,23 @@ def test_conditions_go_straight_into_compare_and_select_lags() -> None:
     chosen = select_lags(train, candidates=[lags, Lags(1, 1)], estimator="arx", progress=False)
     assert not chosen.table["error"].astype(bool).any()
     assert Lags(1, 1, conditions=None) == Lags(1, 1)
+
+
+def test_offset_model_runs_its_state_map_as_its_free_run() -> None:
+    from neckid.models.adapted import OffsetModel, adapted_model
+
+    model = LinearARX(Lags.arx(2, 2)).fit([_run(1, 0.0), _run(2, 0.1)])
+    test = _run(3, 1.5)
+    wrapped = adapted_model(model, test, 2.0, "offset")
+    assert isinstance(wrapped, OffsetModel) and wrapped.n_outputs_ == 1
+    free = wrapped.simulate(test).y[:, 0]
+    states = wrapped.state_map()
+    m = model.max_lag_
+    x = states.initial_state(test.y[:m], test.u[:m])
+    stepped = list(test.y[:m, 0])
+    for k in range(m, test.n_samples):
+        stepped.append(float(states.output(x, test.u[k])[0]))
+        x = states.update(x, test.u[k])
+    np.testing.assert_allclose(stepped, free, atol=1e-9)
+    updated = adapted_model(model, test, 2.0, "update")
+    assert updated is not model and not isinstance(updated, OffsetModel)

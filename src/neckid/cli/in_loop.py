@@ -247,6 +247,16 @@ def _write_plot(results: list[Any], plot: Path) -> None:
     console.print(f"figure written to {plot}")
 
 
+def _adapted(model: Any, data: Any, adapt: tuple[float, str] | None) -> Any:
+    """The model the loop runs: ``model``, or a copy adapted on the log's first seconds."""
+    if adapt is None:
+        return model
+    from neckid.loops.lab_loop import model_view
+    from neckid.models.adapted import adapted_model
+
+    return adapted_model(model, model_view(model, data), *adapt)
+
+
 def validate_in_loop(
     model_path: Path,
     logs: list[Path],
@@ -256,6 +266,7 @@ def validate_in_loop(
     *,
     plot: Path | None = None,
     force: bool = False,
+    adapt: tuple[float, str] | None = None,
 ) -> None:
     """Run ``model_path`` in the loop of each log; print the figures; write them as JSON.
 
@@ -281,16 +292,29 @@ def validate_in_loop(
         ``--plot`` (already checked by the caller): each log's loop.
     force : bool, default False
         Run a controller whose check exceeds its tolerance (with a warning).
+    adapt : (float, str), optional
+        ``--adapt SECONDS`` and ``--adapt-mode``: the loop runs a copy of the model adapted on
+        the log's first seconds (:func:`neckid.models.adapted.adapted_model`); the un-adapted
+        loop's inclination fit is printed and written beside it.
     """
     from neckid.models.io import load_model
     from neckid.utils.files import write_json
 
     model = load_model(model_path)
     chosen = _controller(controller)
-    results = []
+    results, unadapted = [], []
     for log in logs:
-        result = _run(model, log, _read(log, model, spec), chosen, force)
+        data = _read(log, model, spec)
+        result = _run(_adapted(model, data, adapt), log, data, chosen, force)
         console.print(_table(result))
+        if adapt is not None:
+            plain = _run(model, log, data, chosen, force)
+            unadapted.append(plain.inclination_fit)
+            console.print(
+                f"in loop after {adapt[0]:g} s of adaptation ({adapt[1]}): inclination fit"
+                f" {result.inclination_fit:.1f} % (un-adapted {plain.inclination_fit:.1f} %)",
+                markup=False,
+            )
         if len(result.stairs):
             console.print(_stairs_table(result))
         if result.diverged_at is not None:
@@ -304,7 +328,12 @@ def validate_in_loop(
         results.append(result)
     if json_out is not None:
         records = [r.to_dict() for r in results]
-        write_json(json_out, {"model": model_path.name, "kind": "in loop", "logs": records})
+        kind = "in loop"
+        if adapt is not None:
+            kind = f"in loop after {adapt[0]:g} s of adaptation ({adapt[1]})"
+            for record, fit in zip(records, unadapted, strict=True):
+                record["unadapted_inclination_fit_percent"] = fit
+        write_json(json_out, {"model": model_path.name, "kind": kind, "logs": records})
         console.print(f"results written to {json_out}")
     if plot is not None:
         _write_plot(results, plot)

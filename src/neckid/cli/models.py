@@ -27,6 +27,7 @@ from neckid.cli._training import (
     _regressor,
     _regressor_text,
 )
+from neckid.cli.adapt import ADAPT_HELP, ADAPT_MODE_HELP, checked_adaptation, validate_adapted
 from neckid.cli.explain import (
     _describe_model,
     _print_band,
@@ -344,6 +345,8 @@ def validate(
         False, "--in-loop", help="Run the model in the lab's loop of each log (docs/in_loop.md)."
     ),
     controller: str = typer.Option(None, "--controller", help=CONTROLLER_HELP),
+    adapt: float = typer.Option(None, "--adapt", metavar="SECONDS", help=ADAPT_HELP),
+    adapt_mode: str = typer.Option("offset", "--adapt-mode", help=ADAPT_MODE_HELP),
     *,
     spec: LogSpec,
 ) -> None:
@@ -352,20 +355,27 @@ def validate(
     Fit is MATLAB's compare fit, 100 (1 - ||y - ŷ|| / ||y - mean(y)||), skipping the initial samples.
     A free run that diverges is reported as such (exit status 3, after the other logs).
     With --in-loop: the model in the loop of each closed-loop log instead (docs/in_loop.md).
+    With --adapt 5: a copy adapted on each log's first 5 s, then the free run of the rest
+    (docs/compare.md#adapt), the un-adapted fit beside it.
     """
     from neckid.utils.files import check_output_file, write_json
 
+    adaptation = checked_adaptation(adapt, adapt_mode)
     given = [*logs, model_path]
     for path, option in ((plot, "--plot"), (json_out, "--json")):
         if path is not None:
             check_output_file(path, force=force, inputs=given, option=option)
     if in_loop:
         return validate_in_loop(
-            model_path, logs, controller, json_out, spec, plot=plot, force=force
+            model_path, logs, controller, json_out, spec, plot=plot, force=force, adapt=adaptation
         )
     from neckid.models.io import load_model
 
     model = load_model(model_path)  # once: every log runs the same model
+    if adaptation is not None:
+        return validate_adapted(
+            model, model_path, logs, spec, adaptation, json_out=json_out, plot=plot
+        )
     records, runs = [], []
     for log in logs:
         data = read_for_model(model, log, spec)

@@ -12,7 +12,8 @@ model records the preprocessing and the mapping with :func:`attach_log_options`,
 Two sets of options:
 
 - **reading** (every command that reads a log): ``--time``, ``--ts``, ``--layout``, ``--sep``,
-  ``--channel``, ``--condition``, ``--map``, ``--tilt``;
+  ``--channel``, ``--condition``, ``--condition-from-name``, ``--condition-unit``, ``--map``,
+  ``--tilt``;
 - **training** (identify, select, compare): the reading ones, plus ``--inputs``, ``--outputs``
   and the preprocessing steps ``--relative``, ``--offset``, ``--lowpass``, ``--resample``,
   ``--restamp``.
@@ -74,6 +75,10 @@ class LogSpec:
         that reads the model's own channels).
     relative, offsets, lowpass, resample, restamp
         The preprocessing steps of identify, select and compare (stored in the model).
+    name_patterns, name_units : tuple of str
+        ``--condition-from-name NAME=REGEX`` and ``--condition-unit UNIT``: conditions read
+        from each log's file name (:func:`neckid.data.conditions.conditions_from_name`), under
+        a sidecar's and ``--condition``'s (:meth:`with_name_conditions`).
     """
 
     time: str = "time"
@@ -91,6 +96,36 @@ class LogSpec:
     lowpass: tuple[str, ...] = ()
     resample: float | None = None
     restamp: bool = False
+    name_patterns: tuple[str, ...] = ()
+    name_units: tuple[str, ...] = ()
+
+    def with_name_conditions(self, data: Any, path: Path) -> Any:
+        """``data`` with the conditions ``--condition-from-name`` reads from ``path``'s name.
+
+        A sidecar's condition and a ``--condition`` of the same name win (they are applied
+        already, and the pattern is not even tried on the name); a pattern's condition wins
+        over what the loader found in a lab's bench file name.
+        """
+        if not self.name_patterns:
+            return data
+        from neckid.data.conditions import conditions_from_name
+        from neckid.data.sidecar import read_sidecar
+
+        if self.name_units and len(self.name_units) != len(self.name_patterns):
+            conditions_from_name("", self.name_patterns, self.name_units)  # raises: the pairing
+        units = self.name_units or ("",) * len(self.name_patterns)
+        known = set(read_sidecar(path)[0]) | {c.partition("=")[0].strip() for c in self.conditions}
+        pairs = [
+            (p, u)
+            for p, u in zip(self.name_patterns, units, strict=True)
+            if p.partition("=")[0].strip() not in known
+        ]
+        if not pairs:
+            return data
+        values, found_units = conditions_from_name(
+            Path(path).name, [p for p, _ in pairs], [u for _, u in pairs]
+        )
+        return data.with_conditions(units=found_units, **values)
 
     def mapping(self) -> dict[str, str]:
         """``--map`` as ``{log name: model name}`` (checked: one line naming a bad item)."""
@@ -124,6 +159,21 @@ class LogSpec:
         }
 
 
+CONDITION_FROM_NAME_OPTION = typer.Option(
+    None,
+    "--condition-from-name",
+    metavar="NAME=REGEX",
+    help="Read a condition from each log's file name: REGEX (searched in the name) holds one"
+    " group, the value, e.g. 'payload=(\\d+)g' (repeat for several; a sidecar or --condition"
+    " of the same name wins).",
+)
+CONDITION_UNIT_OPTION = typer.Option(
+    None,
+    "--condition-unit",
+    metavar="UNIT",
+    help="The unit of each --condition-from-name value, in the same order (e.g. g).",
+)
+
 # name -> (annotation, typer option): the order is the order of --help
 _READING: dict[str, tuple[Any, Any]] = {
     "time": (str, TIME_OPTION),
@@ -132,6 +182,8 @@ _READING: dict[str, tuple[Any, Any]] = {
     "sep": (str, SEP_OPTION),
     "channels": (list[str], CHANNEL_OPTION),
     "conditions": (list[str], CONDITION_OPTION),
+    "name_patterns": (list[str], CONDITION_FROM_NAME_OPTION),
+    "name_units": (list[str], CONDITION_UNIT_OPTION),
     "tilt": (bool, TILT_OPTION),
     "maps": (list[str], MAP_OPTION),
 }
@@ -214,13 +266,16 @@ def read_training_logs(paths: Sequence[Path], spec: LogSpec) -> tuple[list[Any],
     refuse_repeated_paths(paths)
     pipeline, mapping = spec.pipeline(), spec.mapping()
     experiments = [
-        read_log(
+        spec.with_name_conditions(
+            read_log(
+                path,
+                list(spec.inputs) if spec.inputs else None,
+                list(spec.outputs) if spec.outputs else None,
+                maps=mapping,
+                preprocessing=pipeline,
+                **spec.reading(),
+            ),
             path,
-            list(spec.inputs) if spec.inputs else None,
-            list(spec.outputs) if spec.outputs else None,
-            maps=mapping,
-            preprocessing=pipeline,
-            **spec.reading(),
         )
         for path in paths
     ]
@@ -252,6 +307,7 @@ def read_for_model(model: Any, path: Path, spec: LogSpec, *, quiet: bool = False
     if stored:
         mapping = _stored_mapping(model, path, spec)
     data, pipeline = read_log_for_model(model, path, maps=mapping, **spec.reading())
+    data = spec.with_name_conditions(data, path)
     if not quiet:
         if stored and mapping:
             shown = ", ".join(f"{log}={name}" for log, name in mapping.items())

@@ -31,6 +31,7 @@ __all__ = [
     "ConditionValue",
     "append_conditions",
     "check_conditions",
+    "conditions_from_name",
     "label_indicators",
     "parse_condition",
 ]
@@ -161,6 +162,80 @@ def parse_condition(text: str) -> tuple[str, ConditionValue, str]:
     if not math.isfinite(number):
         raise ValueError(f"--condition {name} must be finite; got {value!r}")
     return name, number, unit
+
+
+def conditions_from_name(
+    file_name: str, patterns: Sequence[str], units: Sequence[str] = ()
+) -> tuple[dict[str, ConditionValue], dict[str, str]]:
+    r"""Conditions read from a log's file name by patterns ``NAME=REGEX`` (one group each).
+
+    Parameters
+    ----------
+    file_name : str
+        The log's file name (no folder), e.g. ``"neck3_payload=200g_run2.csv"``.
+    patterns : sequence of str
+        ``NAME=REGEX``: ``REGEX`` (Python :mod:`re`, searched anywhere in the name) holds one
+        capture group, the value: a number (read with its unit, when given) or a label.
+    units : sequence of str, default ()
+        The unit of each pattern's value, in the order of ``patterns`` (``"g"``): none, one per
+        pattern, or one for a single pattern.
+
+    Returns
+    -------
+    values, units : dict
+        Name -> value and name -> unit.
+
+    Raises
+    ------
+    ValueError
+        For a pattern without ``=``, a bad name or regular expression, a regular expression
+        without exactly one group, units that do not pair with the patterns, or a file name the
+        pattern does not match (the message names both).
+
+    Examples
+    --------
+    >>> conditions_from_name("spring_payload=200g_2.csv", [r"payload=(\d+)g"], ["g"])
+    ({'payload': 200.0}, {'payload': 'g'})
+    >>> conditions_from_name("neckB-run4.csv", [r"neck=neck([A-Z])"])
+    ({'neck': 'B'}, {'neck': ''})
+    """
+    if units and len(units) != len(patterns):
+        raise ValueError(
+            f"--condition-unit was given {len(units)} time(s) for {len(patterns)}"
+            " --condition-from-name pattern(s); give one unit per pattern, in the same order"
+        )
+    values: dict[str, ConditionValue] = {}
+    found_units: dict[str, str] = {}
+    for i, text in enumerate(patterns):
+        name, sep, regex = text.partition("=")
+        name = name.strip()
+        if not sep or not name or not regex:
+            raise ValueError(
+                f"--condition-from-name takes NAME=REGEX with one group, e.g."
+                f" 'payload=(\\d+)g'; got {text!r}"
+            )
+        _check_name(name, "--condition-from-name")
+        try:
+            compiled = re.compile(regex)
+        except re.error as exc:
+            raise ValueError(
+                f"--condition-from-name {text!r}: not a regular expression ({exc})"
+            ) from None
+        if compiled.groups != 1:
+            raise ValueError(
+                f"--condition-from-name {text!r} holds {compiled.groups} groups; it needs exactly"
+                " one, around the value (e.g. 'payload=(\\d+)g')"
+            )
+        match = compiled.search(file_name)
+        if match is None or match.group(1) is None:
+            raise ValueError(
+                f"--condition-from-name {text!r} does not match the file name {file_name!r}"
+                f" (give its {name} in a sidecar or with --condition)"
+            )
+        unit = units[i].strip() if units else ""
+        _, value, _ = parse_condition(f"{name}={match.group(1)}")
+        values[name], found_units[name] = value, unit
+    return values, found_units
 
 
 def append_conditions(data_in: Any, names: Sequence[str]) -> Any:

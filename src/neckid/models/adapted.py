@@ -11,22 +11,33 @@ and the band at a sample uses the scores of the samples before it.
 
 from __future__ import annotations
 
+import copy
 import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from neckid.data.iodata import IOData
 from neckid.models.adaptive_conformal import band_around
-from neckid.models.online import ADAPT_MODES, AdaptiveRun, adaptive_free_run, simulate_with_offset
+from neckid.models.online import (
+    ADAPT_MODES,
+    AdaptiveRun,
+    adaptive_free_run,
+    estimate_offset,
+    simulate_with_offset,
+)
 from neckid.models.results import DivergenceError, ExtrapolationWarning, ModelResult
+from neckid.systems import StateMap
 from neckid.utils.checks import check_number
 from neckid.utils.types import FloatArray
 
 __all__ = [
     "AdaptedRun",
+    "OffsetModel",
     "adaptation_label",
+    "adapted_model",
     "adapted_outputs",
     "adapted_run",
     "check_adaptation",
@@ -177,3 +188,85 @@ def adapted_run(
         scores = _warmup_scores(model, adapted, data)
         band = band_around(adapted.result, adapted.scored, coverage=coverage, scores=scores)
     return AdaptedRun(adapted, unadapted, band, adaptation_label(seconds, mode))
+
+
+class _OffsetStateMap(StateMap):
+    """A state map seen through a constant output offset ``c``: ``y = ỹ + c``."""
+
+    def __init__(self, inner: Any, offset: FloatArray) -> None:
+        super().__init__()
+        self.inner, self.offset = inner, offset
+        self.inputs, self.outputs = list(inner.inputs), list(inner.outputs)
+        self.states, self.ts = list(inner.states), float(inner.ts)
+        self.feedthrough = bool(getattr(inner, "feedthrough", True))
+
+    def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
+        return np.asarray(self.inner.output(x, u), dtype=np.float64) + self.offset
+
+    def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
+        return np.asarray(self.inner.update(x, u), dtype=np.float64)
+
+    def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
+        shifted = None if y0 is None else np.asarray(y0, dtype=np.float64) - self.offset
+        return np.asarray(self.inner.initial_state(shifted, u0), dtype=np.float64)
+
+
+class OffsetModel:
+    """A fitted model seen through a constant output offset (the output-offset model).
+
+    Everything is the wrapped model's but the free run (``simulate_with_offset`` of
+    :mod:`neckid.models.online`) and the state map (outputs plus ``offset``, the state started
+    at the measured outputs minus it), so that a loop that runs ``state_map()`` runs it too.
+
+    Parameters
+    ----------
+    model : fitted estimator
+    offset : array_like, shape (n_outputs,)
+    """
+
+    def __init__(self, model: Any, offset: ArrayLike) -> None:
+        self.model = model
+        self.offset = np.asarray(offset, dtype=np.float64).reshape(-1)
+
+    def __getattr__(self, name: str) -> Any:
+        if name in ("model", "offset"):  # not set yet (a copy being made)
+            raise AttributeError(name)
+        return getattr(self.model, name)
+
+    def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
+        """The free run of the output-offset model (``initial``: measured outputs, as usual)."""
+        if initial is not None:
+            m = max(int(self.model.max_lag_), 1)
+            head = np.asarray(initial, dtype=np.float64).reshape(m, -1)
+            data = data.replace(y=np.vstack([head, np.asarray(data.y)[m:]]))
+        return simulate_with_offset(self.model, data, self.offset)
+
+    def state_map(self) -> StateMap:
+        """The wrapped model's state map with the offset on its outputs."""
+        return _OffsetStateMap(self.model.state_map(), self.offset)
+
+
+def adapted_model(model: Any, data: IOData, seconds: float, mode: str = "offset") -> Any:
+    """A copy of ``model`` adapted on ``data``'s first ``seconds``, to run anywhere a model runs.
+
+    ``"update"``: ``partial_fit`` on the warm-up; ``"offset"``: an :class:`OffsetModel` with the
+    offset estimated on the warm-up; ``"both"``: the offset first, then the update on the
+    warm-up with the offset taken off (as :func:`~neckid.models.online.adaptive_free_run`).
+    What ``validate --in-loop --adapt`` runs in the loop.
+    """
+    seconds, mode = check_adaptation(seconds, mode)
+    n = int(np.searchsorted(data.time, data.t0 + seconds - 1e-9 * data.ts, side="left"))
+    if n <= int(model.max_lag_) or n >= data.n_samples:
+        raise ValueError(
+            f"--adapt {seconds:g} s gives {n} warm-up samples of {data.n_samples}: it must hold"
+            f" more than max_lag = {model.max_lag_} samples and leave some to run"
+        )
+    warmup = data[:n]
+    offset = np.zeros(int(model.n_outputs_))
+    if mode in ("offset", "both"):
+        offset = estimate_offset(model, warmup)
+    adapted = model
+    if mode in ("update", "both"):
+        adapted = copy.deepcopy(model)
+        adapted.partial_fit(warmup.replace(y=warmup.y - offset))
+    return OffsetModel(adapted, offset) if mode in ("offset", "both") else adapted

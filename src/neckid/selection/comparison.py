@@ -783,6 +783,10 @@ def compare(
         *selection.explain(),
         *(f"rejected {n}: {r}" for n, r in selection.rejected.items()),
     ]
+    if adapt is not None:
+        reasons.append(
+            f"every free run, in the training folds and on the test logs: {adaptation_label(*adapt)}"
+        )
     if reach > 0:
         reasons.append(
             f"stress check: every candidate run on the training inputs stretched {reach:.0%}"
