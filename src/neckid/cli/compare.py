@@ -20,6 +20,7 @@ from neckid.cli._app import (
     handled,
 )
 from neckid.cli._training import refuse_repeated_paths
+from neckid.cli.adapt import ADAPT_HELP, ADAPT_MODE_HELP, checked_adaptation
 from neckid.cli.explain import _save_panels
 from neckid.cli.options import LogSpec, log_options, read_training_logs
 
@@ -37,27 +38,37 @@ def _number(value: float) -> float | str:
 
 def _result_rows(comparison: Any) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
+    fit = f"fit % ({comparison.kind})"
+    adapted = "fit_percent_unadapted" in comparison.results
     for row in comparison.results.to_dict("records"):
         unit = row["unit"] or "-"
+        plain = {"fit % un-adapted": _number(float(row.get("fit_percent_unadapted", "nan")))}
         rows.append(
             {
                 "method": row["method"],
                 "log": row["log"],
                 "output": row["output"],
-                "fit % (free run)": _number(float(row["fit_percent"])),
+                fit: _number(float(row["fit_percent"])),
+                **(plain if adapted else {}),
                 f"RMSE [{unit}]": _number(float(row["rmse"])),
                 "outside training range [%]": float(100 * row["outside_domain"]),
                 f"band width [{unit}]": _number(float(row["band_width"])),
                 "band holds [%]": _number(float(100 * row["band_coverage"])),
             }
         )
+    means = comparison.results.groupby("method", sort=False)
     for row in comparison.summary().to_dict("records"):
+        plain = {}
+        if adapted:
+            mean_plain = float(means["fit_percent_unadapted"].mean()[row["method"]])
+            plain = {"fit % un-adapted": _number(mean_plain)}
         rows.append(
             {
                 "method": row["method"],
                 "log": "mean",
                 "output": "all",
-                "fit % (free run)": _number(float(row["fit_percent"])),
+                fit: _number(float(row["fit_percent"])),
+                **plain,
                 "RMSE [-]": _number(float(row["rmse"])),
                 "outside training range [%]": float(100 * row["outside_domain"]),
             }
@@ -71,7 +82,7 @@ def _write_plot(comparison: Any, tests: list[Any], path: Path) -> None:
     The runs are those of the comparison (a diverged one is left out: the table says it).
     """
     panels = [
-        (record, runs, f"{record.name}: free runs", None)
+        (record, runs, f"{record.name}: {comparison.kind}", None)
         for record, runs in zip(tests, comparison.runs, strict=True)
     ]
     _save_panels(panels, path)
@@ -101,7 +112,7 @@ def _write_report(comparison: Any, tests: list[Any], folder: Path, force: bool) 
             " chosen.",
         )
         report.add_table(
-            "Test logs (free run)",
+            f"Test logs ({comparison.kind})",
             pd.DataFrame(_result_rows(comparison)),
             note="Fit: 100 (1 − ||y − ŷ|| / ||y − mean(y)||), free run from the log's inputs.",
         )
@@ -145,6 +156,14 @@ def compare(
         " beyond their range (0 turns the check off).",
     ),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the methods that draw numbers."),
+    use_conditions: str = typer.Option(
+        None,
+        "--use-conditions",
+        help="Comma-separated conditions every candidate takes as constant inputs (e.g."
+        " payload); each log must have them (file name, sidecar or --condition).",
+    ),
+    adapt: float = typer.Option(None, "--adapt", metavar="SECONDS", help=ADAPT_HELP),
+    adapt_mode: str = typer.Option("offset", "--adapt-mode", help=ADAPT_MODE_HELP),
     json_out: Path = typer.Option(None, "--json", help="Write the comparison as JSON."),
     plot: Path = typer.Option(None, "--plot", help="Write a PNG of every method on each test log."),
     report: Path = typer.Option(None, "--report", help="Write an HTML report into this folder."),
@@ -161,13 +180,17 @@ def compare(
     motor_position --outputs inclination --methods arx,sm,sm-parallel --json compare.json
 
     --map and the preprocessing options (--relative, --offset, --lowpass, --resample, --restamp,
-    --tilt) apply to the training and the test logs alike.
+    --tilt) apply to the training and the test logs alike. With --adapt 5 every free run, in
+    the training folds and on the test logs, comes after 5 s of adaptation on the run's own
+    start (docs/compare.md).
     """
     from neckid.cli.workflow import parse_lags
     from neckid.regressors import Lags
     from neckid.selection.comparison import compare as run_compare
     from neckid.utils.files import check_output_file, write_json
 
+    adaptation = checked_adaptation(adapt, adapt_mode)
+    conditions = _split(use_conditions) or ()
     given = [*train, *test]
     for path, option in ((json_out, "--json"), (plot, "--plot")):
         if path is not None:
@@ -176,14 +199,22 @@ def compare(
     regressors = []
     for text in lags or ["1-2/1-2"]:
         parsed = parse_lags(text)
-        regressors.append(Lags(parsed.outputs, parsed.inputs))
+        regressors.append(Lags(parsed.outputs, parsed.inputs, conditions=conditions))
     # the same channels, --map and preprocessing for the training and the test logs: spec
     refuse_repeated_paths([*train, *test], "log (a test log must not be a training log)")
     training, tests = _read_all(train, spec), _read_all(test, spec)
     result = run_compare(
-        training, tests, names, regressors, stress=stress, seed=seed, progress=True
+        training,
+        tests,
+        names,
+        regressors,
+        stress=stress,
+        seed=seed,
+        progress=True,
+        adapt=adaptation,
     )
-    console.print(_metrics_table("every method on the test logs", _result_rows(result)))
+    title = f"every method on the test logs ({result.kind})"
+    console.print(_metrics_table(title, _result_rows(result)))
     for name, reason in result.selection.rejected.items():
         error_console.print(
             f"[yellow]rejected on the training logs:[/yellow] {escape(name)}: {escape(reason)}",
