@@ -36,6 +36,20 @@ def _candidates(orders: str | None, lags: list[str] | None) -> list[Any]:
     return grid or parse_order_grid(DEFAULT_GRID)
 
 
+def _with_conditions(candidates: list[Any], conditions: list[str] | tuple[str, ...]) -> list[Any]:
+    """Every candidate with ``conditions`` as constant inputs (``--use-conditions``)."""
+    from neckid.regressors import Lags
+
+    if not conditions:
+        return candidates
+    return [Lags(c.outputs, c.inputs, conditions=conditions) for c in candidates]
+
+
+def _listed(text: str | None) -> list[str]:
+    """``a,b`` as ``["a", "b"]``; none for None."""
+    return [p.strip() for p in (text or "").split(",") if p.strip()]
+
+
 def _ranking_rows(selection: Any, data: Any, limit: int) -> list[dict[str, Any]]:
     """One printed row per candidate (best mean fold fit first), at most ``limit``."""
     from neckid.cli.workflow import format_lags
@@ -162,6 +176,12 @@ def select(
     settings: list[str] = typer.Option(
         None, "--set", metavar="NAME=VALUE", help="A setting of the method, as in identify."
     ),
+    use_conditions: str = typer.Option(
+        None,
+        "--use-conditions",
+        help="Comma-separated conditions every candidate takes as constant inputs (e.g."
+        " payload), as in identify; each log must have them.",
+    ),
     force: bool = FORCE_OPTION,
     *,
     spec: LogSpec,
@@ -192,7 +212,7 @@ def select(
     selection = select_lags(
         experiments if len(experiments) > 1 else experiments[0],
         None,
-        _candidates(orders, lags),
+        _with_conditions(_candidates(orders, lags), _listed(use_conditions)),
         estimator,
         criterion=criterion,  # type: ignore[arg-type]
         rule=rule,  # type: ignore[arg-type]
@@ -201,7 +221,9 @@ def select(
     )
     _print_ranking(selection, experiments[0], top)
     chosen = None if selection.chosen is None else selection.best_lags
-    text = None if chosen is None else format_lags(chosen.resolve(experiments[0]))
+    text = (
+        None if chosen is None else format_lags(chosen.resolve(chosen.conditioned(experiments[0])))
+    )
     if json_out is not None:
         write_json(json_out, _document(selection, experiments[0], method, text))
         console.print(f"ranking written to {json_out}")
