@@ -29,6 +29,7 @@ Nonlinear Control* 12(9), 841-853, 2002.
 from __future__ import annotations
 
 import logging
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -52,12 +53,15 @@ from neckid.regressors import Lags, ResolvedLags
 from neckid.utils.checks import Interval, Options
 from neckid.utils.types import FloatArray
 
-__all__ = ["LPVARX", "STABILITY_MARGIN"]
+__all__ = ["BACKTRACK", "LPVARX", "STABILITY_MARGIN"]
 
 logger = logging.getLogger(__name__)
 
 #: A frozen model counts as stable when its largest pole modulus is below this.
 STABILITY_MARGIN = 1.0 - 1e-9
+
+#: How far from a stable start towards an unstable free-run fit the stable points tried lie.
+BACKTRACK = (0.99, 0.97, 0.93, 0.85, 0.7, 0.5, 0.3, 0.1, 0.0)
 
 
 class LPVARX(PolynomialNARX):
@@ -189,7 +193,14 @@ class LPVARX(PolynomialNARX):
     def _fit_simulation(
         self, experiments: list[IOData], budget: int, linear: FloatArray | None
     ) -> None:
-        """The free-run fit; where it ends unstable on the grid, a stable start is kept."""
+        """The free-run fit, kept stable on the scheduling grid.
+
+        Where the free-run fit ends with a frozen pole on or outside the unit circle somewhere on
+        the grid, the coefficients go back along the line from each stable start (the
+        least-squares LPV, the linear ARX) towards it (:data:`BACKTRACK` of the way): of the
+        stable points, the one with the least training free-run error is kept, and
+        ``fit_report_["stability"]`` says so.
+        """
         starts = [("least-squares LPV", self.coef_.copy())]
         if linear is not None:
             starts.append(("linear ARX", np.where(self.active_[:, None], linear, 0.0)))
@@ -197,15 +208,43 @@ class LPVARX(PolynomialNARX):
         radius, where = self.pole_radius()
         if radius < STABILITY_MARGIN:
             return
-        for label, coef in starts:
-            if self.pole_radius(coef)[0] < STABILITY_MARGIN:
-                self.coef_ = coef
-                self.fit_report_["stability"] = (
-                    f"the free-run fit had a frozen pole of modulus {radius:.4f} at {where};"
-                    f" kept the {label} start, stable on the whole range"
-                )
-                logger.warning("LPV-ARX: %s", self.fit_report_["stability"])
-                return
+        refined = self.coef_.copy()
+        best: tuple[float, FloatArray, str, float] | None = None
+        for label, start in starts:
+            if not self.pole_radius(start)[0] < STABILITY_MARGIN:
+                continue
+            for share in BACKTRACK:
+                trial = start + share * (refined - start)
+                if self.pole_radius(trial)[0] < STABILITY_MARGIN:
+                    cost = self._free_run_cost(experiments, trial)
+                    if best is None or cost < best[0]:
+                        best = (cost, trial, label, share)
+        if best is None:
+            return  # fit() refuses the model, naming where it is unstable
+        self.coef_ = best[1]
+        self.fit_report_["stability"] = (
+            f"the free-run fit had a frozen pole of modulus {radius:.4f} at {where}; kept the"
+            f" stable point {best[3]:.0%} of the way from the {best[2]} start to it"
+        )
+        logger.warning("LPV-ARX: %s", self.fit_report_["stability"])
+
+    def _free_run_cost(self, experiments: list[IOData], coef: FloatArray) -> float:
+        """The training free-run error of ``coef`` (outputs weighted by 1/std), inf if it fails."""
+        saved, self.coef_ = self.coef_, coef
+        try:
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                y = np.vstack([d.y for d in experiments])
+                weight = 1.0 / np.where(y.std(axis=0) > 0, y.std(axis=0), 1.0)
+                total = 0.0
+                for d in experiments:
+                    error = (self.simulate(d).y - d.y)[self.max_lag_ :] * weight
+                    total += float(np.sum(error**2))
+        except (ValueError, ArithmeticError):  # a run away (DivergenceError is a ValueError)
+            total = np.inf
+        finally:
+            self.coef_ = saved
+        return total if np.isfinite(total) else np.inf
 
     # ------------------------------------------------------------------ frozen models
     def pole_radius(self, coef: FloatArray | None = None) -> tuple[float, dict[str, float]]:
