@@ -182,3 +182,23 @@ def test_compare_plots_every_output_of_every_test_log(rng, tmp_path, saved) -> N
     assert len(fig.axes) == 2
     _check_outputs(fig.axes, test)
     assert {"measured", "arx"} <= set(_lines(fig.axes[1]))
+
+
+def test_a_diverged_run_kept_is_drawn_up_to_where_it_leaves_the_plot(rng, tmp_path, saved) -> None:
+    data = _tilt_log(rng)
+    model = LinearARX(Lags.arx(1, 1, 1)).fit(data)
+    model.coef_ = model.coef_.copy()
+    model.coef_[0, 0] = 8.0  # tilt_x's own pole at 8: the free run overflows
+    log = tmp_path / "run.csv"
+    data.to_csv(log)
+    path = model.save(tmp_path / "unstable.npz")
+    arguments = ["simulate", str(path), str(log), "--out", str(tmp_path / "s.csv")]
+    result = runner.invoke(app, [*arguments, "--keep-diverged", "--plot", str(tmp_path / "s.png")])
+    assert result.exit_code == 3, result.output
+    (fig,) = saved
+    assert "diverged" in fig.axes[0].get_title()
+    drawn = _lines(fig.axes[0])["Linear ARX"]
+    span = np.ptp(data.y[:, 0])
+    assert np.nanmax(np.abs(drawn)) <= np.max(np.abs(data.y[:, 0])) + 10 * span
+    assert np.isnan(drawn[-1])  # beyond the plot: not drawn
+    np.testing.assert_allclose(_lines(fig.axes[2])["measured"], data.y[:, 1])

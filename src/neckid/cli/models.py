@@ -276,6 +276,8 @@ def _print_mean(records: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _fit_text(result: Any, data: Any) -> str:
     """``fit 81.2 %``, or one fit per output: ``fit 81.2 % (tilt_x), 77.0 % (tilt_y)``."""
+    if not np.all(np.isfinite(result.y[result.n_initial :])):
+        return "diverged (kept by --keep-diverged)"
     fits = [float(f) for f in result.fit_percent(data)]
     if len(fits) == 1:
         return f"fit {fits[0]:.1f} %"

@@ -15,6 +15,21 @@ from neckid.models.base import ModelResult
 __all__ = ["output_unit", "plot_outputs", "plot_simulation"]
 
 
+#: Model values farther from the measured range than this many times its span are not drawn
+#: (a diverging run kept by ``--keep-diverged``: 1e300 would break the figure's layout).
+DRAWN_SPANS = 10.0
+
+
+def _drawable(values: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """``values`` with NaN where they are not finite or beyond ``DRAWN_SPANS`` of ``measured``."""
+    finite = measured[np.isfinite(measured)]
+    low, high = (float(finite.min()), float(finite.max())) if finite.size else (-1.0, 1.0)
+    reach = DRAWN_SPANS * ((high - low) or max(abs(high), 1.0))
+    with np.errstate(invalid="ignore"):
+        keep = np.isfinite(values) & (values >= low - reach) & (values <= high + reach)
+    return np.where(keep, values, np.nan)
+
+
 def output_unit(data: IOData, results: Mapping[str, ModelResult], output: int) -> str:
     """The unit of an output: the log's, else the first result's; ``"-"`` when neither has one."""
     unit = data.output_units[output] if data.output_units[output] else ""
@@ -104,7 +119,7 @@ def plot_simulation(
     n_initial = max((r.n_initial for r in results.values()), default=0)
     for k, (name, result) in enumerate(results.items()):
         color = colors[k % len(colors)]
-        y = result.y[:, output]
+        y = _drawable(result.y[:, output], measured)
         ax.plot(result.time, y, lw=1.0, color=color, label=name)
         shown.append(y[np.isfinite(y)])
         if ax_res is not None:
@@ -115,7 +130,8 @@ def plot_simulation(
                 color=color,
             )
         if bounds and result.lower is not None and result.upper is not None:
-            lo, hi = result.lower[:, output], result.upper[:, output]
+            lo = _drawable(result.lower[:, output], measured)
+            hi = _drawable(result.upper[:, output], measured)
             ok = np.isfinite(lo) & np.isfinite(hi)
             if ok.any():
                 ax.fill_between(
@@ -251,7 +267,7 @@ def _draw_errors(ax: Any, data: IOData, results: Mapping[str, ModelResult], outp
 
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for k, result in enumerate(results.values()):
-        error = data.y[:, output] - result.y[:, output]
+        error = data.y[:, output] - _drawable(result.y[:, output], data.y[:, output])
         start = result.n_initial
         ax.plot(result.time[start:], error[start:], lw=0.8, color=colors[k % len(colors)])
     ax.axhline(0.0, color="black", lw=0.8)
