@@ -125,3 +125,30 @@ def test_save_load_round_trip(tmp_path) -> None:
     assert loaded.get_params() == model.get_params()
     np.testing.assert_array_equal(loaded.simulate(data).y, model.simulate(data).y)
     assert neckid.registry.method_of(model).name == "pnlss"
+
+
+def test_to_control_is_the_model_linearised_at_rest_as_a_state_space() -> None:
+    """The pnlss entry's form is "ss": the exact Jacobian at the equilibrium with mid-range inputs
+    reproduces the model's response to small deviations (to second order in their size)."""
+    import control
+
+    from neckid.export.control import to_control
+    from neckid.models.pnlss.linearise import linearise
+
+    model = PolynomialStateSpace(order=2, degree=2, max_iter=20).fit(_known_pnlss(600, 0))
+    system = to_control(model)
+    assert isinstance(system, control.StateSpace) and system.state_labels == ["x1", "x2"]
+    assert neckid.methods()["pnlss"].control_form == "ss"
+    rest = linearise(model)
+    x = rest.state.copy()
+    np.testing.assert_allclose(model.run(rest.inputs[None, :], x)[0], rest.outputs, atol=1e-9)
+    np.testing.assert_allclose(x, rest.state, atol=1e-9)  # a fixed point of the state equation
+    rng = np.random.default_rng(3)
+    for size in (1e-3, 1e-4):
+        du = size * model.u_scale_ * rng.uniform(-1.0, 1.0, (200, 1))
+        y = model.run(rest.inputs + du, rest.state.copy()) - rest.outputs
+        linear = control.forced_response(system, U=du.T, X0=np.zeros(2)).outputs
+        error = np.max(np.abs(y[:, 0] - linear))
+        assert error < 1e-2 * np.max(np.abs(linear)) * (size / 1e-3) ** 2 + 1e-12
+    with pytest.raises(ValueError, match="inclination applies"):
+        to_control(model, inclination=10.0)

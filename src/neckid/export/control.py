@@ -57,6 +57,8 @@ from neckid.models.linear.arx import LinearARX
 from neckid.models.linear.rls import RecursiveARX
 from neckid.models.linear.subspace import SubspaceStateSpace
 from neckid.models.lpv.model import LPVARX
+from neckid.models.pnlss.linearise import linearise
+from neckid.models.pnlss.model import PolynomialStateSpace
 from neckid.models.scheduled.model import GainScheduledModel
 from neckid.models.scheduled.state_map import command_channel, scheduled_state_names
 from neckid.systems import StateFunctions, history_names
@@ -306,6 +308,40 @@ def _subspace_system(
     return control.TransferFunction(numerators, denominators, dt=model.ts_, **labels)
 
 
+def _pnlss_system(
+    model: PolynomialStateSpace,
+    inclination: float | None,
+    form: str,
+    strict: bool,
+    name: str | None,
+) -> control.TransferFunction | control.StateSpace:
+    """A PolynomialStateSpace linearised at rest, inputs mid-range (:func:`~neckid.models.pnlss.linearise.linearise`)."""
+    if inclination is not None:
+        raise ValueError(
+            f"inclination applies to a GainScheduledModel only; got {inclination!r} for a"
+            " PolynomialStateSpace (it is linearised at its equilibrium with mid-range inputs)"
+        )
+    linear = linearise(model)
+    if strict and np.any(linear.outputs):
+        raise ValueError(
+            f"the PolynomialStateSpace rests at the output {linear.outputs.tolist()} (inputs"
+            f" {linear.inputs.tolist()}), which a linear system cannot hold; pass strict=False to"
+            " leave the equilibrium out (the system is in deviations from it)"
+        )
+    system = control.StateSpace(
+        linear.a,
+        linear.b,
+        linear.c,
+        linear.d,
+        dt=model.ts_,
+        inputs=list(model.input_names_),
+        outputs=list(model.output_names_),
+        states=[f"x{k + 1}" for k in range(int(model.order_))],
+        name=name or type(model).__name__,
+    )
+    return system if form == "ss" else control.ss2tf(system, name=system.name)
+
+
 def default_form(model: Any) -> str:
     """The python-control form :func:`to_control` gives ``model`` by default (``"tf"`` or ``"ss"``).
 
@@ -340,11 +376,14 @@ def to_control(
 
     Parameters
     ----------
-    model : LinearARX, RecursiveARX, GainScheduledModel or SubspaceStateSpace
+    model : LinearARX, RecursiveARX, GainScheduledModel, SubspaceStateSpace, PolynomialStateSpace or LPVARX
         Fitted. ARX models: from every input to every output (MIMO when there are several).
         ``SubspaceStateSpace``: its ``(A_, B_, C_, D_)`` on its own state ``x1 … xn`` (``"ss"``,
         started by ``X0 = model.initial_state(y[:m], u[:m])``), or its transfer matrix; the
         offset ``intercept_`` is left out (added to the output) as an ARX intercept is.
+        ``PolynomialStateSpace``: linearised at rest with its inputs at the middle of their
+        training range (:func:`neckid.models.pnlss.linearise.linearise`: exact derivatives of
+        its monomials at the equilibrium), in deviations from that equilibrium.
         ``RecursiveARX``: its final estimate ``coef_``. ``GainScheduledModel``: frozen at
         ``inclination``, from the velocity command [rad/s] to the inclination [deg]
         (:meth:`~neckid.GainScheduledModel.transfer_function` with ``to="inclination"``).
@@ -438,6 +477,8 @@ def to_control(
         )
     if isinstance(model, SubspaceStateSpace):
         return _subspace_system(model, inclination, form, strict, name)
+    if isinstance(model, PolynomialStateSpace):
+        return _pnlss_system(model, inclination, form, strict, name)
     if not isinstance(model, LINEAR_MODELS):
         raise TypeError(
             f"to_control needs a linear model (LinearARX, RecursiveARX, GainScheduledModel); a"
