@@ -37,6 +37,7 @@ __all__ = [
     "DEFAULT_METHODS",
     "LAG_GRIDS",
     "LARGE_RECORDS",
+    "LPV_DEGREES",
     "NEURAL_PARAMS",
     "ONLY_ON",
     "OPT_IN_METHODS",
@@ -470,6 +471,23 @@ def _polynomial_grid(g: GridInput) -> list[Candidate]:
     return out
 
 
+#: Degrees of the LPV-ARX's schedule the benchmark ranks (0 is the ARX; with the payload as the
+#: scheduling condition a degree above (training payloads − 1) is that degree).
+LPV_DEGREES = (0, 1, 2)
+
+
+def _lpv_grid(g: GridInput) -> list[Candidate]:
+    """The LPV-ARX: lags × :data:`LPV_DEGREES` (the registry's degree alone when quick)."""
+    make = methods()["lpv"].make
+    degrees: tuple[int | None, ...] = (None,) if g.quick else LPV_DEGREES
+    out: list[Candidate] = []
+    for lags, degree in itertools.product(g.lag_sets(), degrees):
+        params = {} if degree is None else {"degree": degree}
+        model = make(lags, quick=g.quick, **params)
+        out.append((f"lags={lags!r}, degree={model.degree}, fit_for={model.fit_for}", model))
+    return out
+
+
 def _parallel_polynomial_grid(g: GridInput) -> list[Candidate]:
     """SM on a parallel polynomial NARX: lags × SM regressor × ε (× the polynomial's own error)."""
     method = methods()["sm-parallel-poly"]
@@ -576,6 +594,7 @@ CANDIDATE_GRIDS: Mapping[str, Callable[[GridInput], list[Candidate]]] = MappingP
         "sm-parallel": _parallel_grid,
         "sm-parallel-poly": _parallel_polynomial_grid,
         "poly": _polynomial_grid,
+        "lpv": _lpv_grid,
         "nn": _neural_grid,
         "scheduled": _scheduled_grid,
         "greybox-neck": _state_model_grid("greybox-neck"),
@@ -585,10 +604,10 @@ CANDIDATE_GRIDS: Mapping[str, Callable[[GridInput], list[Candidate]]] = MappingP
 #: The registry methods the benchmark can run, in the registry's order.
 BENCHMARK_METHODS: tuple[str, ...] = tuple(m for m in methods() if m in CANDIDATE_GRIDS)
 
-#: Methods run only when asked for by name (none at present: SM on a parallel polynomial was one
-#: until its candidates shared one polynomial fit and the projection estimate, see
-#: ``docs/benchmarks.md``).
-OPT_IN_METHODS: frozenset[str] = frozenset()
+#: Methods run only when asked for by name: the LPV-ARX (``--methods lpv``; its grid multiplies
+#: the lag sets by :data:`LPV_DEGREES`). SM on a parallel polynomial was one until its candidates
+#: shared one polynomial fit and the projection estimate (``docs/benchmarks/``).
+OPT_IN_METHODS: frozenset[str] = frozenset({"lpv"})
 
 #: Other toolkits' models, run beside neckid's on the public data sets with the same lag grid and
 #: selection rule (:mod:`neckid.experiments.benchmark.peers`; ``pip install "neckid[peers]"``).
