@@ -133,3 +133,28 @@ def test_select_use_conditions(logs: Path) -> None:
     )  # fmt: skip
     assert ran.exit_code == 0, ran.output
     assert "chosen: --lags" in ran.output
+
+
+def test_validate_in_loop_adapt(rng: np.random.Generator, tmp_path: Path) -> None:
+    from test_lab_loop import _logged_loop, _plant_model
+    from test_loop_checks import _softneck_file
+
+    model = _plant_model(rng)
+    log = _softneck_file(_logged_loop(model), tmp_path / "int000stepresponse.csv")
+    saved = model.save(tmp_path / "model.npz")
+    out = tmp_path / "loop.json"
+    ran = runner.invoke(
+        app,
+        ["validate", str(saved), str(log), "--in-loop", "--adapt", "2", "--json", str(out)],
+    )
+    assert ran.exit_code == 0, ran.output
+    assert "in loop after 2 s of adaptation (offset)" in _plain(ran.output)
+    document = json.loads(out.read_text())
+    assert document["kind"] == "in loop after 2 s of adaptation (offset)"
+    record = document["logs"][0]
+    # an exact model learns no offset: the adapted loop is the un-adapted one
+    assert record["inclination_fit_percent"] == pytest.approx(
+        record["unadapted_inclination_fit_percent"], abs=0.5
+    )
+    refused = runner.invoke(app, ["validate", str(saved), str(log), "--in-loop", "--adapt", "-1"])
+    assert refused.exit_code == 2 and "--adapt" in refused.output
