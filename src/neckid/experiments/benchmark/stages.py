@@ -165,11 +165,17 @@ def score_unit(
     return _recorded(work, known)
 
 
-def first_runaway(model: Any, y: NDArray[np.float64], skip: int) -> int | None:
-    """The first sample after ``skip`` that is not finite or leaves the model's envelope."""
+def first_runaway(
+    model: Any, y: NDArray[np.float64], skip: int, record: IOData | None = None
+) -> int | None:
+    """The first sample after ``skip`` that is not finite or leaves the model's envelope.
+
+    With ``record`` (the log the run read), the envelope widens with how far its inputs reach
+    beyond the training ranges (:meth:`~neckid.models.base.Estimator.divergence_envelope`).
+    """
     bad = np.flatnonzero(~np.isfinite(y[skip:]).all(axis=1))
     first = int(bad[0]) + skip if bad.size else None
-    away = model.first_runaway(y, skip) if hasattr(model, "first_runaway") else None
+    away = model.first_runaway(y, skip, record) if hasattr(model, "first_runaway") else None
     if away is not None and (first is None or away[0] < first):
         first = away[0]
     return first
@@ -179,7 +185,7 @@ def _test_run(model: Any, bench: BenchmarkData, test: str, record: IOData) -> Te
     start = time.perf_counter()
     y, skip = free_run(model, record, bench.n_initial, diverged="keep")
     seconds = time.perf_counter() - start
-    diverged = first_runaway(model, y, skip)
+    diverged = first_runaway(model, y, skip, record)
     if diverged is None:
         error = float(rmse(record.y, y, skip=skip)[0]) * bench.rmse_scale
         fit = float(fit_percent(record.y, y, skip=skip)[0])
