@@ -268,3 +268,17 @@ def test_on_the_real_logs_a_right_controller_passes_and_a_wrong_one_is_refused(r
     with pytest.raises(ControllerMismatchError) as tuner:
         in_loop_on_log(model, ada)  # the re-implemented tuner: approximate by nature
     assert tuner.value.check > 0.1  # measured 0.78–1.03 rad/s on the ada logs
+
+
+def test_a_non_finite_adaptive_gain_names_the_file_row_and_column(tmp_path) -> None:
+    path = _adaptive_file(tmp_path, "200")
+    rows = path.read_text().splitlines()
+    cells = rows[2].split(",")
+    cells[2] = "nan"
+    rows[2] = ",".join(cells)
+    path.write_text("\n".join(rows) + "\n")
+    with pytest.raises(ValueError, match=r"adacon200\.csv: kd of row 3 is nan"):
+        lab_controller("ada200response.csv", "ada", path)
+    path.write_text("0,0.3,0.9\n")
+    with pytest.raises(ValueError, match=r"adacon200\.csv: .* 4 columns \(t, kp, kd, fex\); got 3"):
+        lab_controller("ada200response.csv", "ada", path)

@@ -110,11 +110,23 @@ def load_adaptive_parameters(path: str | Path) -> AdaptiveParameters:
     file = Path(path)
     if not file.is_file():
         raise FileNotFoundError(f"adaptive parameter log {str(file)!r} does not exist")
-    values = np.loadtxt(file, delimiter=",", ndmin=2)
-    if values.shape[1] != 4 or not np.all(np.isfinite(values)):
+    try:
+        values = np.loadtxt(file, delimiter=",", ndmin=2)
+    except ValueError as exc:
         raise ValueError(
-            f"{file.name}: an adaptive parameter log has 4 finite columns (t, kp, kd, fex);"
-            f" got {values.shape[1]} columns"
+            f"{file}: not an adaptive parameter log (4 numbers a row: t, kp, kd, fex): {exc}"
+        ) from None
+    if values.shape[1] != 4:
+        raise ValueError(
+            f"{file}: an adaptive parameter log has 4 columns (t, kp, kd, fex); got"
+            f" {values.shape[1]}"
+        )
+    bad = np.argwhere(~np.isfinite(values))
+    if bad.size:
+        row, column = (int(v) for v in bad[0])
+        raise ValueError(
+            f"{file}: {('t', 'kp', 'kd', 'fex')[column]} of row {row + 1} is"
+            f" {float(values[row, column])}; an adaptive parameter log holds finite numbers"
         )
     return AdaptiveParameters(
         values[:, 0].copy(),
