@@ -103,3 +103,26 @@ def test_compare_keeps_the_true_structure_on_far_inputs() -> None:
     assert not any(str(e).startswith("diverged") for e in rows["error"])
     assert "runs away" not in " ".join(found.selection.table["reason"].astype(str))
     assert float(rows["fit_percent"].min()) > 99.0
+
+
+def test_validate_runs_the_correct_model_on_far_inputs(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    train, far = _logs()
+    paths = []
+    for data in (*train, far):
+        path = tmp_path / f"{data.name}.csv"
+        data.to_csv(path)
+        paths.append(str(path))
+    runner = CliRunner()
+    save = str(tmp_path / "arx.npz")
+    done = runner.invoke(
+        app, ["identify", *paths[:3], "--inputs", "u", "--outputs", "y", "--method", "arx",
+              "--lags", "1/1", "--save", save],
+    )  # fmt: skip
+    assert done.exit_code == 0, done.output
+    ran = runner.invoke(app, ["validate", save, paths[3]])
+    assert ran.exit_code == 0, ran.output  # was 3: "ran away"
+    assert "ran away" not in ran.output and "diverged" not in ran.output
