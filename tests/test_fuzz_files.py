@@ -506,6 +506,12 @@ PARQUET_CHANNELS = {
 }
 
 #: The kinds of a Parquet time column: ``kind: valid`` (sorted, distinct, uniform, in seconds).
+#: Time columns whose stamps are not 0.05 s apart: read with ts=0.05, they contradict it.
+TIMES_OTHER_THAN_TS = {
+    "int seconds", "timestamp ns", "timestamp with zone", "duration", "date", "seconds as text",
+    "int beyond 2**53", "days apart",
+}  # fmt: skip
+
 PARQUET_TIMES = {
     "seconds": True,
     "int seconds": True,
@@ -628,6 +634,8 @@ def parquet_logs(draw: st.DrawFn) -> dict[str, Any]:
         columns.append(("time", time))
         if by == "time":
             period = time_period if n >= 2 else None
+        elif n >= 2 and time_kind in TIMES_OTHER_THAN_TS:
+            period = None  # ts=0.05 contradicts the time column's stamps: refused
     extra = draw(st.sampled_from(["none", "other column", "repeated other", "repeated cmd"]))
     if extra != "none":
         name = {"other column": "x", "repeated other": "x", "repeated cmd": "cmd"}[extra]

@@ -14,6 +14,7 @@ from contextlib import contextmanager, suppress
 from typing import Any, TypeVar
 
 import typer
+import typer.rich_utils as typer_rich_utils
 from rich.console import Console
 from rich.table import Table
 
@@ -74,6 +75,28 @@ class _Stdout:
 
 console = Console(file=_Stdout())  # type: ignore[arg-type]
 error_console = Console(stderr=True)
+
+
+def _usage_error_line(error: Exception) -> None:
+    """A usage error in one line: the command, what is wrong as click says it, the help.
+
+    A missing argument, an unknown option, a value an option refuses (the argument and the
+    value): typer's five-line box, replaced; the exit status stays 2.
+    """
+    from rich.markup import escape
+
+    if type(error).__name__ == "NoArgsIsHelpError":
+        return  # the help is printed instead
+    context = getattr(error, "ctx", None)
+    text = " ".join(str(getattr(error, "format_message", error.__str__)()).split())
+    where = f"{context.command_path}: " if context is not None else ""
+    hint = f" (see {context.command_path} --help)" if context is not None else ""
+    error_console.print(
+        f"[red]error:[/red] {escape(where + text + hint)}", highlight=False, soft_wrap=True
+    )
+
+
+typer_rich_utils.rich_format_error = _usage_error_line  # type: ignore[assignment]
 
 #: Set by ``--debug``: unexpected errors show their traceback.
 _STATE = {"debug": False}

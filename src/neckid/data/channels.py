@@ -171,6 +171,12 @@ def channel_units(units: Sequence[str] | None, count: int, argument: str) -> tup
     if isinstance(units, str):
         units = [units]
     units = tuple(str(x) for x in units)
+    for unit in units:
+        if any(unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp") for c in unit):
+            raise ValueError(
+                f"{argument}: unit {unit!r} holds a control character (a line break, tab or"
+                " another invisible character); give the unit as plain text"
+            )
     if len(units) != count:
         raise ValueError(f"{argument} has {len(units)} entries for {count} channels")
     return units

@@ -407,9 +407,8 @@ def _check_ts_agrees(
             seconds = seconds * time_unit_scale(name, stored.get(name, ""))
     except ValueError:
         return
-    values = seconds.to_numpy(dtype=np.float64)
-    steps = np.diff(values[np.isfinite(values)])
-    steps = steps[steps > 0]
+    steps = np.diff(seconds.to_numpy(dtype=np.float64))
+    steps = steps[np.isfinite(steps) & (steps > 0)]
     if not steps.size:
         return
     step = float(np.median(steps))

@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import unicodedata
 from pathlib import Path
 from typing import Any, Literal
 
@@ -176,6 +177,13 @@ def _matlab_value(value: Any, where: str) -> Any:
     if isinstance(value, int | float | np.number):
         return float(value)
     if isinstance(value, str):
+        if not value.isascii():
+            # scipy writes the UTF-8 bytes with the length in characters: MATLAB reads it cut.
+            raise ValueError(
+                f"{where} is {value!r}, which holds non-ASCII characters: a .mat file written"
+                " here would be read back cut short by MATLAB; export --to json keeps the text"
+                " (UTF-8), or rename the channel in ASCII (--map) and identify the model again"
+            )
         return value
     raise TypeError(f"{where}: a {type(value).__name__} cannot be written to a .mat file")
 
@@ -221,6 +229,13 @@ def _matrix(values: Any) -> str:
 
 
 def _text(value: str) -> str:
+    """A MATLAB char literal; a control character (a line break would end the statement) refused."""
+    bad = [c for c in value if unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp")]
+    if bad:
+        raise ValueError(
+            f"the name {value!r} holds the control character {bad[0]!r}: a MATLAB script cannot"
+            " hold it in a name; rename the channel (--map) and identify the model again"
+        )
     return "'" + value.replace("'", "''") + "'"
 
 

@@ -197,6 +197,34 @@ class SubspaceStateSpace(Estimator):
             return int(self.horizon)
         return max(DEFAULT_HORIZON, (int(order) if isinstance(order, numbers.Integral) else 0) + 1)
 
+    def _check_order_fits(self, experiments: Sequence[IOData], order: int, horizon: int) -> None:
+        """Refuse, in terms of ``order``, an order whose horizon (order + 1) the logs cannot hold.
+
+        The past-future regression needs more windows of ``2 * horizon`` samples than it has
+        columns (``2 * horizon * (m + p)``, plus the intercept's).
+        """
+        m, p = experiments[0].n_inputs, experiments[0].n_outputs
+        lengths = [d.n_samples for d in experiments]
+
+        def fits(i: int) -> bool:
+            windows = sum(max(0, n - 2 * i + 1) for n in lengths)
+            return windows >= 2 * i * (m + p) + bool(self.fit_intercept)
+
+        if fits(horizon):
+            return
+        largest = max(
+            (i for i in range(DEFAULT_HORIZON, max(lengths) // 2 + 1) if fits(i)), default=0
+        )
+        hint = (
+            f"give an order of at most {(largest - 1) * p}" if largest > 1 else "no order fits them"
+        )
+        raise ValueError(
+            f"order={order} is too high for these logs ({', '.join(map(str, lengths))} samples):"
+            f" an order-{order} model regresses on windows of {2 * horizon} samples (horizon"
+            f" {horizon} = order + 1, past and future) and they do not hold enough of them; {hint},"
+            " or give longer logs"
+        )
+
     def _scales(self, experiments: Sequence[IOData]) -> tuple[FloatArray, FloatArray]:
         """Standard deviation of every input and output channel (1 for a constant one)."""
         u = np.vstack([d.u for d in experiments])
@@ -211,6 +239,8 @@ class SubspaceStateSpace(Estimator):
         scaled = [(d.u / su, d.y / sy) for d in experiments]
         i = self._horizon(order)
         m, p = experiments[0].n_inputs, experiments[0].n_outputs
+        if self.horizon is None and isinstance(order, numbers.Integral):
+            self._check_order_fits(experiments, int(order), i)
         intercept, feedthrough = bool(self.fit_intercept), bool(self.feedthrough)
         factor = past_future_factor(scaled, i, intercept)
         left, values = observability_basis(factor, i, m, p)

@@ -437,6 +437,23 @@ class PolynomialStateSpace(Estimator):
             )
             self._check_shape(name, getattr(self, f"{name}_"), (size,))
         self._check_shape("powers", self.powers_, (k, n + m))
+        expected = layout.tables()[0][-k:] if k else np.zeros((0, n + m), dtype=np.int64)
+        if not np.array_equal(self.powers_, expected):
+            row = int(np.flatnonzero(np.any(self.powers_ != expected, axis=1))[0])
+            raise ValueError(
+                f"powers row {row} is {self.powers_[row].tolist()}, but a degree-{self.degree}"
+                f" model of order {n} with {m} input(s) has the monomial"
+                f" {expected[row].tolist()} there: the powers must be the ones the model computes"
+                " (the file is damaged or edited)"
+            )
+        window = np.flatnonzero(~(np.isfinite(self.low_) & np.isfinite(self.high_)))
+        window = window if window.size else np.flatnonzero(~(self.low_ < self.high_))
+        if window.size:
+            j = int(window[0])
+            raise ValueError(
+                f"the monomial window [low, high] of variable {j} is [{self.low_[j]:g},"
+                f" {self.high_[j]:g}]: it must be two finite numbers with low < high"
+            )
         if not (
             np.all(self.u_scale_ > 0) and np.all(self.y_scale_ > 0) and np.all(self.scale_ > 0)
         ):

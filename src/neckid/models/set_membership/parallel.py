@@ -340,8 +340,13 @@ class ParallelSetMembership(Estimator):
             if "lags" in model.get_params() and model.get_params()["lags"] is None:
                 model.set_params(lags=self.lags)
         elif self.base is not None:
-            from neckid.registry import get_method
+            from neckid.registry import get_method, methods
 
+            if self.base not in methods():
+                raise ValueError(
+                    f"base must be the name of a method ({', '.join(methods())}) or an unfitted"
+                    f" estimator; got base={self.base!r}"
+                )
             model = get_method(self.base).make(self.lags)
         else:
             model = None
