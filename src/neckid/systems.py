@@ -342,7 +342,22 @@ def history_rows(value: ArrayLike | None, m: int, width: int, argument: str) -> 
     """
     if value is None:
         return np.zeros((m, width))
-    array = np.asarray(value, dtype=np.float64)
+    if isinstance(value, str | bytes | dict) or np.iscomplexobj(value):
+        raise TypeError(
+            f"{argument} must be numbers: one row of {width} value(s) or ({m}, {width}) rows;"
+            f" got {type(value).__name__} {value!r:.60}"
+        )
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise TypeError(
+            f"{argument} must be numbers: one row of {width} value(s) or ({m}, {width}) rows;"
+            f" got {value!r:.60} ({exc})"
+        ) from None
+    if array.ndim <= 1 and array.size not in (1, width):
+        raise ValueError(
+            f"{argument} must have shape ({width},) or ({m}, {width}); got {np.shape(value)}"
+        )
     if array.ndim <= 1:
         array = np.broadcast_to(
             array.reshape(1, -1) if array.ndim else array.reshape(1, 1), (m, width)

@@ -438,6 +438,7 @@ def read_log_for_model(
         pipeline = None
     used = set(model._condition_names())
     inputs = [n for n in model.input_names_ if n not in used]
+    _check_mapping_names(maps or {}, [*inputs, *model.output_names_], pipeline, tilt)
     data = read_log(
         path,
         inputs,
@@ -453,6 +454,23 @@ def read_log_for_model(
         preprocessing=pipeline,
     )
     return data, pipeline
+
+
+def _check_mapping_names(
+    maps: Mapping[str, str], channels: Sequence[str], pipeline: Pipeline | None, tilt: bool
+) -> None:
+    """Refuse a ``--map MODEL=LOG`` whose model channel the model does not read, naming it."""
+    known = set(channels)
+    if pipeline is not None:
+        known |= set(pipeline.sources(list(channels)))
+    if tilt or (pipeline is not None and pipeline.find(Tilt) is not None):
+        known |= {"inclination", "orientation"}
+    for log, name in maps.items():
+        if name not in known:
+            raise ValueError(
+                f"--map {name}={log}: the model has no channel {name!r} (it reads"
+                f" {', '.join(sorted(known))}); write --map MODEL_CHANNEL=LOG_COLUMN"
+            )
 
 
 def parse_channels(texts: Sequence[str]) -> dict[str, tuple[str, ...]]:
