@@ -11,7 +11,9 @@
   :class:`LabDrive`: gains by direction and speed);
 - :mod:`.lab_loop`: an identified model in the loop of a real log, with the log's controller,
   reference and the drive model (:func:`in_loop_on_log`); :mod:`.lab_loop_result` its figures,
-  :mod:`.loop_measures` the tracking error, oscillation and stair measures.
+  :mod:`.loop_measures` the tracking error, oscillation and stair measures; :mod:`.loop_checks`
+  what the loop is checked against before it runs (the controller check and its tolerance, the
+  sampling period, the adaptive parameter logs matched to the log).
 
 Applications (the paper's demo, the benchmark) live in :mod:`neckid.experiments` and use these.
 """
