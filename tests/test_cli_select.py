@@ -59,13 +59,15 @@ def test_select_finds_the_true_orders_and_saves_the_model(runs: list[Path], tmp_
     result = runner.invoke(app, [*args, "--json", str(out), "--save", str(model_path)])
     assert result.exit_code == 0, result.output
     text = _plain(result.output)
-    assert "leave-one-experiment-out, 3 folds" in text
+    # three logs, each held out in 2 time blocks (at least 6 folds: neckid.data.folds.fold_plan)
+    assert "experiments × time-blocks, 6 folds" in text
     assert "chosen: --lags 1-2/3-4 (safe rule)" in text
     document = json.loads(out.read_text())
-    assert document["chosen"] == "1-2/3-4" and document["scheme"] == "leave-one-experiment-out"
+    assert document["chosen"] == "1-2/3-4" and document["scheme"] == "experiments × time-blocks"
     assert len(document["candidates"]) == 36
+    assert document["warnings"] == [] and document["baselines"]["training mean"] <= 0
     chosen = [c for c in document["candidates"] if c["status"] == "chosen"]
-    assert len(chosen) == 1 and len(chosen[0]["fold_fits_percent"]) == 3
+    assert len(chosen) == 1 and len(chosen[0]["fold_fits_percent"]) == 6
     assert np.isclose(np.mean(chosen[0]["fold_fits_percent"]), chosen[0]["mean_fit_percent"])
     model = load_model(model_path)
     assert format_lags(model.lags_) == "1-2/3-4"

@@ -51,7 +51,8 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
                 fit: _number(float(row["fit_percent"])),
                 **(plain if adapted else {}),
                 f"RMSE [{unit}]": _number(float(row["rmse"])),
-                "outside training range [%]": float(100 * row["outside_domain"]),
+                "outside training range [%]": float(100 * row["outside_training_range"]),
+                "outside model domain [%]": float(100 * row["outside_domain"]),
                 f"band width [{unit}]": _number(float(row["band_width"])),
                 "band holds [%]": _number(float(100 * row["band_coverage"])),
             }
@@ -70,10 +71,17 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
                 fit: _number(float(row["fit_percent"])),
                 **plain,
                 "RMSE [-]": _number(float(row["rmse"])),
-                "outside training range [%]": float(100 * row["outside_domain"]),
+                "outside training range [%]": float(100 * row["outside_training_range"]),
+                "outside model domain [%]": float(100 * row["outside_domain"]),
             }
         )
     return rows
+
+
+def _baseline_line(baselines: dict[str, float]) -> str:
+    """The naive references' mean fold fits in one line (replay: only where it applies)."""
+    shown = ", ".join(f"{name} {value:.1f} %" for name, value in baselines.items())
+    return f"baselines on the same folds: {shown or 'none applies'}"
 
 
 def _write_plot(comparison: Any, tests: list[Any], path: Path) -> None:
@@ -96,20 +104,34 @@ def _write_report(comparison: Any, tests: list[Any], folder: Path, force: bool) 
 
     with output_folder(folder, force=force) as staged:
         report = Report("neckid compare")
-        report.add_text("Recommended", f"{comparison.recommended}. " + " ".join(comparison.reasons))
+        report.add_text(
+            "Recommended",
+            f"{comparison.recommended}. "
+            + " ".join(
+                [
+                    *comparison.reasons,
+                    _baseline_line(comparison.selection.baselines) + ".",
+                    *(f"Warning: {w}." for w in comparison.warnings),
+                ]
+            ),
+        )
         selection = comparison.selection.table.drop(columns=["fold_fits"]).rename(
             columns={
                 "fit_mean": "mean fold fit [%]",
                 "fit_se": "standard error [points]",
                 "fit_worst": "worst fold fit [%]",
+                "diff_best": "mean difference to the best [points]",
+                "diff_se": "its standard error [points]",
+                "bar": "bar [%]",
             }
         )
         report.add_table(
             f"Selection on the training logs ({comparison.selection.scheme})",
             selection,
-            note="Free-run NRMSE fit per held-out fold; a candidate that fails or runs away in"
-            " any fold is rejected; the simplest within one standard error of the best is"
-            " chosen.",
+            note="Free-run NRMSE fit per held-out fold, every candidate on the same folds; a"
+            " candidate that fails or runs away in any fold is rejected; the simplest whose"
+            " mean per-fold difference to the best is within one standard error of that"
+            " difference (or half a point) is chosen (the paired rule).",
         )
         report.add_table(
             f"Test logs ({comparison.kind})",
@@ -222,8 +244,11 @@ def compare(
             soft_wrap=True,
         )
     console.print(f"recommended: {result.recommended}", markup=False)
-    for reason in result.reasons[:1]:
+    for reason in result.selection.explain():
         console.print(f"  {reason}", markup=False)
+    console.print(f"  {_baseline_line(result.selection.baselines)}", markup=False)
+    for line in result.warnings:  # a result, not an error: the exit status stays 0
+        console.print(f"[yellow]warning:[/yellow] {escape(line)}", highlight=False, soft_wrap=True)
     if json_out is not None:
         write_json(json_out, result.to_json())
         console.print(f"comparison written to {json_out}")

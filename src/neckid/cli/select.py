@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich.markup import escape
 
 from neckid.cli._app import (
     FORCE_OPTION,
@@ -68,6 +69,8 @@ def _ranking_rows(selection: Any, data: Any, limit: int) -> list[dict[str, Any]]
                 "terms": row["n_terms"],
                 "mean fit [%]": row[column],
                 "± se [points]": row[f"{column}_se"],
+                "to best [points]": row[f"{column}_diff"],
+                "± paired se": row[f"{column}_diff_se"],
                 "worst fold [%]": row[f"{column}_worst"],
                 "status": row["status"],
                 "reason": str(row["reason"])[:60],
@@ -102,7 +105,7 @@ def _print_ranking(selection: Any, data: Any, limit: int) -> None:
 def _document(selection: Any, data: Any, method: str, chosen: str | None) -> dict[str, Any]:
     """What ``--json`` writes: the rule, the folds, every candidate's mean and fold fits."""
     column = selection.column
-    folds = selection.table.attrs.get("folds", [])
+    folds = selection.folds
     candidates = []
     for row, (_, full) in zip(
         _ranking_rows(selection, data, len(selection.table)),
@@ -115,6 +118,8 @@ def _document(selection: Any, data: Any, method: str, chosen: str | None) -> dic
                 "n_terms": row["terms"],
                 "mean_fit_percent": row["mean fit [%]"],
                 "se_points": row["± se [points]"],
+                "difference_to_best_points": row["to best [points]"],
+                "difference_se_points": row["± paired se"],
                 "worst_fold_percent": row["worst fold [%]"],
                 "status": row["status"],
                 "reason": str(full["reason"]),
@@ -128,7 +133,33 @@ def _document(selection: Any, data: Any, method: str, chosen: str | None) -> dic
         "scheme": selection.scheme,
         "folds": folds,
         "chosen": chosen,
+        **_choice(selection, data),
+        "baselines": dict(selection.baselines),
+        "warnings": list(selection.warnings),
         "candidates": candidates,
+    }
+
+
+def _choice(selection: Any, data: Any) -> dict[str, Any]:
+    """The best candidate by mean fold fit, the bar, and each fold's gap of the chosen one."""
+    from neckid.cli.workflow import format_lags
+
+    ranking = selection.ranking
+    if ranking is None:
+        return {}
+
+    def text(i: int) -> str:
+        try:
+            return format_lags(selection.candidates[i].resolve(data))
+        except (KeyError, ValueError):
+            return repr(selection.candidates[i])
+
+    return {
+        "best": text(ranking.best),
+        "best_fit_mean_percent": float(ranking.means[ranking.best]),
+        "bar_percent": ranking.bar,
+        "fold_differences_to_best_points": [float(d) for d in ranking.differences[ranking.chosen]],
+        "explanation": selection.explain(),
     }
 
 
@@ -230,6 +261,11 @@ def select(
     if chosen is None:
         raise ValueError("every candidate failed or diverged in a fold; see the reason column")
     console.print(f"chosen: --lags {text} ({selection.rule} rule)", markup=False)
+    console.print(f"  {selection.explain()}", markup=False)
+    shown = ", ".join(f"{k} {v:.1f} %" for k, v in selection.baselines.items()) or "none applies"
+    console.print(f"  baselines on the same folds: {shown}", markup=False)
+    for line in selection.warnings:  # a result, not an error: the exit status stays 0
+        console.print(f"[yellow]warning:[/yellow] {escape(line)}", highlight=False, soft_wrap=True)
     if save is not None:
         model = make_estimator(method, chosen, **options)
         model.fit(experiments if len(experiments) > 1 else experiments[0])

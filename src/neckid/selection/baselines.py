@@ -43,6 +43,9 @@ REPLAY_TOLERANCE = 0.02
 class _Baseline(BaseEstimator):  # type: ignore[misc]
     """What both references share: no lags, a free run that is one array."""
 
+    def __sklearn_is_fitted__(self) -> bool:
+        return hasattr(self, "max_lag_")
+
     def _result(self, data: IOData, y: np.ndarray) -> ModelResult:
         return ModelResult(
             kind="simulation",

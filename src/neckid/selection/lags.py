@@ -510,7 +510,9 @@ def _combine_folds(
                 if name == f"{label}_{kind}":
                     row[f"{name}_worst"] = float(worst(values))
     errors = [(j, f["error"]) for j, f in enumerate(folds) if f.get("error")]
-    if errors:
+    if errors and len(errors) == len(folds) > 1 and len({e for _, e in errors}) == 1:
+        row["error"] = f"every fold: {errors[0][1]}"  # a failed fit: said once
+    elif errors:
         row["error"] = (
             errors[0][1] if len(folds) == 1 else "; ".join(f"fold {j}: {e}" for j, e in errors)
         )
