@@ -53,12 +53,15 @@ from neckid.regressors import Lags, ResolvedLags
 from neckid.utils.checks import Interval, Options
 from neckid.utils.types import FloatArray
 
-__all__ = ["BACKTRACK", "LPVARX", "STABILITY_MARGIN"]
+__all__ = ["BACKTRACK", "LPVARX", "MEASURED_MARGIN", "STABILITY_MARGIN"]
 
 logger = logging.getLogger(__name__)
 
 #: A frozen model counts as stable when its largest pole modulus is below this.
 STABILITY_MARGIN = 1.0 - 1e-9
+
+#: ``hold_margin`` of a measured scheduling channel by default (the polynomial NARX's).
+MEASURED_MARGIN = 0.5
 
 #: How far from a stable start towards an unstable free-run fit the stable points tried lie.
 BACKTRACK = (0.99, 0.97, 0.93, 0.85, 0.7, 0.5, 0.3, 0.1, 0.0)
@@ -85,10 +88,13 @@ class LPVARX(PolynomialNARX):
         Tikhonov regularisation of the least-squares step (on the standardised products).
     max_iter : int, default 100
         Largest number of free runs the simulation fit may spend.
-    hold_margin : float, default 0.0
+    hold_margin : float, optional
         Beyond the training range of each scheduling term widened by this fraction of it, the
-        schedule holds its edge value (the coefficients stop changing; a condition's degree-1
-        offset term goes on). The stability check covers that range.
+        schedule holds its edge value (a condition's coefficients stop changing; its degree-1
+        offset term goes on). The stability check covers that range. ``None``: 0 for a
+        condition, :data:`MEASURED_MARGIN` for a measured channel, whose held monomials hold
+        its dynamic factor too (beyond the range only its degree-1 term goes on, which is not
+        the model frozen at the edge: give a free run room to leave the training range).
 
     Attributes
     ----------
@@ -126,7 +132,7 @@ class LPVARX(PolynomialNARX):
         "fit_for": [Options({"simulation", "prediction"})],
         "ridge": [Interval("real", 0, None)],
         "max_iter": [Interval("int", 1, None)],
-        "hold_margin": [Interval("real", 0, None)],
+        "hold_margin": [None, Interval("real", 0, None)],
     }
 
     def __init__(
@@ -138,7 +144,7 @@ class LPVARX(PolynomialNARX):
         fit_for: str = "simulation",
         ridge: float = 0.0,
         max_iter: int = 100,
-        hold_margin: float = 0.0,
+        hold_margin: float | None = None,
     ) -> None:
         self.lags = lags
         self.scheduling = scheduling
@@ -146,7 +152,7 @@ class LPVARX(PolynomialNARX):
         self.fit_for = fit_for
         self.ridge = ridge
         self.max_iter = max_iter
-        self.hold_margin = hold_margin
+        self.hold_margin = hold_margin  # type: ignore[assignment]  # None: by kind, _hold_range
 
     # ------------------------------------------------------------------ the LPV form
     def _total_degree(self) -> int:
@@ -158,11 +164,15 @@ class LPVARX(PolynomialNARX):
 
     def _hold_range(self, low: FloatArray, high: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Scheduling terms held at their widened training range; the others never held."""
-        held_low, held_high = super()._hold_range(low, high)
-        terms = [t for v in self.scheduling_ for t in v.terms]
         never = np.finfo(np.float64).max  # finite, for the model file: never reached
         out_low, out_high = np.full_like(low, -never), np.full_like(high, never)
-        out_low[terms], out_high[terms] = held_low[terms], held_high[terms]
+        for v in self.scheduling_:
+            margin = self.hold_margin
+            if margin is None:
+                margin = 0.0 if v.kind == "condition" else MEASURED_MARGIN
+            terms = list(v.terms)
+            width = float(margin) * (high[terms] - low[terms])
+            out_low[terms], out_high[terms] = low[terms] - width, high[terms] + width
         return out_low, out_high
 
     def _allowed_monomials(self, powers: NDArray[np.int64]) -> NDArray[np.bool_]:
@@ -349,7 +359,18 @@ class LPVARX(PolynomialNARX):
             raise ValueError("active marks monomials outside the LPV form of the scheduling")
 
     def _get_state(self) -> tuple[dict[str, NDArray[Any]], dict[str, Any]]:
-        arrays, meta = super()._get_state()
+        check_is_fitted(self)
+        arrays = {
+            "coef": self.coef_,
+            "powers": self.powers_,
+            "active": self.active_.astype(np.int8),
+            "center": self.center_,
+            "scale": self.scale_,
+            "low": self.low_,
+            "high": self.high_,
+            **self.statistics_.to_arrays("statistics_"),
+        }
+        meta: dict[str, Any] = {"fit_report": self.fit_report_, **self._narx_meta()}
         scheduling = self.scheduling
         meta["params"] = {
             "scheduling": scheduling
@@ -359,7 +380,7 @@ class LPVARX(PolynomialNARX):
             "fit_for": str(self.fit_for),
             "ridge": float(self.ridge),
             "max_iter": int(self.max_iter),
-            "hold_margin": float(self.hold_margin),
+            "hold_margin": None if self.hold_margin is None else float(self.hold_margin),
         }
         meta["scheduling"] = [v.to_dict() for v in self.scheduling_]
         return arrays, meta
