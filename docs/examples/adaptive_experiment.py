@@ -1,4 +1,4 @@
-"""Adaptive free run on the real soft-neck staircase logs (docs/benchmarks.md, *Adaptive*).
+"""Adaptive free run on the real soft-neck staircase logs (docs/benchmarks/softneck.md, *Adaptive*).
 
 What it shows: how much a model identified on other runs gains when it adapts on the first 5 s of
 a test run. Train on ``stair/{ada,fra,int}{000,600}response.csv``, test on

@@ -1,7 +1,7 @@
 """SM parallel across runs of the real neck: the benchmark's grid with other SM distances and estimates.
 
 What it shows: whether the learnt SM distance or the projection estimate changes what the
-cross-run benchmark protocols (docs/benchmarks.md, *A learnt distance for SM parallel across
+cross-run benchmark protocols (docs/benchmarks/softneck.md, *A learnt distance for SM parallel across
 runs*) choose and score. Run from the repository, with the data folder that holds ``softneck/``
 (about 2-3 min per protocol and variant on 2 cores)::
 

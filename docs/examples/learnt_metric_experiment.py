@@ -1,7 +1,7 @@
 """The learnt SM distance (``scaling="gradient"``) against the std one, on the training records only.
 
 What it shows: whether learning the SM distance from the data beats the hand-made one, on the
-benchmarks' selection splits (docs/benchmarks.md, *The learnt distance*). Run from the repository,
+benchmarks' selection splits (docs/benchmarks/silverbox.md, *The learnt distance*). Run from the repository,
 with the data folder that holds ``benchmarks/`` (about 8 min on 2 cores; without a part, all)::
 
     .venv/bin/python docs/examples/learnt_metric_experiment.py DATA [silverbox-linear] [tanks-parallel] [silverbox-poly] [silverbox-projection]

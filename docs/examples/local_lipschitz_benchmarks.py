@@ -6,7 +6,7 @@ Set Membership on the public benchmarks. Run from the repository, with the data 
 
     .venv/bin/python docs/examples/local_lipschitz_benchmarks.py DATA
 
-It prints the figures of ``docs/benchmarks.md`` (*Local Lipschitz constants*).
+It prints the figures of ``docs/benchmarks/silverbox.md`` (*Local Lipschitz constants*).
 
 Protocol (each benchmark's official split; every setting chosen on the training record only,
 the benchmark's rule: fit on its first 75 %, free-run RMSE on the last 25 %; then refit on the

@@ -6,7 +6,7 @@ narrows it. Run from the repository, with the folder of the real soft-neck logs 
 
     .venv/bin/python docs/examples/nn_seed_spread.py DATA/softneck
 
-Protocol (the cross-run payload split of ``docs/benchmarks.md``): fit on the 0 g and 600 g
+Protocol (the cross-run payload split of ``docs/benchmarks/softneck.md``): fit on the 0 g and 600 g
 staircases of the three controllers at once, the payload [kg] as a constant input; free run on
 each 200 g and 400 g staircase; NRMSE fit [%]. Regressor fixed in advance: the soft-neck grid's
 quick-mode entry ``Lags.arx(2, 2, 1)`` with the payload (no selection, so the seed is the only

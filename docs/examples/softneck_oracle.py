@@ -1,4 +1,4 @@
-"""How far a model identified on another log can get on each soft-neck validation log (docs/benchmarks.md).
+"""How far a model identified on another log can get on each soft-neck validation log (docs/benchmarks/softneck.md).
 
 What it shows: whether any model identified on another log can beat the linear ARX by 5 points
 per log on the real neck. Run from the repository, with the folder of the real soft-neck logs::

@@ -1,4 +1,4 @@
-"""Streaming 10-step-ahead prediction on the real soft-neck test logs (docs/benchmarks.md).
+"""Streaming 10-step-ahead prediction on the real soft-neck test logs (docs/benchmarks/softneck.md).
 
 What it shows: ``neckid.loops.adaptive.streaming_ahead`` predicts the inclination 10 samples
 (0.25 s) ahead while the model keeps learning from what it has seen, updated every 1 s, against

@@ -8,7 +8,7 @@ benchmarks ``poly`` and ``sm-parallel-poly``, on the soft-neck logs ``scheduled`
 - the four public benchmarks of :mod:`neckid.datasets.benchmarks`, with the official protocol of
   each (train on the training record, free-run simulation of every test record, the number of
   initial samples the protocol gives, RMSE in the unit the literature uses);
-- the UC3M soft-neck logs, with the protocol of ``docs/benchmarks.md`` (identify on
+- the UC3M soft-neck logs, with the protocol of ``docs/benchmarks/methods.md`` (identify on
   ``stair/ada000response.csv``, validate by free run on every other log that has the raw
   inclination; see :func:`softneck_protocol`);
 - two cross-run protocols on the soft-neck staircases (:data:`SOFTNECK_CROSS_RUN`): identify on

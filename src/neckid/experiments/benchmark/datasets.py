@@ -5,7 +5,7 @@ Every data set is a :class:`Protocol` in :data:`PROTOCOLS`: a loader that turns 
 initial samples, the unit of its literature), and whether the report adds the mean over its test
 records. The four public benchmarks use the official protocol of each
 (:mod:`neckid.datasets.benchmarks`); the UC3M soft-neck logs use this project's
-(:func:`softneck_protocol`, :func:`load_softneck_benchmark`, ``docs/benchmarks.md``).
+(:func:`softneck_protocol`, :func:`load_softneck_benchmark`, ``docs/benchmarks/methods.md``).
 """
 
 from __future__ import annotations

@@ -312,7 +312,7 @@ def run_benchmark(
 
     Notes
     -----
-    Protocols: see ``docs/benchmarks.md``. RMSE and fit skip the protocol's initial samples
+    Protocols: see ``docs/benchmarks/methods.md``. RMSE and fit skip the protocol's initial samples
     (Silverbox: 50) or, where the protocol gives none, the model's own ``max_lag_`` samples.
     Hyper-parameters are chosen on the training record only; test records are simulated once.
     Fits that several grids need are done once per run (:mod:`~.shared`), and SM on the
@@ -387,7 +387,7 @@ def _run(
     if all(bench is None for bench in loaded.values()):
         raise FileNotFoundError(
             f"nothing to run: none of the data sets {', '.join(datasets)} is under {root} (it"
-            " should hold softneck/ and benchmarks/NAME/; see docs/benchmarks.md)"
+            " should hold softneck/ and benchmarks/NAME/; see docs/benchmarks/runs.md)"
         )
     found = {name: bench for name, bench in loaded.items() if bench is not None}
     plans, skipped_rows, skipped = _plans(found, names, quick, seed)

@@ -231,7 +231,7 @@ ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType(
 #: training data (when the grid holds more than one): each registry entry's
 #: :attr:`~neckid.registry.Method.builds_on`. SM on the parallel polynomial sits on the
 #: polynomial that ``poly``'s own selection picked. Measured on 2026-11-27 with the full grid
-#: (``docs/benchmarks.md``): the full grid chose those lags on all four public data sets.
+#: (``docs/benchmarks/methods.md``): the full grid chose those lags on all four public data sets.
 BUILDS_ON: Mapping[str, str] = MappingProxyType(
     {m.name: m.builds_on for m in methods().values() if m.builds_on}
 )

@@ -14,7 +14,7 @@ then minimises the *free-run* error over the training experiments, with the exac
 the model's sensitivity recursion (:mod:`neckid.models.polynomial._kernels`). A model that is good one
 step ahead can drift in free run, where its small one-step errors are fed back; fitting the
 simulation error removes most of that (on the Silverbox benchmark, degree 3: 0.32 mV free-run
-RMSE by least squares, 0.25 mV after the simulation fit; ``docs/benchmarks.md``).
+RMSE by least squares, 0.25 mV after the simulation fit; ``docs/benchmarks/silverbox.md``).
 
 The start is whichever of two least-squares fits simulates the training experiments better: all
 monomials, or the linear ones only (an ARX, the safer start where the full polynomial diverges in
