@@ -41,6 +41,7 @@ __all__ = [
     "adapted_outputs",
     "adapted_run",
     "check_adaptation",
+    "diverged_rows",
 ]
 
 
@@ -79,6 +80,22 @@ class AdaptedRun:
     band: ModelResult | None
     label: str
 
+    def rows(self) -> list[dict[str, Any]]:
+        """One row per output: fits (adapted, un-adapted), RMSE and the band, as compare lists them."""
+        scored, result = self.adapted.scored, self.adapted.result
+        errors = result.rmse(scored)
+        plain = self.unadapted.fit if self.unadapted is not None else np.full(errors.shape, -np.inf)
+        band = "adaptive conformal 95 %" if self.band is not None else ""
+        held, widths = self.band_coverage, self.band_width
+        return [
+            {"output": name, "unit": unit, "fit_percent": float(self.adapted.fit[j])}
+            | {"fit_percent_unadapted": float(plain[j]), "rmse": float(errors[j]), "band": band}
+            | {"band_width": float(widths[j]), "band_coverage": float(held[j])}
+            for j, (name, unit) in enumerate(
+                zip(scored.output_names, scored.output_units, strict=True)
+            )
+        ]
+
     @property
     def band_coverage(self) -> FloatArray:
         """Per output, the band's running coverage at the log's end (share inside; NaN: none)."""
@@ -94,6 +111,15 @@ class AdaptedRun:
         width = self.band.upper - self.band.lower
         width = np.where(np.isfinite(width), width, np.nan)[self.band.n_initial :]
         return np.asarray(np.nanmean(width, axis=0), dtype=np.float64)
+
+
+def diverged_rows(data: IOData) -> list[dict[str, Any]]:
+    """:meth:`AdaptedRun.rows` of a run that diverged: fit ``-inf``, nothing else known."""
+    return [
+        {"output": name, "unit": unit, "fit_percent": -np.inf, "fit_percent_unadapted": np.nan}
+        | {"rmse": np.inf, "band": "", "band_width": np.nan, "band_coverage": np.nan}
+        for name, unit in zip(data.output_names, data.output_units, strict=True)
+    ]
 
 
 def adapted_outputs(

@@ -58,7 +58,7 @@ from neckid.data.folds import (
 )
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
-from neckid.models.adapted import adaptation_label, adapted_run, check_adaptation
+from neckid.models.adapted import adaptation_label, adapted_run, check_adaptation, diverged_rows
 from neckid.models.bands import band_meaning
 from neckid.models.base import DivergenceError, ModelResult
 from neckid.registry import get_method, methods
@@ -595,39 +595,16 @@ def _adapted_test_rows(
 ) -> tuple[list[dict[str, Any]], ModelResult | None]:
     """:func:`_test_rows` after ``adapt`` of adaptation, with the un-adapted fit and the band."""
     base: dict[str, Any] = {"method": method, "log": record.name or "test", "error": ""}
-    base["outside_training_range"] = outside_range
-    base["outside_domain"] = _outside_domain(model, record)
-    names = list(zip(record.output_names, record.output_units, strict=True))
+    base.update(outside_training_range=outside_range, outside_domain=_outside_domain(model, record))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             run = adapted_run(model, record, *adapt)
     except DivergenceError as exc:
-        failed: dict[str, Any] = {"fit_percent": -np.inf, "fit_percent_unadapted": np.nan}
-        failed.update(rmse=np.inf, band="", band_width=np.nan, band_coverage=np.nan)
-        return [
-            {**base, "output": n, "unit": u, **failed, "error": f"diverged: {exc}"}
-            for n, u in names
-        ], None
-    scored, result = run.adapted.scored, run.adapted.result
-    errors = rmse(scored.y, result.y, skip=result.n_initial)
-    plain = run.unadapted.fit if run.unadapted is not None else np.full(len(names), -np.inf)
-    coverage_held, widths = run.band_coverage, run.band_width
-    rows = [
-        {
-            **base,
-            "output": n,
-            "unit": u,
-            "fit_percent": float(run.adapted.fit[j]),
-            "fit_percent_unadapted": float(plain[j]),
-            "rmse": float(errors[j]),
-            "band": "adaptive conformal 95 %" if run.band is not None else "",
-            "band_width": float(widths[j]),
-            "band_coverage": float(coverage_held[j]),
-        }
-        for j, (n, u) in enumerate(names)
-    ]
-    return rows, result if run.band is None else run.band
+        failed = {"error": f"diverged: {exc}"}
+        return [{**base, **row, **failed} for row in diverged_rows(record)], None
+    shown = run.adapted.result if run.band is None else run.band
+    return [{**base, **row} for row in run.rows()], shown
 
 
 def _method_pick(
