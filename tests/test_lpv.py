@@ -74,6 +74,32 @@ def test_lpv_follows_the_payload_of_a_spring_mass(spring) -> None:
     assert model.fit_report_["max_pole_radius"] < 1.0
 
 
+def test_a_lightly_damped_spring_too() -> None:
+    """ζ = 0.1: measured 89.4 / 79.4 % (ARX 55.0 / 48.9 %); the hand prototype got 88 / 80 %."""
+    train, test = spring_split(0.1)
+    lpv = _fits(LPVARX(PAYLOAD_LAGS, degree=2).fit(train), test)
+    arx = _fits(neckid.methods()["arx"].make(PAYLOAD_LAGS).fit(train), test)
+    assert min(lpv) >= 77.0 and min(lpv) > max(arx) + 20.0, (lpv, arx)
+
+
+def test_the_degree_is_chosen_on_time_blocks_of_the_training_logs() -> None:
+    """Held-out time blocks keep every payload in training: the rule then sees degree 2 is better.
+
+    Holding out a whole run leaves two payloads, on which degrees 1 and 2 are the same model (the
+    rule then takes the simpler, degree 1: 96.9 / 92.8 % on the test runs, below the floor).
+    """
+    from neckid.data.folds import time_blocks
+    from neckid.selection.comparison import select_safely
+
+    train, _ = spring_split(0.3)
+    candidates = [(f"degree={d}", LPVARX(PAYLOAD_LAGS, degree=d)) for d in (1, 2)]
+    complexity = {"degree=1": 1, "degree=2": 2}
+    blocks = [block for log in train for block in time_blocks(log, 3)]
+    assert select_safely(candidates, blocks, complexity=complexity).chosen == "degree=2"
+    by_run = select_safely(candidates, train, complexity=complexity)
+    assert by_run.chosen == "degree=1"
+
+
 def test_frozen_models_are_the_arx_at_one_payload(spring) -> None:
     train, test, model = spring
     frozen = model.frozen(payload=0.2)
