@@ -26,6 +26,7 @@ import pytest
 from typer.testing import CliRunner
 
 import neckid
+from _reliability_inputs import CASES as INPUT_CASES
 from neckid import IOData, Lags
 from neckid.cli import app
 
@@ -1419,6 +1420,9 @@ CASES = [
     Case("A6", "API", "a write interrupted half way", "the old file stays, no temporary left", "correct", _output_written_whole),
     Case("A7", "API", "`ts` True, '0.1', complex, 1e307 or NaN", "TypeError: ts must be a number of seconds; got True / ValueError: ... at most 1e+06", "clear", _ts_not_a_number),
 ]  # fmt: skip
+
+# The held-out campaign's classes of bad data, files and model files: one case per class.
+CASES += INPUT_CASES  # type: ignore[arg-type]
 
 
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
