@@ -35,9 +35,12 @@ __all__ = ["CONTROLLER_HELP", "validate_in_loop"]
 
 CONTROLLER_HELP = (
     "With --in-loop: int (the lab's PI), fra (the fixed fractional controller), ada (the adaptive"
-    " one, re-implemented tuner), an adaptive parameter log adacon*.csv or a folder holding it"
-    " (the adaptive controller replayed), or a controller file (.json) written by `neckid"
-    " design` (read by neckid.design.load_controller). Default: the one the log's name says."
+    " one, re-implemented tuner: approximate, so refused by the controller check without"
+    " --force), an adaptive parameter log adacon*.csv or a folder holding it (the adaptive"
+    " controller replayed; ada* logs only), or a controller file (.json) written by `neckid"
+    " design` (read by neckid.design.load_controller; at the log's period). Default: the one the"
+    " log's name says. A controller that does not reproduce the log's commands (controller"
+    " check beyond 1e-4 rad/s) is refused unless --force."
 )
 
 #: Channels the loop reads from a log with a header row.
