@@ -123,6 +123,22 @@ def test_frozen_models_are_the_arx_at_one_payload(spring) -> None:
         to_control(arx, scheduling={"payload": 0.2})
 
 
+def test_the_lpv_model_is_an_io_system_with_the_payload_as_an_input(spring) -> None:
+    import control
+
+    from neckid.export.control import initial_state, to_iosystem
+
+    _, test, model = spring
+    system = to_iosystem(model)
+    assert system.input_labels == ["force", "payload"]
+    log = test[1].conditions_as_inputs(["payload"])
+    m = model.max_lag_
+    time = np.arange(m, log.n_samples) * log.ts
+    x0 = initial_state(model, log.y[:m], log.u[:m])
+    response = control.input_output_response(system, time, log.u[m:].T, X0=x0)
+    np.testing.assert_allclose(response.outputs.ravel(), model.simulate(log).y[m:, 0], atol=1e-9)
+
+
 def test_the_schedule_in_words_is_the_polynomial_of_the_model(spring) -> None:
     _, _, model = spring
     described = model.describe_scheduling()
