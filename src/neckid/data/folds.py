@@ -38,10 +38,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from neckid.data.iodata import IOData
-from neckid.utils.types import FloatArray
+from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = [
     "MIN_BLOCKS",
@@ -62,8 +62,6 @@ __all__ = [
     "rank_candidates",
     "time_blocks",
 ]
-
-BoolArray = NDArray[np.bool_]
 
 #: Fewest contiguous blocks a single training record is cut into.
 MIN_BLOCKS = 3
@@ -271,7 +269,8 @@ def fold_plan(
         blocks = blocks_per_log(experiments, min_folds) if min_folds > 0 else 1
     elif isinstance(blocks, bool) or not isinstance(blocks, int) or blocks < 1:
         raise ValueError(f"blocks must be an int >= 1 or None; got {blocks!r}")
-    splits_list, names = [], []
+    splits_list: list[Split] = []
+    names: list[list[str]] = []
     for i, held in enumerate(experiments):
         parts = [held] if blocks < 2 else _blocks_of(held, blocks)
         others = tuple(r for j, r in enumerate(experiments) if j != i)

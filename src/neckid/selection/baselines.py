@@ -40,7 +40,7 @@ __all__ = [
 REPLAY_TOLERANCE = 0.02
 
 
-class _Baseline(BaseEstimator):  # type: ignore[misc]
+class _Baseline(BaseEstimator):
     """What both references share: no lags, a free run that is one array."""
 
     def __sklearn_is_fitted__(self) -> bool:

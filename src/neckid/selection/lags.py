@@ -294,11 +294,6 @@ class CandidateScores:
     folds: list[list[str]]
     scheme: str
 
-    @property
-    def n_folds(self) -> int:
-        """Folds every candidate was scored on."""
-        return len(self.folds)
-
 
 def free_run(
     model: Any,
@@ -405,8 +400,7 @@ def _fit_and_score(
             warnings.simplefilter("ignore")
             model.fit(list(train) if len(train) > 1 else train[0])
     except Exception as exc:  # a failing candidate must not stop the search
-        spent = time.perf_counter() - start
-        error = f"{type(exc).__name__}: {exc}"
+        error, spent = f"{type(exc).__name__}: {exc}", time.perf_counter() - start
         return [{"name": name, "fit_time_s": spent, "error": error} for _ in groups]
     spent = time.perf_counter() - start
     rows = []
@@ -481,8 +475,8 @@ def _splits(
             )
             for fold in held_out
         )
-        names = [[train[i].name or f"train[{i}]" for i in f] for f in held_out]
-        return FoldPlan(splits, names, scheme)
+        held_names = [[train[i].name or f"train[{i}]" for i in f] for f in held_out]
+        return FoldPlan(splits, held_names, scheme)
     if folds is not None:
         raise ValueError(
             f"folds applies only when validation is None; got folds={folds!r} and validation"
@@ -875,13 +869,12 @@ def select_lags(
     column = f"fit_{criterion}"
     fold_fits = np.full((len(rows), plan.n_folds), -np.inf)
     fitted = [row for row in rows if "error" not in row]
-    references = [(name, model) for name, model in baseline_candidates()]
     options = [
         (row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
         for row in fitted
     ]
     scores = score_candidates(
-        [*options, *references],
+        [*options, *baseline_candidates()],
         train_list,
         validation,
         n_jobs=n_jobs,

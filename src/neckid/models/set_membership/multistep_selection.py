@@ -447,10 +447,14 @@ def _choose(
     score = np.where(ok, np.sum(width / np.where(scale > 0, scale, 1.0), axis=1), np.inf)
     meets = ok & np.all(coverage >= target, axis=1)
     if meets.any():
-        narrow = rank_candidates(-score[:, None], accepted=list(meets), rule="best")
+        narrow = rank_candidates(
+            -score[:, None], accepted=np.asarray(meets, dtype=bool).tolist(), rule="best"
+        )
         return narrow.chosen, True
     worst = np.where(ok, coverage.min(axis=1), -np.inf)
-    covered = rank_candidates(worst[:, None], list(score), accepted=list(ok), rule="best")
+    covered = rank_candidates(
+        worst[:, None], score.tolist(), accepted=np.asarray(ok, dtype=bool).tolist(), rule="best"
+    )
     return covered.chosen, False
 
 
