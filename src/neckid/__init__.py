@@ -5,7 +5,7 @@ The public API, re-exported here:
 - data: :class:`IOData`, :func:`as_experiments`, :class:`Lags`
 - the method registry: :func:`methods` (name -> :class:`Method`), :func:`get_method`
 - models: :class:`SetMembership`, :class:`ParallelSetMembership`, :func:`gamma_curve`,
-  :class:`NeuralNARX`, :class:`LinearARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
+  :class:`NeuralNARX`, :class:`LinearARX`, :class:`LPVARX`, :class:`RecursiveARX`, :class:`GainScheduledModel`, :func:`load_model`, :class:`ModelResult`
 - exports for other tools (MATLAB, JSON): :func:`export_model`, :func:`write_export`;
   python-control systems: :func:`to_control`, :func:`to_iosystem`
 - controllers designed from models: :mod:`neckid.design`, :func:`load_controller`
@@ -51,6 +51,7 @@ if TYPE_CHECKING:
     from neckid.models.io import load_model
     from neckid.models.linear.arx import LinearARX
     from neckid.models.linear.rls import RecursiveARX
+    from neckid.models.lpv.model import LPVARX
     from neckid.models.neural.narx import NeuralNARX
     from neckid.models.polynomial.narx import PolynomialNARX
     from neckid.models.scheduled.model import GainScheduledModel
@@ -62,6 +63,7 @@ if TYPE_CHECKING:
     from neckid.selection.lags import LagSelection, lag_grid, lipschitz_quotients, select_lags
 
 __all__ = [
+    "LPVARX",
     "Comparison",
     "DivergenceError",
     "GainScheduledModel",
@@ -135,6 +137,7 @@ _NAME_TO_MODULE = {
     "NeuralNARX": "neckid.models.neural.narx",
     "PolynomialNARX": "neckid.models.polynomial.narx",
     "RecursiveARX": "neckid.models.linear.rls",
+    "LPVARX": "neckid.models.lpv.model",
     "GainScheduledModel": "neckid.models.scheduled.model",
     "SetMembership": "neckid.models.set_membership.narx",
     "gamma_curve": "neckid.models.set_membership.narx",
