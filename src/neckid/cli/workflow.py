@@ -208,7 +208,7 @@ def _read_restamped(
     restamp: Restamp,
 ) -> IOData:
     """A CSV or Parquet log whose repeated time stamps are dealt with by ``restamp`` first."""
-    from neckid.data.readers import read_csv_frame
+    from neckid.data.csv_logs import read_csv_frame
 
     if path.suffix.lower() == ".parquet":
         from neckid.data.parquet import read_parquet_columns

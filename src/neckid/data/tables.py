@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from neckid.data.csv_logs import read_csv_frame
 from neckid.data.parquet import read_parquet_columns
 from neckid.data.readers import (
     _mat_variables,
     _time_kind,
     _time_seconds,
     _Unreadable,
-    read_csv_frame,
     time_unit_scale,
 )
 

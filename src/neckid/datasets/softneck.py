@@ -144,7 +144,7 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
     try:
         text = data.decode("utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except UnicodeDecodeError as exc:
-        from neckid.data.readers import not_text_message
+        from neckid.data.csv_logs import not_text_message
 
         message = not_text_message(path, data, "utf-8", exc)
         raise ValueError(f"{message}; soft-neck logs are UTF-8 (ASCII) text") from None
