@@ -143,7 +143,11 @@ def output_name(path: str | Path, suffix: str, *, option: str = "--save") -> Pat
     """
     target = Path(path)
     _refuse_degenerate(target, path, option)
-    return target if target.suffix == suffix else target.with_name(target.name + suffix)
+    return (
+        target
+        if target.suffix.lower() == suffix.lower()
+        else target.with_name(target.name + suffix)
+    )
 
 
 @dataclass
