@@ -214,3 +214,17 @@ def test_select_says_plainly_when_no_model_is_good(tmp_path: Path):
     assert sum("no model is good" in line for line in result.output.splitlines()) == 1
     document = json.loads(out.read_text())
     assert len(document["warnings"]) == 1 and document["baselines"]["training mean"] <= 0
+
+
+def test_outside_training_range_means_one_thing_for_every_method():
+    from neckid.selection.comparison import compare
+
+    train = [_steps(1, 1.0), _steps(2, 1.0)]
+    test = _steps(3, 1.6)  # outputs beyond the training range
+    result = compare(train, [test], methods=["sm"], lags=Lags.arx(1, 1))
+    shares = result.results.groupby("log")["outside_training_range"].nunique()
+    assert (shares == 1).all() and result.results["outside_training_range"].iloc[0] > 0
+    document = result.to_json()
+    arx = next(m for m in document["methods"] if m["method"] == "arx")
+    assert arx["fold_differences_to_arx"] == [0.0] * len(document["folds"])
+    assert document["selection"]["best"] in {"arx", "sm"} and isinstance(document["warnings"], list)

@@ -84,7 +84,7 @@ def run_one(name: str, args: argparse.Namespace) -> dict:
             f"  {row['status']:8s} {row['name']}: mean fold fit {row['fit_mean']:.2f} %"
             f" (se {row['fit_se']:.2f}; folds {folds}){reason}"
         )
-    print(f"  bar (best mean - se): {result.selection.bar:.2f} %; chosen {result.selection.chosen}")
+    print(f"  bar (paired rule): {result.selection.bar:.2f} %; chosen {result.selection.chosen}")
     rows = result.results.copy()
     rows["rmse_shown"] = rows["rmse"] * bench.rmse_scale
     arx = rows[rows["method"] == "arx"].set_index("log")["fit_percent"]

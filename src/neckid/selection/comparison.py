@@ -456,15 +456,18 @@ class Comparison:
         """A JSON-ready summary: per method its settings, fold scores and test results."""
         methods = []
         table = self.selection.table.set_index("name")
+        reference = np.asarray(table.loc[self.settings["arx"]["candidate"], "fold_fits"])
         for method, setting in self.settings.items():
             row = table.loc[setting["candidate"]]
             tests = self.results[self.results["method"] == method]
+            gaps = np.asarray(row["fold_fits"]) - reference  # paired, fold by fold, to ARX
             methods.append(
                 {
                     "method": method,
                     "settings": setting,
                     "fold_fits": [_plain(f) for f in row["fold_fits"]],
                     "fit_mean_folds": _plain(row["fit_mean"]),
+                    "fold_differences_to_arx": [_plain(float(g)) for g in gaps],
                     "status": row["status"],
                     "reason": row["reason"],
                     "tests": [
