@@ -322,6 +322,10 @@ def one_standard_error(
 ) -> tuple[int, float]:
     """The simplest accepted candidate within one standard error of the best; and the bar.
 
+    The *unpaired* rule (``m_j >= m* − s*``, ``s*`` the spread between folds of the best), kept
+    for the subspace model's order choice and for comparison; every selection of candidates
+    ranks with :func:`rank_candidates` (the paired rule).
+
     Parameters
     ----------
     means, standard_errors : sequence of float

@@ -748,8 +748,13 @@ def select_lags(
 
     The choice (:attr:`LagSelection.best_lags`) follows ``rule``: ``"safe"`` (the default) puts
     out every candidate that failed or diverged in a fold and takes the fewest regressor terms
-    within one standard error of the best mean fold fit (:mod:`neckid.data.folds`); ``"best"`` takes
-    the top mean fit, the rule of earlier versions.
+    whose mean per-fold difference to the best is within one standard error of that difference
+    or half a point (the paired rule of :func:`neckid.data.folds.rank_candidates`);
+    ``"unpaired"`` within one standard error of the best mean (the spread between folds);
+    ``"best"`` takes the top mean fit. With several experiments and ``folds=None``, fewer than 6
+    are each scored in time blocks (:func:`neckid.data.folds.fold_plan`). The training mean and,
+    where a log repeats another's inputs, its replay are scored on the same folds
+    (:attr:`LagSelection.baselines`, :attr:`LagSelection.warnings`).
 
     Parameters
     ----------
@@ -776,7 +781,7 @@ def select_lags(
     folds : int or None, default None
         With ``validation=None``: group the experiments into ``k`` folds (experiment ``i`` in
         fold ``i mod k``); ``None`` is leave-one-experiment-out.
-    rule : {"safe", "best"}, default "safe"
+    rule : {"safe", "unpaired", "best"}, default "safe"
         How :attr:`LagSelection.best_lags` chooses (see above).
     backend : str or None, default None
         The joblib backend the fits run on: ``None`` is the active ``joblib.parallel_config``
