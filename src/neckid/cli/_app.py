@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 
 import typer
 import typer.rich_utils as typer_rich_utils
-from rich.console import Console
+from rich.console import Console, ConsoleDimensions
 from rich.table import Table
 
 from neckid._version import __version__
@@ -73,8 +73,65 @@ class _Stdout:
         return getattr(sys.stdout, name)
 
 
-console = Console(file=_Stdout())  # type: ignore[arg-type]
+#: The width of standard output when it is not a terminal (a pipe, a file, a CI log) and
+#: ``COLUMNS`` is not set: a pipe has no width, so a table is printed at its natural width and
+#: no name or number in it is cut; a line of text is not wrapped.
+PIPED_WIDTH = 10_000
+
+#: The width of ``--help`` when standard output is not a terminal (and neither ``COLUMNS`` nor
+#: typer's ``TERMINAL_WIDTH`` is set): wide enough that every option's example is whole
+#: (tests/test_cli_output.py reads every command's help for a cut word).
+PIPED_HELP_WIDTH = 120
+
+
+def _is_terminal(stream: Any) -> bool:
+    """Whether ``stream`` is a terminal (its ``isatty``; a closed or odd stream is not one)."""
+    isatty = getattr(stream, "isatty", None)
+    try:
+        return bool(isatty is not None and isatty())
+    except ValueError:  # closed
+        return False
+
+
+class _OutputConsole(Console):
+    """Standard output's console: the terminal's width, or :data:`PIPED_WIDTH` when piped.
+
+    Rich gives a console that is not a terminal 80 columns (or the width of whatever terminal
+    the other standard streams reach), and a table wider than that cuts its cells with an
+    ellipsis: test logs ``spring_20…`` and ``spring_10…`` could not be told apart. ``COLUMNS``,
+    when set, still wins; the tables then wrap the names that identify their rows
+    (``overflow="fold"``), never cut them.
+    """
+
+    @property
+    def size(self) -> ConsoleDimensions:
+        """The console's width and height (see the class)."""
+        size = super().size
+        if self._width is None and "COLUMNS" not in os.environ and not _is_terminal(self.file):
+            return ConsoleDimensions(PIPED_WIDTH, size.height)
+        return size
+
+    @size.setter
+    def size(self, new_size: tuple[int, int]) -> None:
+        Console.size.fset(self, new_size)  # type: ignore[attr-defined]
+
+
+console = _OutputConsole(file=_Stdout())  # type: ignore[arg-type]
 error_console = Console(stderr=True)
+
+_typer_help_console = typer_rich_utils._get_rich_console
+
+
+def _help_console(stderr: bool = False) -> Console:
+    """The console of ``--help`` (typer's), :data:`PIPED_HELP_WIDTH` wide when not a terminal."""
+    shown = _typer_help_console(stderr)
+    explicit = typer_rich_utils.MAX_WIDTH is not None or "COLUMNS" in os.environ
+    if not explicit and not _is_terminal(shown.file):
+        shown.width = PIPED_HELP_WIDTH
+    return shown
+
+
+typer_rich_utils._get_rich_console = _help_console
 
 
 def _usage_error_line(error: Exception) -> None:
@@ -314,10 +371,13 @@ def _method_name(name: str) -> str:
 def _metrics_table(title: str, rows: list[dict[str, Any]]) -> Table:
     from rich.markup import escape
 
-    # Headers such as "RMSE [deg]" are text, not rich markup.
+    # Headers such as "RMSE [deg]" are text, not rich markup. The columns of names (method,
+    # log, output) tell the rows apart: left-aligned, and wrapped rather than cut when the
+    # console is narrower than the table (numbers too: a cut number reads as another one).
     table = Table(title=escape(title))
     for key in rows[0]:
-        table.add_column(escape(key), justify="right" if key != "output" else "left")
+        names = not any(isinstance(row.get(key), int | float) for row in rows)
+        table.add_column(escape(key), justify="left" if names else "right", overflow="fold")
     for row in rows:
         table.add_row(
             *(f"{v:.3f}" if isinstance(v, float) else escape(str(v)) for v in row.values())

@@ -193,9 +193,9 @@ def info(
         console.print(f"not channels: {', '.join(described['skipped'])}", markup=False)
     table = Table(title="channels")
     for column in ("channel", "kind", "unit", "min", "max", "mean", "non-numeric"):
-        table.add_column(
-            column, justify="left" if column in ("channel", "kind", "unit") else "right"
-        )
+        names = column in ("channel", "kind", "unit")
+        # a narrow console wraps a channel's name, never cuts it (it tells the rows apart)
+        table.add_column(column, justify="left" if names else "right", overflow="fold")
     for name, channel in described["channels"].items():
         table.add_row(
             f"{name} (column {channel['column']})" if "column" in channel else name,
@@ -392,9 +392,9 @@ def _print_as_model_reads_it(read: dict[str, Any]) -> None:
         title=f"as {read['model']} reads it: {read['samples']} samples, ts {read['ts_s']:.6g} s"
     )
     for column in ("channel", "kind", "unit", "min", "max", "mean"):
-        table.add_column(
-            column, justify="left" if column in ("channel", "kind", "unit") else "right"
-        )
+        names = column in ("channel", "kind", "unit")
+        # a narrow console wraps a channel's name, never cuts it (it tells the rows apart)
+        table.add_column(column, justify="left" if names else "right", overflow="fold")
     for name, channel in read["channels"].items():
         table.add_row(
             name,

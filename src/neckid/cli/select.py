@@ -88,7 +88,11 @@ def _print_ranking(selection: Any, data: Any, limit: int) -> None:
     )
     rows = _ranking_rows(selection, data, limit)
     for name in rows[0]:
-        table.add_column(name, justify="left" if name in ("lags", "status", "reason") else "right")
+        table.add_column(
+            name,
+            justify="left" if name in ("lags", "status", "reason") else "right",
+            overflow="fold",  # a narrow console wraps a candidate's lags, never cuts them
+        )
     for row in rows:
         cells = []
         for value in row.values():
