@@ -121,6 +121,7 @@ def test_the_set_membership_prior_is_the_models(fitted) -> None:
 def test_the_descriptive_contract_of_every_estimator(fitted) -> None:
     arx, ss = fitted["arx"], fitted["ss"]
     assert arx.preprocessing_ is None and arx.state_order() is None
+    assert arx.channel_map_ is None and arx.schedule_summary() == {}
     assert arx.fitted_lags() is arx.lags_
     assert arx.training_box() == arx.training_ranges_
     assert arx.regressor_box() == arx.regressor_ranges_
@@ -131,3 +132,9 @@ def test_the_descriptive_contract_of_every_estimator(fitted) -> None:
     assert ss.fitted_lags() is None and ss.regressor_box() == {}
     rls = neckid.methods()["rls"].make(Lags.arx(1, 1)).fit(_record())
     np.testing.assert_array_equal(rls.intercept_, [0.0])  # CFF-RLS fits none
+
+
+def test_the_schedule_summary_is_what_info_shows() -> None:
+    i = np.array([5.0, 15.0, 25.0])
+    model = neckid.GainScheduledModel.from_points(i, 1.0 + 0 * i, 0.5 + 0 * i, ts=0.02, delay=1)
+    assert model.schedule_summary() == {"schedule": model.describe_schedule()}

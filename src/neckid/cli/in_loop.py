@@ -65,7 +65,7 @@ def _mapping(path: Path, model: Any, spec: LogSpec, softneck: bool) -> dict[str,
     from neckid.cli.options import _stored_mapping
 
     mapping = spec.mapping()
-    if mapping or softneck or not getattr(model, "channel_map_", None):
+    if mapping or softneck or not model.channel_map_:
         return mapping
     return _stored_mapping(model, path, spec)
 

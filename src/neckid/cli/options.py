@@ -303,7 +303,7 @@ def read_for_model(model: Any, path: Path, spec: LogSpec, *, quiet: bool = False
     from neckid.cli.workflow import read_log_for_model
 
     mapping = spec.mapping()
-    stored = not mapping and bool(getattr(model, "channel_map_", None))
+    stored = not mapping and bool(model.channel_map_)
     if stored:
         mapping = _stored_mapping(model, path, spec)
     data, pipeline = read_log_for_model(model, path, maps=mapping, **spec.reading())

@@ -5,8 +5,8 @@ these methods and attributes only, never by probing its internals (``getattr(mod
 model)``): every estimator has them (:class:`~neckid.models.base.Estimator` inherits
 :class:`ModelFacts`), and a family that has something to tell overrides the method that tells it.
 
-- :attr:`ModelFacts.preprocessing_`: the preprocessing the model was identified with (``None``
-  for none);
+- :attr:`ModelFacts.preprocessing_` and :attr:`ModelFacts.channel_map_`: the preprocessing and
+  the log-to-model channel names the model was identified with (``None`` for none);
 - :meth:`ModelFacts.fitted_lags`: the resolved regressor (``None`` for a model whose regressor is
   not a set of lags: state-space, grey-box and scheduled models);
 - :meth:`ModelFacts.training_box` and :meth:`ModelFacts.regressor_box`: the channels' and the
@@ -15,13 +15,16 @@ model)``): every estimator has them (:class:`~neckid.models.base.Estimator` inhe
 - :meth:`ModelFacts.set_membership_prior`: the noise bound ε and the Lipschitz constant γ of a
   Set Membership model (or of the SM map of a parallel one), ``None`` for the others;
 - :meth:`ModelFacts.state_order`: the order of a subspace-started state-space model and the
-  singular values it was chosen from, ``None`` for the others.
+  singular values it was chosen from, ``None`` for the others;
+- :meth:`ModelFacts.schedule_summary`: the schedule of a scheduled or LPV model in numbers and
+  words, empty for the others.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from neckid.utils.types import FloatArray
 
@@ -92,9 +95,13 @@ class ModelFacts:
         The steps the training data went through before ``fit`` (set by whoever fitted the
         model on preprocessed data, kept in its file); a log must go through them before
         ``simulate``. ``None`` (the class default): none.
+    channel_map_ : mapping of str to str or None
+        Log channel name -> model channel name, as the model was identified (the CLI's
+        ``--map``, kept in its file and replayed on the logs it reads). ``None``: none.
     """
 
     preprocessing_: Pipeline | None = None
+    channel_map_: Mapping[str, str] | None = None
 
     def fitted_lags(self) -> ResolvedLags | None:
         """The resolved regressor of a fitted NARX model (``lags_``); ``None`` for the others."""
@@ -121,3 +128,7 @@ class ModelFacts:
     def state_order(self) -> StateOrder | None:
         """The state order and the singular values it was chosen from; ``None`` here."""
         return None
+
+    def schedule_summary(self) -> dict[str, Any]:
+        """The schedule, keyed as ``neckid info`` shows it (``{"schedule": ...}``); empty here."""
+        return {}

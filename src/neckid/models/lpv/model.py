@@ -322,6 +322,10 @@ class LPVARX(PolynomialNARX):
         model.statistics_ = None
         return model
 
+    def schedule_summary(self) -> dict[str, Any]:
+        """``{"scheduling": describe_scheduling()}``: what ``neckid info`` shows of it."""
+        return {"scheduling": self.describe_scheduling()}
+
     def describe_scheduling(self) -> dict[str, Any]:
         """The scheduling in words (``neckid info``): variables, ranges, polynomials, poles.
 

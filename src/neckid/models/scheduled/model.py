@@ -826,6 +826,10 @@ class GainScheduledModel(Estimator):
         extend_training_ranges(self, experiments)
         return self
 
+    def schedule_summary(self) -> dict[str, Any]:
+        """``{"schedule": describe_schedule()}``: what ``neckid info`` shows of the schedule."""
+        return {"schedule": self.describe_schedule()}
+
     def describe_schedule(self) -> dict[str, Any]:
         """The schedule in numbers and words, as ``neckid info`` shows it (JSON-ready).
 
