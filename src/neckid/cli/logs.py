@@ -219,12 +219,8 @@ def _info_model(path: Path, as_json: bool) -> None:
 
     model = load_model(path)
     described = describe_model(model)
-    describe_schedule = getattr(model, "describe_schedule", None)
-    if describe_schedule is not None:  # the scheduled model: its lines and operating points
-        described["schedule"] = describe_schedule()
-    describe_scheduling = getattr(model, "describe_scheduling", None)
-    if describe_scheduling is not None:  # the LPV model: its coefficient polynomials
-        described["scheduling"] = describe_scheduling()
+    # the scheduled model: its lines and operating points; the LPV model: its polynomials
+    described.update(model.schedule_summary())
     if as_json:
         console.print_json(json.dumps(described))
         return

@@ -718,7 +718,7 @@ def describe_model(model: Any) -> dict[str, Any]:
     pipeline = model.preprocessing_
     if pipeline is not None and len(pipeline):
         info["preprocessing"] = pipeline.to_list()
-    mapping = getattr(model, "channel_map_", None)
+    mapping = model.channel_map_
     if mapping:
         info["channel_map"] = dict(mapping)
     prior = model.set_membership_prior()
