@@ -212,9 +212,13 @@ class SubspaceStateSpace(Estimator):
 
         if fits(horizon):
             return
-        largest = max(
-            (i for i in range(DEFAULT_HORIZON, max(lengths) // 2 + 1) if fits(i)), default=0
-        )
+
+        def refinable(i: int) -> bool:  # the free-run refinement's unknowns, order i - 1
+            k, values = i - 1, sum(max(0, n - i) for n in lengths) * p
+            return k * k + k * m + p * k + p * m + p <= values
+
+        candidates = range(DEFAULT_HORIZON, max(lengths) // 2 + 1)
+        largest = max((i for i in candidates if fits(i) and refinable(i)), default=0)
         hint = (
             f"give an order of at most {(largest - 1) * p}" if largest > 1 else "no order fits them"
         )

@@ -662,6 +662,17 @@ def refine_free_run(
                 blocks.append(_after_initial(columns, free, solver, skip))
         return np.nan_to_num(np.vstack(blocks), nan=0.0, posinf=penalty, neginf=-penalty)
 
+    if theta0.size > y_all.size:  # scipy's "lm" would refuse in its own words
+
+        def unknowns(k: int) -> int:
+            return k * k + k * m + p * k + (p * m if feedthrough else 0) + (p if intercept else 0)
+
+        fits = [k for k in range(1, n + 1) if unknowns(k) <= y_all.size]
+        raise ValueError(
+            f"order {n} has {theta0.size} parameters to refine on the free-run error, more than"
+            f" the {y_all.size} output values the logs give after their first {n_initial}"
+            f" samples: give an order of at most {max(fits, default=0)}, or longer logs"
+        )
     start = float(np.sum(residual(theta0) ** 2))
     fitted = least_squares(
         residual, theta0, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_iter
