@@ -174,14 +174,6 @@ def lab_controller(
     ), f"ada (replay {adaptive_parameters.name})"
 
 
-def _model_conditions(model: Any) -> tuple[str, ...]:
-    """The conditions a model takes as inputs: its resolved lags', else its ``lags`` setting's."""
-    names = getattr(getattr(model, "lags_", None), "conditions", None)
-    if names is None:
-        names = getattr(getattr(model, "lags", None), "conditions", None)
-    return tuple(names or ())
-
-
 def model_view(model: Any, log: IOData) -> IOData:
     """The log as the model sees it: its channels, ``motor_displacement`` made, preprocessing applied.
 
@@ -201,10 +193,10 @@ def model_view(model: Any, log: IOData) -> IOData:
     if DISPLACEMENT in model.input_names_ and DISPLACEMENT not in log.input_names:
         position = log.channel("motor_position")
         data = data.with_channel(DISPLACEMENT, position - position[0], unit="rad")
-    pipeline = getattr(model, "preprocessing_", None)
+    pipeline = model.preprocessing_
     if pipeline is not None and len(pipeline):
         data = pipeline.apply(data)
-    used = set(_model_conditions(model))
+    used = set(model.condition_names())
     inputs = [n for n in model.input_names_ if n not in used]
     missing = [
         n
@@ -275,7 +267,7 @@ def loop_inputs(
         preprocessing is more than offsets.
     """
     seen = model_view(model, log) if view is None else view
-    conditions = _model_conditions(model)
+    conditions = model.condition_names()
     constants = log.conditions_as_inputs(conditions) if conditions else None
     feeds = []
     for name in model.input_names_:
@@ -299,7 +291,7 @@ def loop_inputs(
 
 
 def _check_no_algebraic_loop(model: Any, feeds: Sequence[LoopInput]) -> None:
-    lags = getattr(model, "lags_", None)
+    lags = model.fitted_lags()
     commands = [i for i, f in enumerate(feeds) if f.source == "command"]
     if not commands or lags is None:
         return

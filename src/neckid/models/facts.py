@@ -8,7 +8,8 @@ model)``): every estimator has them (:class:`~neckid.models.base.Estimator` inhe
 - :attr:`ModelFacts.preprocessing_` and :attr:`ModelFacts.channel_map_`: the preprocessing and
   the log-to-model channel names the model was identified with (``None`` for none);
 - :meth:`ModelFacts.fitted_lags`: the resolved regressor (``None`` for a model whose regressor is
-  not a set of lags: state-space, grey-box and scheduled models);
+  not a set of lags: state-space, grey-box and scheduled models), and
+  :meth:`ModelFacts.condition_names`, the conditions it takes as inputs;
 - :meth:`ModelFacts.training_box` and :meth:`ModelFacts.regressor_box`: the channels' and the
   regressor terms' training ranges;
 - :meth:`ModelFacts.training_samples`: how many samples (or regressor rows) it was fitted on;
@@ -107,6 +108,13 @@ class ModelFacts:
         """The resolved regressor of a fitted NARX model (``lags_``); ``None`` for the others."""
         lags: ResolvedLags | None = getattr(self, "lags_", None)
         return lags
+
+    def condition_names(self) -> tuple[str, ...]:
+        """The conditions the model takes as inputs: its resolved lags', else its ``lags``'."""
+        names = getattr(getattr(self, "lags_", None), "conditions", None)
+        if names is None:
+            names = getattr(getattr(self, "lags", None), "conditions", None)
+        return tuple(names or ())
 
     def training_box(self) -> dict[str, tuple[float, float]]:
         """``{channel: (low, high)}`` over the training data (empty before ``fit``)."""
