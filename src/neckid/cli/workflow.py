@@ -172,6 +172,11 @@ def _read_channels(
 
         keep_all = restamp is None or restamp.keep == "all"
         data = load_softneck_log(path, repeated_stamps="restamp" if keep_all else "drop")
+        if ts is not None and abs(data.ts - ts) > 0.01 * ts:
+            raise ValueError(
+                f"{path.name}: --ts {ts:g} contradicts the log's time column, whose stamps are"
+                f" {data.ts:.6g} s apart (a soft-neck log is read by its time column): drop --ts"
+            )
         if not inputs or not outputs:
             raise ValueError(
                 f"--inputs and --outputs are required with --layout softneck: {path.name} has"

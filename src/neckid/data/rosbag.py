@@ -26,6 +26,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from neckid.data.channels import as_2d
 from neckid.utils.checks import check_ts
 
 __all__ = ["GAP_FACTOR", "ROSBAGS_MISSING", "RosbagChannel", "rosbag_fields"]
@@ -453,8 +454,10 @@ def rosbag_fields(
     columns: dict[str, NDArray[np.float64]] = {}
     for channel_name, spec in specs.items():
         topic_data = topics[spec.topic]
-        values = np.asarray(topic_data.values[topic_data.fields.index(spec.field)])
-        columns[channel_name] = np.interp(grid, times[spec.topic], values)
+        raw = topic_data.values[topic_data.fields.index(spec.field)]
+        # Counts beyond 2**53, dates: refused by name, never rounded by the interpolation.
+        values = as_2d(raw, f"{bag.name}: {spec.topic}:{spec.field}", names=[channel_name])
+        columns[channel_name] = np.interp(grid, times[spec.topic], values[:, 0])
     inputs = [n for n, c in specs.items() if c.kind == "input"]
     outputs = [n for n, c in specs.items() if c.kind == "output"]
     logger.info(
