@@ -146,25 +146,30 @@ def _document(selection: Any, data: Any, method: str, chosen: str | None) -> dic
 
 def _choice(selection: Any, data: Any) -> dict[str, Any]:
     """The best candidate by mean fold fit, the bar, and each fold's gap of the chosen one."""
-    from neckid.cli.workflow import format_lags
-
     ranking = selection.ranking
     if ranking is None:
         return {}
-
-    def text(i: int) -> str:
-        try:
-            return format_lags(selection.candidates[i].resolve(data))
-        except (KeyError, ValueError):
-            return repr(selection.candidates[i])
-
+    names = _names(selection, data)
     return {
-        "best": text(ranking.best),
+        "best": names[ranking.best],
         "best_fit_mean_percent": float(ranking.means[ranking.best]),
         "bar_percent": ranking.bar,
         "fold_differences_to_best_points": [float(d) for d in ranking.differences[ranking.chosen]],
-        "explanation": selection.explain(),
+        "explanation": selection.explain(names),
     }
+
+
+def _names(selection: Any, data: Any) -> list[str]:
+    """Every candidate as --lags writes it (its repr when it cannot be resolved)."""
+    from neckid.cli.workflow import format_lags
+
+    names = []
+    for lags in selection.candidates:
+        try:
+            names.append(format_lags(lags.resolve(data)))
+        except (KeyError, ValueError):
+            names.append(repr(lags))
+    return names
 
 
 @app.command()
@@ -265,7 +270,7 @@ def select(
     if chosen is None:
         raise ValueError("every candidate failed or diverged in a fold; see the reason column")
     console.print(f"chosen: --lags {text} ({selection.rule} rule)", markup=False)
-    console.print(f"  {selection.explain()}", markup=False)
+    console.print(f"  {selection.explain(_names(selection, experiments[0]))}", markup=False)
     shown = ", ".join(f"{k} {v:.1f} %" for k, v in selection.baselines.items()) or "none applies"
     console.print(f"  baselines on the same folds: {shown}", markup=False)
     for line in selection.warnings:  # a result, not an error: the exit status stays 0

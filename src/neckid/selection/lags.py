@@ -228,12 +228,14 @@ class LagSelection:
         row = self.table[self.table["candidate"] == self.chosen].iloc[0]
         return baseline_warnings(str(row["lags"]), float(row[self.column]), self.baselines)
 
-    def explain(self) -> str:
-        """The best, the chosen, the rule and the bar in one sentence ('' when none chosen)."""
+    def explain(self, names: Sequence[str] | None = None) -> str:
+        """The best, the chosen, the rule and the bar in one sentence ('' when none chosen).
+
+        ``names``: how to call each candidate (default its ``repr``).
+        """
         if self.ranking is None:
             return ""
-        names = [repr(c) for c in self.candidates]
-        return self.ranking.explain(names)
+        return self.ranking.explain(names or [repr(c) for c in self.candidates])
 
     def best(self, tolerance: float = 0.0) -> Lags:
         """The most parsimonious lag set whose fit is within ``tolerance`` points of the best.
