@@ -195,10 +195,12 @@ def compare(
 ) -> None:
     """Choose a model on the training logs, then free-run every method on the test logs.
 
-    Selection uses the training logs only: folds over runs (leave one out; one log is cut into 3
-    time blocks), a candidate that fails or runs away in any fold is rejected with its reason,
-    and the simplest candidate within one standard error of the best mean fold fit is
-    recommended. Example: neckid compare run1.csv run2.csv --test run3.csv --inputs
+    Selection uses the training logs only: folds over runs (leave one out, in time blocks when
+    there are fewer than 6 logs; one log is cut into 3 time blocks), a candidate that fails or
+    runs away in any fold is rejected with its reason, and the simplest candidate whose per-fold
+    difference to the best is within one standard error of that difference is recommended; the
+    training mean is scored on the same folds, and a recommendation below it or below 0 % is
+    said in one warning line. Example: neckid compare run1.csv run2.csv --test run3.csv --inputs
     motor_position --outputs inclination --methods arx,sm,sm-parallel --json compare.json
 
     --map and the preprocessing options (--relative, --offset, --lowpass, --resample, --restamp,

@@ -231,8 +231,9 @@ def select(
     Example: neckid select run1.csv run2.csv --inputs velocity_command --outputs inclination --orders 1-3,1-3,0-3 --save model.npz
 
     Scores are free-run fits of the held-out logs (or time blocks of one log). A candidate that
-    fails or diverges in a fold is out; the fewest terms within one standard error of the best
-    mean fit is chosen. The test logs you keep for the end are not given here.
+    fails or diverges in a fold is out; the fewest terms whose per-fold difference to the best
+    is within one standard error of that difference is chosen; a choice below the training mean
+    or 0 % is said in one warning line. The test logs you keep for the end are not given here.
     """
     from neckid.cli.workflow import format_lags, make_estimator
     from neckid.selection.lags import select_lags
@@ -257,7 +258,7 @@ def select(
         criterion=criterion,  # type: ignore[arg-type]
         rule=rule,  # type: ignore[arg-type]
         n_jobs=jobs,
-        progress=console.is_terminal,
+        progress=True,  # the command's reporter: a bar in a terminal, a line every 10 s otherwise
     )
     _print_ranking(selection, experiments[0], top)
     chosen = None if selection.chosen is None else selection.best_lags
