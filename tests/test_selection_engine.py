@@ -228,3 +228,20 @@ def test_outside_training_range_means_one_thing_for_every_method():
     arx = next(m for m in document["methods"] if m["method"] == "arx")
     assert arx["fold_differences_to_arx"] == [0.0] * len(document["folds"])
     assert document["selection"]["best"] in {"arx", "sm"} and isinstance(document["warnings"], list)
+
+
+def test_the_compare_table_marks_the_chosen_and_the_best_with_their_fold_fits():
+    from neckid.cli.compare import _result_rows
+    from neckid.selection.comparison import compare
+
+    result = compare([_steps(1, 1.0), _steps(2, 1.0)], [_steps(3, 1.0)], methods=["sm"])
+    rows = _result_rows(result)
+    assert len({len(row) for row in rows}) == 1  # the mean rows stay aligned with the others
+    chosen = [row for row in rows if "chosen" in row["choice"]]
+    assert chosen and {row["method"] for row in chosen} == {result.recommended}
+    best = [row for row in rows if "best on the folds" in row["choice"]]
+    assert {row["method"] for row in best} == {result.selection.best.split(" ")[0]}
+    table = result.selection.table.set_index("name")
+    for row in rows:
+        name = result.settings[row["method"]]["candidate"]
+        assert row["mean fold fit [%]"] == pytest.approx(table.loc[name, "fit_mean"])

@@ -38,6 +38,7 @@ def _number(value: float) -> float | str:
 
 def _result_rows(comparison: Any) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
+    roles = _roles(comparison)
     fit = f"fit % ({comparison.kind})"
     adapted = "fit_percent_unadapted" in comparison.results
     for row in comparison.results.to_dict("records"):
@@ -55,8 +56,10 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
                 "outside model domain [%]": float(100 * row["outside_domain"]),
                 f"band width [{unit}]": _number(float(row["band_width"])),
                 "band holds [%]": _number(float(100 * row["band_coverage"])),
+                **roles[row["method"]],
             }
         )
+    band_columns = [k for k in rows[0] if k.startswith("band ")] if rows else []
     means = comparison.results.groupby("method", sort=False)
     for row in comparison.summary().to_dict("records"):
         plain = {}
@@ -73,9 +76,27 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
                 "RMSE [-]": _number(float(row["rmse"])),
                 "outside training range [%]": float(100 * row["outside_training_range"]),
                 "outside model domain [%]": float(100 * row["outside_domain"]),
+                **dict.fromkeys(band_columns, ""),  # the per-log rows' columns, kept aligned
+                **roles[row["method"]],
             }
         )
     return rows
+
+
+def _roles(comparison: Any) -> dict[str, dict[str, Any]]:
+    """Per method: its mean fold fit and whether it is the chosen or the best on the folds."""
+    selection = comparison.selection
+    table = selection.table.set_index("name")
+    best_method = selection.best.split(" ")[0]
+    roles = {}
+    for method, setting in comparison.settings.items():
+        words = ["chosen"] if setting["candidate"] == selection.chosen else []
+        words += ["best on the folds"] if method == best_method else []
+        roles[method] = {
+            "mean fold fit [%]": _number(float(table.loc[setting["candidate"], "fit_mean"])),
+            "choice": ", ".join(words),
+        }
+    return roles
 
 
 def _baseline_line(baselines: dict[str, float]) -> str:
