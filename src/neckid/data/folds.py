@@ -60,6 +60,7 @@ __all__ = [
     "one_standard_error",
     "period_average",
     "rank_candidates",
+    "refuse_resting_runs",
     "time_blocks",
 ]
 
@@ -552,3 +553,23 @@ def rank_candidates(
         bars=bars,
         eligible=eligible,
     )
+
+
+def refuse_resting_runs(runs: Sequence[IOData], role: str) -> None:
+    """Refuse, before any fit, a run whose output never moves (a neck at rest), naming it.
+
+    A fit % divides by the output's spread: on such a run it is undefined, so a fold that
+    scores on it (a test log of ``compare``, a held-out log of ``select``) cannot rank the
+    candidates. ``role`` names the runs in the message (``"test log"``, ``"training log"``).
+    """
+    for k, data in enumerate(runs):
+        for j, name in enumerate(data.output_names):
+            column = data.y[:, j]
+            if column.size and float(np.ptp(column)) == 0.0:
+                label = data.name or f"{role}[{k}]"
+                raise ValueError(
+                    f"{role} {label}: its output {name!r} is constant ({column[0]:g} throughout:"
+                    " a neck at rest?), so a fit % on it is undefined and the candidates cannot"
+                    " be ranked on it: drop it from the logs, or check a model on it with neckid"
+                    " validate (its RMSE is defined)"
+                )

@@ -54,6 +54,7 @@ from neckid.data.folds import (
     fold_records,
     fold_statistics,
     rank_candidates,
+    refuse_resting_runs,
     time_blocks,
 )
 from neckid.data.iodata import IOData, as_experiments
@@ -65,6 +66,7 @@ from neckid.registry import get_method, methods
 from neckid.regressors import Lags
 from neckid.selection.baselines import baseline_candidates, baseline_warnings
 from neckid.selection.lags import score_candidates
+from neckid.utils.progress import task
 
 __all__ = [
     "COMPLEXITY",
@@ -651,26 +653,6 @@ def _candidates(
     return options, method_of, lags_of
 
 
-def _refuse_resting_tests(tests: Sequence[IOData]) -> None:
-    """Refuse, before any fit, a test log whose output never moves (a neck at rest).
-
-    A fit % divides by the output's spread, so it is undefined there and the methods cannot be
-    ranked on that log; the comparison stops before its fits, naming the log, rather than after
-    them or with a ranking that quietly leaves the log out.
-    """
-    for k, data in enumerate(tests):
-        for j, name in enumerate(data.output_names):
-            column = data.y[:, j]
-            if column.size and float(np.ptp(column)) == 0.0:
-                label = data.name or f"test[{k}]"
-                raise ValueError(
-                    f"test log {label}: its output {name!r} is constant ({column[0]:g}"
-                    " throughout: a neck at rest?), so a fit % on it is undefined and the methods"
-                    " cannot be ranked on it: drop it from the test logs, or check a model on it"
-                    " with neckid validate (its RMSE is defined)"
-                )
-
-
 def compare(
     train: IOData | Sequence[IOData],
     test: IOData | Sequence[IOData],
@@ -738,7 +720,7 @@ def compare(
     )
     experiments = as_experiments(train, "train")
     tests = as_experiments(test, "test")
-    _refuse_resting_tests(tests)
+    refuse_resting_runs(tests, "test log")
     as_experiments([experiments[0], tests[0]], "[train[0], test[0]]")
     if adapt is not None:
         adapt = check_adaptation(*adapt)
@@ -767,7 +749,8 @@ def compare(
         if pick["status"] == "rejected":
             continue  # no test run for a method whose every candidate was rejected
         estimator = clone(dict(options)[name])
-        with warnings.catch_warnings():
+        fitting = f"fitting {name} on every training log, for the test logs"  # a progress line
+        with warnings.catch_warnings(), task(fitting):
             warnings.simplefilter("ignore")
             models[method] = estimator.fit(experiments if len(experiments) > 1 else experiments[0])
         for record, by_method in zip(tests, runs, strict=True):

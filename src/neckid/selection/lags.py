@@ -37,6 +37,7 @@ from neckid.data.folds import (
     fold_plan,
     fold_records,
     rank_candidates,
+    refuse_resting_runs,
 )
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent, rmse
@@ -857,6 +858,7 @@ def select_lags(
     if rule not in RULE_OF:
         raise ValueError(f"rule must be 'safe', 'unpaired' or 'best'; got {rule!r}")
     train_list = as_experiments(train, "train")
+    refuse_resting_runs(train_list, "training log")
     # several logs: each held out, in time blocks when there are few (fold_plan's rule)
     blocks = None if len(train_list) >= 2 else 1
     if validation is None and folds is None and len(train_list) == 1:
