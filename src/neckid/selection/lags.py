@@ -47,6 +47,7 @@ from neckid.registry import get_method
 from neckid.regressors import Lags
 from neckid.selection.baselines import baseline_candidates, baseline_warnings
 from neckid.selection.lipschitz import lipschitz_quotients
+from neckid.selection.work import progress_label, progress_units
 from neckid.utils.parallel import check_backend, run_jobs
 from neckid.utils.types import FloatArray
 
@@ -668,7 +669,8 @@ def score_candidates(
         n_jobs=n_jobs,
         backend=backend,
         progress=progress,
-        label="score_candidates",
+        label=progress_label(len(options), plan.splits),
+        units=progress_units(options, plan.splits),  # what runs and the time left, by cost
     )
     per_candidate = len(plan.splits)
     fold_rows = [

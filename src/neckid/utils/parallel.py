@@ -19,7 +19,7 @@ were given, never in the order they finish: a sweep on a cluster returns what it
 from __future__ import annotations
 
 import numbers
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import AbstractContextManager, nullcontext
 from typing import Any
 
@@ -97,18 +97,32 @@ def _backend_context(backend: str | None) -> AbstractContextManager[Any]:
     return nullcontext() if backend is None else parallel_config(backend=backend)
 
 
-def _with_progress(results: Iterable[Any], total: int, label: str) -> Iterator[Any]:
+def _with_progress(
+    results: Iterable[Any],
+    total: int,
+    label: str,
+    units: Sequence[tuple[str, str, float]] | None = None,
+) -> Iterator[Any]:
     """Yield ``results`` while :mod:`neckid.utils.progress` counts them.
 
     Shown by the reporter of the context (the command line's bar, or lines in a log); without
-    one, by a rich bar on standard error.
+    one, by a rich bar on standard error. With ``units`` (what each is called, its group, its
+    cost), the reporter says which unit runs and the time left from their costs
+    (:func:`neckid.utils.progress.planned_task`).
     """
-    from neckid.utils.progress import shown_task
+    from neckid.utils.progress import TerminalReporter, active, planned_task, reporting, shown_task
 
-    with shown_task(label, total=total) as advance:
+    if units is None:
+        with shown_task(label, total=total) as advance:
+            for result in results:
+                yield result
+                advance()
+        return
+    own = reporting(TerminalReporter()) if active() is None else nullcontext()
+    with own, planned_task(label, units) as done:
         for result in results:
             yield result
-            advance()
+            done()
 
 
 def check_jobs(n_jobs: Any, argument: str = "n_jobs (--jobs)") -> int | None:
@@ -143,6 +157,7 @@ def run_jobs(
     backend: str | None = None,
     progress: bool = False,
     label: str = "fits",
+    units: Sequence[tuple[str, str, float]] | None = None,
 ) -> list[Any]:
     """Run ``joblib.delayed`` calls on a backend; return their results in the order given.
 
@@ -164,6 +179,11 @@ def run_jobs(
         Show a rich progress bar (on standard error), advanced as results arrive in order.
     label : str, default "fits"
         The text before the bar.
+    units : sequence of (str, str, float), optional
+        Per unit, in the order of ``jobs``: what the user calls it, its group (units that cost
+        alike) and its expected cost; the progress then names the unit that runs and estimates
+        the time left from the costs and the times measured
+        (:class:`neckid.utils.progress.Plan`).
 
     Returns
     -------
@@ -186,5 +206,5 @@ def run_jobs(
     with _backend_context(backend):
         results = Parallel(n_jobs=n_jobs, return_as="generator")(jobs)
         if progress:
-            results = _with_progress(results, total, label)
+            results = _with_progress(results, total, label, units)
         return list(results)
