@@ -91,6 +91,9 @@ def _numbers_not_what_they_look(tmp: Path) -> None:
         IOData([10**400, 1, 2], [0.0, 1, 2], ts=0.1, input_names=["big"])
     with pytest.raises(ValueError, match="ts must be a positive number of seconds"):
         IOData([1.0, 2.0], ts=10**400)
+    data = IOData.from_csv(_log(tmp), ["command"], ["inclination"])
+    with pytest.raises(ValueError, match=r"ridge must be a number >= 0; got a whole number of 401"):
+        neckid.LinearARX(Lags.arx(1, 1), ridge=10**400).fit(data)
     with pytest.raises(TypeError, match=r"u channel 'when' holds dates \(datetime64\)"):
         IOData(np.arange(5).astype("datetime64[D]"), ts=1.0, input_names=["when"])
     with pytest.raises(TypeError, match=r"y channel 'day' holds date values \(row 0"):
@@ -307,7 +310,7 @@ def _with_monkeypatch(check: Callable[[Path, pytest.MonkeyPatch], None]) -> Call
 
 
 CASES = [
-    Case("I1", "API/CLI", "whole numbers beyond 2**53 (encoder counts near 2**56), a Python integer beyond the float range, datetime64 or `date` values as a channel", "refused, naming the channel: u channel 'encoder' holds the whole number 72057594037927936 at row 0, beyond 2**53 ... / holds dates (datetime64), not numbers: convert them explicitly; never an OverflowError", "clear", _numbers_not_what_they_look),
+    Case("I1", "API/CLI", "whole numbers beyond 2**53 (encoder counts near 2**56), a Python integer beyond the float range (in a channel, `ts`, a setting), datetime64 or `date` values as a channel", "refused, naming the channel: u channel 'encoder' holds the whole number 72057594037927936 at row 0, beyond 2**53 ... / holds dates (datetime64), not numbers: convert them explicitly; never an OverflowError", "clear", _numbers_not_what_they_look),
     Case("I2", "API/CLI", "a log still being written (no line break after a number cut short); `--ts` that contradicts the time column; `--time 'time [ms]'`", "warning: the last line (row N, ...) has no line break ... it is left out / refused: ts=0.01 s (--ts) contradicts the time column 'time', whose stamps are 0.02 s apart / ms, us, ns, min, h in the header honoured (ts = 0.02 s); an unknown unit refused", "clear", _contradicting_or_incomplete),
     Case("I3", "API/CLI", "`MODEL.NPZ`; a comment line above the header; `--map` of a channel the model lacks; `--out` a folder; a usage error; `initial=` of the wrong type; a full disk", "read as a model / comment skipped / refused: --map nosuch=command: the model has no channel 'nosuch' (it reads ...) / --out '...' is a folder; give a file name / one line: neckid identify: Missing argument 'LOG...' / TypeError: initial must be numbers / no space left on the device holding ...", "clear", _with_monkeypatch(_messages_name_what_was_typed)),
     Case("I4", "CLI", "a Parquet log without pyarrow; `--lags 1-1000000000/1`; `--orders` ranges of 11 million candidates", "exit 2: reading run.parquet needs pyarrow, which is not installed: pip install 'neckid[parquet]' / refused before allocating: lag 1000000000 ... is beyond 100000 samples / 11000000 candidates ... narrow the ranges", "clear", _with_monkeypatch(_environment_not_internal)),

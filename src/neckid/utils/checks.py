@@ -208,12 +208,31 @@ def validate_parameters(estimator: Any) -> None:
             raise RuntimeError(  # pragma: no cover - a developer error, caught by the tests
                 f"{type(estimator).__name__}.{name} has no entry in _parameter_constraints"
             )
-        if any(_accepts(c, value) for c in accepted):
-            continue
         rule = " or ".join(_describe(c) for c in accepted)
+        if _beyond_int64(value):  # compiled code and NumPy would overflow on it, or round it
+            digits = len(str(abs(int(value))))
+            raise ValueError(
+                f"{name} must be {rule}; got a whole number of {digits} digits, beyond 2**63"
+                " (what NumPy and compiled code hold)"
+            )
+        try:
+            accepted_here = any(_accepts(c, value) for c in accepted)
+        except OverflowError:
+            accepted_here = False
+        if accepted_here:
+            continue
         raise (ValueError if _right_type(accepted, value) else TypeError)(
-            f"{name} must be {rule}; got {value!r}"
+            f"{name} must be {rule}; got {value!r:.80}"
         )
+
+
+def _beyond_int64(value: Any) -> bool:
+    """Whether ``value`` is a Python whole number (not a bool) beyond the int64 range."""
+    return (
+        isinstance(value, numbers.Integral)
+        and not isinstance(value, bool | np.bool_)
+        and not -(2**63) <= int(value) < 2**63
+    )
 
 
 def _right_type(accepted: Sequence[Any], value: Any) -> bool:
