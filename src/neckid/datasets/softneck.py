@@ -149,8 +149,12 @@ def _read_rows(path: Path) -> tuple[NDArray[np.float64], SoftneckLayout]:
         message = not_text_message(path, data, "utf-8", exc)
         raise ValueError(f"{message}; soft-neck logs are UTF-8 (ASCII) text") from None
     lines = text.splitlines()
-    # Blank lines at the end (or anywhere) carry no sample.
-    numbered = [(i + 1, line) for i, line in enumerate(lines) if line.strip()]
+    # Blank lines at the end (or anywhere) and comment lines (#) carry no sample.
+    numbered = [
+        (i + 1, line)
+        for i, line in enumerate(lines)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
     if len(numbered) > 1 and not text.endswith(("\n", "\r")):
         # A log still being written may end inside its last number (0.12 of 0.1234).
         line_no, last = numbered.pop()
