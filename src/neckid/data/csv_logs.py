@@ -54,6 +54,20 @@ def _leading_comments(path: Path, read_csv: Mapping[str, Any]) -> int:
     return count
 
 
+def _numbers_follow(path: Path, comments: int, read_csv: Mapping[str, Any]) -> bool:
+    """Whether the line after the ``comments`` leading comment lines starts with a number."""
+    separator = str(read_csv.get("sep", read_csv.get("delimiter", ",")) or ",")
+    with path.open("rb") as handle:
+        for _ in range(comments):
+            handle.readline()
+        line = handle.readline(4096).decode("utf-8", errors="replace")
+    try:
+        float(line.split(separator)[0].strip())
+    except ValueError:
+        return False
+    return True
+
+
 def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
     """``pandas.read_csv`` whose failures are ValueErrors naming the file and the reason."""
     binary = not_this_kind(path, "a CSV log (text)")
@@ -63,10 +77,15 @@ def _read_csv(path: Path, read_csv: dict[str, Any]) -> pd.DataFrame:
             " .mat); a model file goes where the command takes a model"
         )
     comments = _leading_comments(path, read_csv)
+    commented_header = comments > 0 and _numbers_follow(path, comments, read_csv)
     if comments:
-        read_csv = {**read_csv, "skiprows": comments}
+        # "#time,command,...": the last comment line is the header when numbers follow it.
+        read_csv = {**read_csv, "skiprows": comments - commented_header}
     try:
         frame = pd.read_csv(path, **read_csv)
+        if commented_header and len(frame.columns):
+            first = str(frame.columns[0])
+            frame = frame.rename(columns={first: first.lstrip("#").strip()})
         _check_header(path, frame, read_csv)
         frame = _check_last_line(path, frame, read_csv)
     except UnicodeDecodeError as exc:
