@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from neckid.cli._app import FORCE_OPTION, app, console, handled
+from neckid.cli._app import app, console, error_console, handled
 
 #: What ``--to`` writes, for the help text and the success line.
 _WRITTEN = {
@@ -28,7 +28,8 @@ def export(
         metavar="json|mat|tf",
         help="json: the model's description (coefficients, lags, channels, units); mat: the same"
         " as the struct 'model' of a MATLAB .mat file; tf: a MATLAB / Octave script building the"
-        " transfer function (linear models: arx, rls, ss).",
+        " transfer function (linear models: arx, rls, ss), with the model's relative and offset"
+        " preprocessing as code (another step is refused unless --force).",
     ),
     out: Path = typer.Option(
         None,
@@ -37,7 +38,12 @@ def export(
         " extension, beside it).",
         show_default=False,
     ),
-    force: bool = FORCE_OPTION,
+    force: bool = typer.Option(
+        False,
+        "--force",
+        help="Overwrite an existing output. With --to tf, also write the script of a model whose"
+        " preprocessing (a low-pass, a resampling, ...) it cannot carry (its header says so).",
+    ),
 ) -> None:
     """Export a saved model for MATLAB or other tools: its coefficients, lags, channels and units.
 
@@ -46,6 +52,7 @@ def export(
     The keys and what each one means: the documentation page "Exporting models".
     """
     from neckid.export import EXPORT_SUFFIXES, write_export
+    from neckid.export.matlab_preprocess import unwritten_steps
     from neckid.models.io import load_model
     from neckid.utils.files import check_output_file
 
@@ -55,5 +62,14 @@ def export(
     target = out if out is not None else model_path.with_suffix(suffix)
     check_output_file(target, force=force, inputs=[model_path], option="--out", suffixes=[suffix])
     model = load_model(model_path)
-    path = write_export(model, target, to=to)  # type: ignore[arg-type]
+    path = write_export(model, target, to=to, without_preprocessing=force)  # type: ignore[arg-type]
     console.print(f"{type(model).__name__} written to {path} ({_WRITTEN[to]})", markup=False)
+    missing = unwritten_steps(model) if to == "tf" else []
+    if missing:  # written with --force: the script says it in its header, and so does this line
+        error_console.print(
+            f"warning: {path} does not apply the model's preprocessing {'; '.join(missing)}:"
+            " apply it to the log in MATLAB before the model",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )

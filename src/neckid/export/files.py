@@ -26,6 +26,7 @@ from typing import Any, Literal
 import numpy as np
 
 from neckid.export.describe import LINEAR_CLASSES, export_model
+from neckid.export.matlab_preprocess import preprocessing_lines
 
 __all__ = [
     "EXPORT_SUFFIXES",
@@ -270,7 +271,7 @@ def _refuse_nonlinear(description: dict[str, Any]) -> None:
     )
 
 
-def matlab_script(model: Any) -> str:
+def matlab_script(model: Any, *, without_preprocessing: bool = False) -> str:
     """A MATLAB / GNU Octave script that builds a linear model's transfer function and model.
 
     The script defines ``Ts`` [s], ``input_names``, ``output_names``, ``output_units``,
@@ -282,13 +283,22 @@ def matlab_script(model: Any) -> str:
     ``A``, ``B``, ``C``, ``D``, ``K`` and ``sys = ss(A, B, C, D, Ts)``. Numbers are written
     exactly (the shortest decimal that reads back as the same double).
 
+    A model identified on preprocessed logs carries its ``relative`` and ``offset`` steps into
+    the script as code, applied to ``U`` and ``Y`` when they are in the workspace
+    (:func:`neckid.export.matlab_preprocess.preprocessing_lines`); any other step is refused
+    unless ``without_preprocessing`` (then the header says which steps are not applied).
+
     Raises
     ------
     TypeError
         If the model is not linear (the message says which export works instead).
+    ValueError
+        If a preprocessing step cannot be written as MATLAB code and ``without_preprocessing``
+        is False.
     """
     description = export_model(model)
     _refuse_nonlinear(description)
+    preprocessing = preprocessing_lines(model, without=without_preprocessing)
     tf = description["transfer_function"]
     parameters = description["parameters"]
     labels = "'InputName', input_names, 'OutputName', output_names"
@@ -302,6 +312,7 @@ def matlab_script(model: Any) -> str:
         f"input_names = {_names(description['input_names'])};",
         f"output_names = {_names(description['output_names'])};",
         f"output_units = {_names(description['output_units'])};",
+        *preprocessing,
         *_cell_lines("num", tf["num"]),
         *_cell_lines("den", tf["den"]),
         f"y0 = {_matrix(tf['output_offset'])};  % output offset, one column per output",
@@ -337,7 +348,9 @@ def _check_script_name(path: Path) -> None:
         )
 
 
-def write_export(model: Any, path: str | Path, *, to: ExportFormat = "json") -> Path:
+def write_export(
+    model: Any, path: str | Path, *, to: ExportFormat = "json", without_preprocessing: bool = False
+) -> Path:
     """Write a fitted model's description to ``path`` as JSON, a ``.mat`` file or a MATLAB script.
 
     Parameters
@@ -350,6 +363,9 @@ def write_export(model: Any, path: str | Path, *, to: ExportFormat = "json") -> 
     to : {"json", "mat", "tf"}, default "json"
         :func:`json_text`, the struct ``model`` of :func:`matlab_struct` (``load(path)``
         in MATLAB), or :func:`matlab_script`.
+    without_preprocessing : bool, default False
+        ``to="tf"``: write the script even if a preprocessing step of the model cannot be
+        written into it (see :func:`matlab_script`).
 
     Returns
     -------
@@ -376,7 +392,8 @@ def write_export(model: Any, path: str | Path, *, to: ExportFormat = "json") -> 
             f" {target.name!r}"
         )
     if to == "tf":
-        text = matlab_script(model)  # a nonlinear model is refused before the name is judged
+        # a nonlinear model is refused before the name is judged
+        text = matlab_script(model, without_preprocessing=without_preprocessing)
         _check_script_name(target)
         with atomic_path(target) as temporary:
             temporary.write_text(text, encoding="utf-8")
