@@ -18,12 +18,46 @@ DISCRETISATION_HELP = (
 )
 
 
+#: ``--delay`` when it is not given: neckid's simulated loop (closed_loop, model in the loop).
+DEFAULT_DELAY = 1
+
+#: The largest ``--delay`` [samples]: the closed loop's characteristic polynomial has a degree of
+#: at least the delay, and its roots a companion matrix of that size squared (20 s at 0.02 s).
+MAX_DELAY = 1000
+
+
+def _check_delay(value: int | None) -> int | None:
+    """``--delay``: a whole number of samples in [0, :data:`MAX_DELAY`] (refused by the option)."""
+    if value is not None and not 0 <= value <= MAX_DELAY:
+        raise typer.BadParameter(
+            f"the computation delay must be 0 to {MAX_DELAY} samples (the loop's polynomials"
+            f" grow with it); got {value}"
+        )
+    return value
+
+
+def _delay_line(delay: int | None) -> str:
+    """Which computation delay the design used, and where it came from."""
+    if delay is not None:
+        return f"computation delay: {delay} sample(s) (--delay)"
+    return (
+        f"computation delay: {DEFAULT_DELAY} sample (the default, neckid's simulated loop; on the"
+        " lab's bench, where the command is computed in the period of its measurement, give"
+        " --delay 0)"
+    )
+
+
 def _design(model: Any, options: dict[str, Any]) -> Any:
     """The design (fixed or scheduled) the options ask for."""
     from neckid.design import design_fractional, design_pi, design_scheduled, linear_form
 
     kind: Literal["pi", "fractional"] = "fractional" if options["fractional"] else "pi"
-    fractional = {"discretisation": options["discretisation"], "order": options["order"]}
+    if kind == "pi" and options["discretisation"] is not None:
+        raise ValueError(
+            f"--discretisation {options['discretisation']} applies to a fractional controller"
+            " (a PI's integrator is always Tustin's): add --fractional, or leave it out"
+        )
+    fractional = {"discretisation": options["discretisation"] or "gl", "order": options["order"]}
     if options["scheduled"]:
         if options["inclination"] is not None:
             raise ValueError(
@@ -162,17 +196,20 @@ def design(
         help="Operating point [deg]: freezes a scheduled model there, or linearises a nonlinear"
         " one (Set Membership, neural, polynomial) there.",
     ),
-    discretisation: str = typer.Option("gl", "--discretisation", help=DISCRETISATION_HELP),
+    discretisation: str = typer.Option(
+        None, "--discretisation", help=DISCRETISATION_HELP + " Default gl.", show_default=False
+    ),
     order: float = typer.Option(
         None, "--order", help="Fix the fractional order instead of choosing it for a flat phase."
     ),
     delay: int = typer.Option(
-        1,
+        None,
         "--delay",
-        min=0,
+        callback=_check_delay,
         help="Samples between a measurement and the command computed from it: 1 in neckid's"
         " closed_loop and model-in-the-loop; 0 on the lab's bench (sensor read and command in"
-        " the same period).",
+        " the same period). Default 1, said in the output (a bench model wants 0).",
+        show_default=False,
     ),
     drive_time_constant: float = typer.Option(
         0.0,
@@ -222,7 +259,7 @@ def design(
         "inclination": inclination,
         "discretisation": discretisation,
         "order": order,
-        "delay": delay,
+        "delay": DEFAULT_DELAY if delay is None else delay,
         "drive_time_constant": drive_time_constant,
     }
     # The report folder is claimed (and refused if it holds files) before anything is computed.
@@ -236,6 +273,7 @@ def design(
         save_controller(controller, out)
         for line in _summary_lines(controller_document(controller)):
             console.print(line, markup=False)
+        console.print(_delay_line(delay), markup=False)
         console.print(f"controller written to {out}", markup=False)
         if staged is not None:
             _write_report(controller, result, staged)
