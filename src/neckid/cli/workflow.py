@@ -172,11 +172,9 @@ def _read_channels(
 
         keep_all = restamp is None or restamp.keep == "all"
         data = load_softneck_log(path, repeated_stamps="restamp" if keep_all else "drop")
-        if ts is not None and abs(data.ts - ts) > 0.01 * ts:
-            raise ValueError(
-                f"{path.name}: --ts {ts:g} contradicts the log's time column, whose stamps are"
-                f" {data.ts:.6g} s apart (a soft-neck log is read by its time column): drop --ts"
-            )
+        if ts is not None and abs(data.ts - ts) > 0.01 * ts:  # read by its time column
+            message = f"--ts {ts:g} contradicts its time column, whose stamps are {data.ts:.6g} s"
+            raise ValueError(f"{path.name}: {message} apart: drop --ts")
         if not inputs or not outputs:
             raise ValueError(
                 f"--inputs and --outputs are required with --layout softneck: {path.name} has"
@@ -465,17 +463,14 @@ def _check_mapping_names(
     maps: Mapping[str, str], channels: Sequence[str], pipeline: Pipeline | None, tilt: bool
 ) -> None:
     """Refuse a ``--map MODEL=LOG`` whose model channel the model does not read, naming it."""
-    known = set(channels)
-    if pipeline is not None:
-        known |= set(pipeline.sources(list(channels)))
+    known = {*channels, *(pipeline.sources(list(channels)) if pipeline is not None else ())}
     if tilt or (pipeline is not None and pipeline.find(Tilt) is not None):
         known |= {"inclination", "orientation"}
-    for log, name in maps.items():
-        if name not in known:
-            raise ValueError(
-                f"--map {name}={log}: the model has no channel {name!r} (it reads"
-                f" {', '.join(sorted(known))}); write --map MODEL_CHANNEL=LOG_COLUMN"
-            )
+    for log, name in ((log, name) for log, name in maps.items() if name not in known):
+        raise ValueError(
+            f"--map {name}={log}: the model has no channel {name!r} (it reads"
+            f" {', '.join(sorted(known))}); write --map MODEL_CHANNEL=LOG_COLUMN"
+        )
 
 
 def parse_channels(texts: Sequence[str]) -> dict[str, tuple[str, ...]]:
