@@ -14,6 +14,7 @@ from neckid.cli._app import (
     _method_name,
     app,
     console,
+    error_console,
     handled,
 )
 from neckid.cli._training import _method_settings
@@ -27,11 +28,14 @@ DEFAULT_GRID = "1-3,1-3,0-3"
 
 def _candidates(orders: str | None, lags: list[str] | None) -> list[Any]:
     """The candidates: the --orders grid and every --lags; the default grid when neither."""
-    from neckid.cli.workflow import parse_lags, parse_order_grid
+    from neckid.cli.workflow import lone_lag_note, parse_lags, parse_order_grid
 
     grid = parse_order_grid(orders) if orders is not None else []
     for text in lags or []:
         parsed = parse_lags(text)
+        note = lone_lag_note(parsed)  # as identify says it: 3/1 is y(t-3) alone, not na = 3
+        if note is not None:
+            error_console.print(f"note: {note}", markup=False, highlight=False)
         if parsed not in grid:
             grid.append(parsed)
     return grid or parse_order_grid(DEFAULT_GRID)
@@ -246,8 +250,15 @@ def select(
         check_output_file(save, force=force, inputs=list(logs), option="--save")
     if json_out is not None:
         check_output_file(json_out, force=force, inputs=list(logs), option="--json")
-    experiments, pipeline = read_training_logs(logs, spec)
     method = _method_name(method)
+    if methods()[method].lag_free:  # every candidate would be the same model
+        raise ValueError(
+            f"--method {method}: select chooses among lag sets, and {method} reads no lags (its"
+            " order or structure comes from the data), so every candidate would be the same model:"
+            f" fit it with neckid identify --method {method}, or compare it with other methods in"
+            " neckid compare"
+        )
+    experiments, pipeline = read_training_logs(logs, spec)
     options = _method_settings(method, settings or ())
     estimator = make_estimator(method, None, **options)  # type: ignore[arg-type]
     selection = select_lags(
