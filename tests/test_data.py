@@ -133,7 +133,9 @@ def test_list_of_experiments(log: IOData) -> None:
     other = log.select(inputs=["m1"])
     with pytest.raises(ValueError, match=r"data\[1\]\) has channels \['m1'\]"):
         as_experiments([log, other])
-    with pytest.raises(ValueError, match=r"data\[1\]\)? is sampled every 0.04 s, but .*every 0.02 s"):
+    with pytest.raises(
+        ValueError, match=r"data\[1\]\)? is sampled every 0.04 s, but .*every 0.02 s"
+    ):
         as_experiments([log, log[::2]])
     with pytest.raises(TypeError, match=r"data\[1\] must be an IOData; got int"):
         as_experiments([log, 3])

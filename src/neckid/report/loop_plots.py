@@ -70,7 +70,9 @@ def plot_lab_loop(
         if ax is not top:
             if channel in measured.input_names:
                 ax.plot(time, measured.channel(channel), color="black", lw=1.0, label="logged")
-            which = "controller in the model's loop" if channel != "motor_position" else "drive model"
+            which = (
+                "controller in the model's loop" if channel != "motor_position" else "drive model"
+            )
             ax.plot(time, loop[channel], color="tab:blue", lw=0.9, label=which)
         _mark_start(ax, time, result.n_initial)
         if result.diverged_at is not None:
