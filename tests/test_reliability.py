@@ -27,6 +27,7 @@ from typer.testing import CliRunner
 
 import neckid
 from _reliability_inputs import CASES as INPUT_CASES
+from _reliability_output import CASES as OUTPUT_CASES
 from neckid import IOData, Lags
 from neckid.cli import app
 
@@ -1423,6 +1424,9 @@ CASES = [
 
 # The held-out campaign's classes of bad data, files and model files: one case per class.
 CASES += INPUT_CASES  # type: ignore[arg-type]
+# What the command line shows (issue 39): readable when piped, progress that tells the truth,
+# options no longer accepted then ignored.
+CASES += OUTPUT_CASES  # type: ignore[arg-type]
 
 
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")

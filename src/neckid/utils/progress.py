@@ -262,6 +262,8 @@ def _left_text(left: tuple[float | None, bool]) -> str:
     seconds, at_least = left
     if seconds is None:
         return "time left not known yet"
+    if at_least and seconds < 0.5:  # the last unit overran its estimate: nothing to bound it
+        return "longer than expected, time left not known"
     return f"{'at least' if at_least else 'about'} {_duration(seconds)} left"
 
 
