@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, TypeVar, overload
 import numpy as np
 
 from neckid.data.iodata import IOData
+from neckid.utils.memory import check_allocation
 from neckid.utils.types import FloatArray
 
 if TYPE_CHECKING:
@@ -382,6 +383,20 @@ class Resample(Step):
         if math.isclose(data.ts, self.ts, rel_tol=1e-9):
             return data
         span = (data.n_samples - 1) * data.ts
+        count = span / self.ts + 1.0  # inf for a step that underflows
+        what = f"resampling {data.name or 'the log'} ({data.duration:g} s) every {self.ts:g} s"
+        advice = (
+            f"the resampling period {self.ts:g} s (--resample) is far too short for this log:"
+            f" give one near the log's own ({data.ts:g} s)"
+        )
+        if not math.isfinite(count):
+            raise ValueError(f"{what} makes more samples than a float counts: {advice}")
+        # a tiny step is refused here, before the allocator sees it (the log, its times, a copy)
+        check_allocation(
+            8.0 * count * (data.u.shape[1] + data.y.shape[1] + 2),
+            f"{what} ({count:.3g} samples)",
+            advice,
+        )
         n_new = math.floor(span / self.ts + 1e-9) + 1
         old = data.ts * np.arange(data.n_samples)
         new = self.ts * np.arange(n_new)

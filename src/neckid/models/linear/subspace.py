@@ -25,6 +25,7 @@ from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.facts import StateOrder
 from neckid.models.linear.subspace_order import order_by_folds
+from neckid.models.linear.subspace_sizes import check_subspace_sizes
 from neckid.models.linear.subspace_steps import (
     STABILITY_MARGIN,
     bound_modes,
@@ -46,6 +47,7 @@ from neckid.models.online import update_experiments
 from neckid.regressors import Lags
 from neckid.systems import StateMap, history_rows
 from neckid.utils.checks import Interval, Options, check_finite
+from neckid.utils.progress import task
 from neckid.utils.types import FloatArray
 
 __all__ = ["StateSpaceMap", "StateSpaceSimulator", "SubspaceStateSpace"]
@@ -273,15 +275,21 @@ class SubspaceStateSpace(Estimator):
                 f" observability matrix of horizon={i} block rows holds at most order"
                 f" {(i - 1) * p}; raise horizon"
             )
+        lengths = [d.n_samples for d in experiments]
+        check_subspace_sizes(
+            lengths, m, p, n, i, refine=bool(self.refine), feedthrough=feedthrough,
+            intercept=intercept,
+        )  # fmt: skip
         a, c, self.stabilised_ = shift_invariance(left, values, n, p)
         a, self.bounded_ = bound_modes(a, radius)
         b, d, offset, _ = output_error_regression(a, c, scaled, feedthrough, intercept, i, sy)
         matrices: Matrices = (a, b, c, d, offset)
         self.refined_ = False
         if self.refine:
-            refined = refine_free_run(
-                matrices, scaled, feedthrough, intercept, int(self.max_iter), i, radius, sy
-            )
+            with task(f"state-space free-run refinement (order {n})"):  # a line every 10 s
+                refined = refine_free_run(
+                    matrices, scaled, feedthrough, intercept, int(self.max_iter), i, radius, sy
+                )
             self.refined_ = refined is not matrices
             matrices = refined
         x0s = initial_states(matrices, scaled, i, sy)
