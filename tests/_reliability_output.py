@@ -28,11 +28,11 @@ INPUT = "motor_position_command_of_the_left_tendon"
 OUTPUT = "inclination_filtered_by_the_imu_of_the_neck"
 
 
-def _log(path: Path, seed: int, names: tuple[str, str] = (INPUT, OUTPUT)) -> Path:
+def _log(path: Path, seed: int, names: tuple[str, str] = (INPUT, OUTPUT), n: int = 300) -> Path:
     rng = np.random.default_rng(seed)
-    u = np.repeat(rng.uniform(-1, 1, 30), 10)
-    y = np.zeros(300)
-    for t in range(1, 300):
+    u = np.repeat(rng.uniform(-1, 1, n // 10), 10)
+    y = np.zeros(n)
+    for t in range(1, n):
         y[t] = 0.9 * y[t - 1] + 0.5 * u[t - 1] + 0.01 * rng.standard_normal()
     IOData(u, y, ts=0.02, input_names=[names[0]], output_names=[names[1]]).to_csv(path)
     return path
@@ -105,7 +105,9 @@ def _progress_lines(tmp: Path) -> None:
         done()
     lines = stream.getvalue().splitlines()
     assert len(lines) == 4 and all(": ss, fold 1/1: 1/2 done" in line for line in lines[:3]), lines
-    assert lines[0].endswith("longer than expected, time left not known") and lines[-1].endswith("done in 57 s"), lines
+    assert lines[0].endswith("longer than expected, time left not known") and lines[-1].endswith(
+        "done in 57 s"
+    ), lines
 
 
 def _export_preprocessing(tmp: Path) -> None:
@@ -154,6 +156,44 @@ def _select_options(tmp: Path) -> None:
     )
 
 
+def _unidentifiable(tmp: Path) -> None:
+    rng = np.random.default_rng(0)
+    y = np.cumsum(rng.normal(size=400)) * 0.01 + np.linspace(0.0, 1.0, 400)
+    log = tmp / "rest.csv"
+    IOData(np.ones(400), y, ts=0.02, input_names=["command"], output_names=["inclination"]).to_csv(
+        log
+    )
+    channels = ("--inputs", "command", "--outputs", "inclination")
+    code, shown = cli("identify", log, *channels, "--method", "ss", "--save", tmp / "ss.npz")
+    said = " ".join(shown.split())
+    assert code == 0 and "input 'command' is constant (1) over the training logs" in said, shown
+    assert "Excite the system persistently" in said, shown
+    short = tmp / "short.csv"
+    IOData(
+        np.ones(8), y[:8], ts=0.02, input_names=["command"], output_names=["inclination"]
+    ).to_csv(short)
+    refused("identify", short, *channels, "--method", "greybox-tanks", "--save", tmp / "t.npz",
+            match=r"has 10 parameters to fit, and the training logs give only 8 output values")  # fmt: skip
+    assert not (tmp / "t.npz").exists()
+
+
+def _sizes_checked(tmp: Path) -> None:
+    import neckid.utils.memory as memory
+
+    log = _log(tmp / "run.csv", 0, ("command", "inclination"), n=3000)
+    channels = ("--inputs", "command", "--outputs", "inclination")
+    refused("identify", log, *channels, "--resample", "1e-12", "--save", tmp / "r.npz",
+            match=r"every 1e-12 s .*\(--resample\) is far too short for this log")  # fmt: skip
+    real = memory.available_bytes
+    memory.available_bytes = lambda: 50 * 1024**2  # type: ignore[assignment]
+    try:
+        refused("identify", log, *channels, "--method", "ss", "--set", "order=40", "--save",
+                tmp / "s.npz", match=r"refinement of order 40 .*give a smaller order \(--set order=N\)")  # fmt: skip
+    finally:
+        memory.available_bytes = real  # type: ignore[assignment]
+    assert not (tmp / "r.npz").exists() and not (tmp / "s.npz").exists()
+
+
 CASES = [
     Case("O1", "CLI", "`compare`, `validate`, `info` piped, with long log names (spring_20… and spring_10…) and channel names", "every name whole on its row: a table not on a terminal is as wide as it needs (with COLUMNS set, names wrap in their cells, never cut)", "correct", _piped_tables),
     Case("O2", "CLI", "`--help` of every command piped", "every example whole (120 columns when not a terminal), no word cut", "correct", _piped_help),
@@ -161,4 +201,6 @@ CASES = [
     Case("O4", "CLI", "`export --to tf` of a model identified with `--relative` / `--offset`, or with `--lowpass`", "relative and offset written into the script as code on U and Y; refused: ... low-pass inclination at 1 rad/s cannot be written into a MATLAB script ...; --force writes it, its header and a warning say what is not applied", "clear", _export_preprocessing),
     Case("O5", "CLI", "`design` without `--delay`, with `--delay 100000000`, a PI with `--discretisation oustaloup`", "a line: computation delay: 1 sample (the default, neckid's simulated loop; ... give --delay 0) / refused: '--delay': ... 0 to 1000 samples ...; got 100000000 / refused: --discretisation oustaloup applies to a fractional controller", "clear", _design_options),
     Case("O6", "CLI", "`select --lags 3/1`; `select --method ss` (a lag-free method)", "note: --lags 3/...: the output lag 3 alone, y(t-3) ... / refused: --method ss: select chooses among lag sets, and ss reads no lags ...: fit it with neckid identify --method ss", "clear", _select_options),
+    Case("O7", "CLI", "`identify --method ss` / `greybox-neck` on a constant input; `greybox-tanks` (10 parameters) on 8 samples", "a warning: SubspaceStateSpace: input 'command' is constant (1) over the training logs: ... not identifiable ... Excite the system persistently ... / refused: GreyBoxODE (cascaded-tanks) has 10 parameters to fit, and the training logs give only 8 output values", "clear", _unidentifiable),
+    Case("O8", "CLI", "`--resample 1e-12` on a log at 0.02 s; `identify --method ss --set order=40` beyond the memory there is", "refused before allocating: resampling run.csv ... every 1e-12 s ... needs about ... TB ...: the resampling period 1e-12 s (--resample) is far too short ... / the free-run refinement of order 40 ... needs about ...: give a smaller order (--set order=N)", "clear", _sizes_checked),
 ]  # fmt: skip

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.excitation import check_excitation
 from neckid.models.greybox.fitting import REFLECTION_BOUND, Problem, basis, fit_problem
 from neckid.models.greybox.hysteresis import denominator, dynamics_run, play_step
 from neckid.models.linear.subspace_steps import STABILITY_MARGIN, slowest_mode_radius
@@ -143,6 +144,7 @@ class GreyBoxNeck(Estimator):
         n_raw = as_experiments(data)[0].n_inputs
         experiments = as_experiments(self._with_conditions(data, fitting=True))
         self._check_training(experiments)
+        check_excitation(type(self).__name__, experiments, skip=self._condition_names(True))
         self._fit_experiments(experiments, experiments[0].n_inputs - n_raw)
         return self
 

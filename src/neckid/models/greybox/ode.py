@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.excitation import check_excitation
 from neckid.models.greybox.catalog import resolve_structure, shipped_structures
 from neckid.models.greybox.ode_fitting import OdeProblem, fit_structure
 from neckid.models.greybox.ode_kernels import advance, check_functions, evaluate, free_run
@@ -214,6 +215,13 @@ class GreyBoxODE(Estimator):
     def _fit_experiments(self, experiments: Sequence[IOData]) -> None:
         structure = self._structure()
         self._check_channels(structure, experiments[0])
+        check_excitation(
+            f"GreyBoxODE ({structure.name})",
+            experiments,
+            n_parameters=len(structure.parameter_names),
+            skip=self._condition_names(True),
+            stacklevel=4,  # the caller of fit / partial_fit
+        )
         for i, run in enumerate(experiments):
             if run.n_samples < 2:
                 raise ValueError(f"data[{i}] has {run.n_samples} sample(s); it needs at least 2")

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.excitation import check_excitation
 from neckid.models.facts import StateOrder
 from neckid.models.linear.subspace_order import order_by_folds
 from neckid.models.linear.subspace_sizes import check_subspace_sizes
@@ -191,6 +192,7 @@ class SubspaceStateSpace(Estimator):
         self._validate_params()
         experiments = as_experiments(self._with_conditions(data, fitting=True))
         self._check_training(experiments)
+        check_excitation(type(self).__name__, experiments, skip=self._condition_names(True))
         self._fit_experiments(experiments, self.order)
         return self
 
