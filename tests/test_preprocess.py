@@ -294,7 +294,7 @@ def test_an_old_model_file_without_preprocessing_still_loads(tmp_path: Path) -> 
     class_name, arrays, meta = read_model_file(path)
     assert "preprocessing" not in meta
     loaded = load_model(path)
-    assert not hasattr(loaded, "preprocessing_")
+    assert loaded.preprocessing_ is None  # the model contract's "none" (models/facts.py)
     assert prepare_log(loaded, _training_log()) == _training_log()
     assert "preprocessing" not in describe_model(loaded)
     # A damaged entry is refused with the file, the step and the value named.

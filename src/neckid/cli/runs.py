@@ -268,9 +268,9 @@ def benchmark(
         "--methods",
         help=(
             "Comma-separated registry names: arx, ss, pnlss, greybox-neck, poly, sm, sm-linear,"
-            " sm-parallel, sm-parallel-poly, nn, scheduled, and the peer sysidentpy-frols (SysIdentPy's"
-            " FROLS; pip install 'neckid[peers]'). Default: every neckid method; the peer runs"
-            " when named."
+            " sm-parallel, sm-parallel-poly, nn, scheduled, lpv, and the peer sysidentpy-frols"
+            " (SysIdentPy's FROLS; pip install 'neckid[peers]'). Default: every neckid method but"
+            " lpv (its grid multiplies the lags by three degrees); lpv and the peer run when named."
         ),
     ),
     only: str = typer.Option(
