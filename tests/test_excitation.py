@@ -44,6 +44,16 @@ def test_more_parameters_than_output_values_are_refused() -> None:
         methods()["greybox-tanks"].make(quick=True).fit(_constant_input()[:8])
 
 
+def test_the_grey_box_neck_on_as_many_samples_as_parameters_is_refused() -> None:
+    model = methods()["greybox-neck"].make(quick=True)
+    with pytest.raises(
+        ValueError, match=r"GreyBoxNeck has 6 parameters to fit, and the training logs give only 6"
+    ):
+        model.fit(_constant_input()[:8])  # 8 samples, 2 of them the initial ones
+    assert not hasattr(model, "weights_")  # refused before anything is set
+    assert methods()["greybox-neck"].make(quick=True).fit(_constant_input()[:40]).weights_.size == 3
+
+
 def test_a_moving_input_is_not_warned_about() -> None:
     data = _constant_input()
     moving = data.replace(u=np.sin(np.arange(data.n_samples) * 0.1)[:, None])

@@ -27,6 +27,8 @@ def check_excitation(
     n_parameters: int | None = None,
     skip: Collection[str] = (),
     stacklevel: int = 3,
+    inputs: bool = True,
+    n_initial: int = 0,
 ) -> None:
     """Refuse more parameters than output values; warn for an input constant over the logs.
 
@@ -42,6 +44,11 @@ def check_excitation(
         Inputs that are constant by design (the experimental conditions).
     stacklevel : int, default 3
         Of the warning: the caller of ``fit``.
+    n_initial : int, default 0
+        Initial samples of each log the fit does not score (its lags): not counted as values.
+    inputs : bool, default True
+        Look at the inputs (``False``: the parameter count alone, for a model that counts its
+        parameters once it has fitted them and has already looked at its inputs).
 
     Raises
     ------
@@ -58,13 +65,15 @@ def check_excitation(
     >>> print(caught[0].message)  # doctest: +ELLIPSIS
     GreyBoxNeck: input 'motor' is constant (1) over the training logs: ... persistently ...
     """
-    values = sum(d.n_samples for d in experiments) * experiments[0].n_outputs
+    values = sum(max(0, d.n_samples - n_initial) for d in experiments) * experiments[0].n_outputs
     if n_parameters is not None and n_parameters >= values:
         raise ValueError(
             f"{model} has {n_parameters} parameters to fit, and the training logs give only"
             f" {values} output values: they cannot identify it; give longer logs of an"
             " experiment that excites the system persistently, or a model with fewer parameters"
         )
+    if not inputs:
+        return
     u = np.vstack([d.u for d in experiments])
     for j, name in enumerate(experiments[0].input_names):
         if name in skip or u.shape[0] == 0 or np.ptp(u[:, j]) > 0:

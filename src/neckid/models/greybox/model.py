@@ -174,6 +174,10 @@ class GreyBoxNeck(Estimator):
         slack, coefficients, weights, cost = fit_problem(
             problem, bool(self.slack), int(self.max_iter)
         )
+        fitted = (slack.size if self.slack else 0) + coefficients.size + weights.size
+        check_excitation(
+            type(self).__name__, experiments, n_parameters=fitted, inputs=False, n_initial=m
+        )
         self.slack_, self.radii_, self.mode_radius_ = slack, radii, radius
         self.reflection_, self.weights_ = coefficients, weights
         self.n_conditions_, self.train_mse_ = int(n_conditions), cost
