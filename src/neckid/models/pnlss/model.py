@@ -161,6 +161,8 @@ class PolynomialStateSpace(Estimator):
         self._validate_params()
         experiments = as_experiments(self._with_conditions(data, fitting=True))
         self._check_training(experiments)
+        if isinstance(self.order, int | np.integer):  # the largest allocation, checked first
+            self._check_jacobian(experiments, int(self.order))
         ss = SubspaceStateSpace(
             order=self.order,
             horizon=self.horizon,
@@ -184,15 +186,23 @@ class PolynomialStateSpace(Estimator):
         theta = layout.pack((a, b, c, d, offset, np.zeros((n, k)), np.zeros((p, k))))
         self.powers_ = layout.tables()[0][-k:]
         self.n_samples_ = int(sum(d.n_samples for d in experiments))
-        check_allocation(
-            8.0 * 3 * self.n_samples_ * p * theta.size,  # the Jacobian, its copy, the solver's
-            f"the free-run fit's Jacobian ({self.n_samples_:,} samples x {p} outputs x"
-            f" {theta.size:,} parameters, order {n}, degree {int(self.degree)})",
-            "give a smaller order (order=3), a lower degree, or fewer samples",
-        )
+        self._check_jacobian(experiments, n)
         self._set_channels(experiments[0])
         self._optimise(layout, theta, experiments, int(self.max_iter))
         return self
+
+    def _check_jacobian(self, experiments: Sequence[IOData], order: int) -> None:
+        """Refuse a free-run fit whose Jacobian the machine cannot hold, before allocating it."""
+        m, p = experiments[0].n_inputs, experiments[0].n_outputs
+        layout = Layout(order, m, p, int(self.degree), bool(self.feedthrough))
+        size = sum(rows * columns for rows, columns in layout.shapes())
+        n_samples = int(sum(d.n_samples for d in experiments))
+        check_allocation(
+            8.0 * 3 * n_samples * p * size,  # the Jacobian, its copy, the solver's
+            f"the free-run fit's Jacobian ({n_samples:,} samples x {p} outputs x"
+            f" {size:,} parameters, order {order}, degree {int(self.degree)})",
+            "give a smaller order (order=3), a lower degree, or fewer samples",
+        )
 
     def _set_units(self, experiments: Sequence[IOData]) -> None:
         u = np.vstack([d.u for d in experiments])
