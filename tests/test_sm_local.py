@@ -69,6 +69,22 @@ def test_point_gamma_is_each_points_steepest_slope(cloud) -> None:
     assert np.all(np.maximum(got[:, None, :], got[None, :, :]) >= s - 1e-12)
 
 
+def test_the_kernels_in_chunks_give_the_same_bits(cloud, monkeypatch) -> None:
+    """Called in chunks (to return to Python, where a stop signal is taken): the same result."""
+    from neckid.models.set_membership._kernels import local
+
+    points, targets = cloud
+    tree, epsilon = SMTree(points, targets), np.array([0.05, 0.02])
+    queries = np.random.default_rng(5).normal(size=(300, 3))
+    gammas = 1.1 * point_gamma(tree, epsilon)
+    whole = (gammas, *local_bounds(tree, gammas, queries, epsilon, gammas.max(axis=0), 4))
+    monkeypatch.setattr(local, "KERNEL_CHUNK", 64)  # 11 chunks of the points, 5 of the queries
+    chunked = 1.1 * point_gamma(tree, epsilon)
+    chunked = (chunked, *local_bounds(tree, chunked, queries, epsilon, chunked.max(axis=0), 4))
+    for a, b in zip(whole, chunked, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_point_gamma_is_infinite_for_identical_regressors_with_distant_targets() -> None:
     points = np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 1.0]])
     targets = np.array([[0.0], [1.0], [0.5]])

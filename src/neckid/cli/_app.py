@@ -7,7 +7,6 @@ import logging
 import os
 import signal
 import sys
-import threading
 import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, suppress
@@ -19,6 +18,7 @@ from rich.console import Console, ConsoleDimensions
 from rich.table import Table
 
 from neckid._version import __version__
+from neckid.utils.interrupt import signal_name, stop_signals
 
 app = typer.Typer(
     name="neckid",
@@ -248,51 +248,18 @@ def _show_warning(
     )
 
 
-class Interrupted(KeyboardInterrupt):
-    """SIGTERM or SIGHUP during a command: handled like Ctrl-C, exit status 128 + the signal."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signum)
-        self.signum = signum
-
-
-def _raise_interrupted(signum: int, frame: Any) -> None:
-    signal.signal(signum, signal.SIG_IGN)  # a second signal must not cut the clean-up short
-    raise Interrupted(signum)
-
-
-#: The signals a command handles like Ctrl-C (SIGINT is Python's KeyboardInterrupt already).
-STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
-
-
-@contextmanager
-def _signals_interrupt() -> Iterator[None]:
-    """SIGTERM and SIGHUP raise :class:`Interrupted` while the block runs (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous: dict[int, Any] = {}
-    for number in STOP_SIGNALS:
-        try:
-            previous[number] = signal.signal(number, _raise_interrupted)
-        except (OSError, ValueError):  # pragma: no cover - not settable here
-            continue
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
-
-
 def handled(command: Command) -> Command:
     """Run a command with the one error policy of the command line.
 
     What the user gave wrong (:data:`_USER_ERRORS`) prints one ``error:`` line and exits with
-    status 2; Ctrl-C, SIGTERM and SIGHUP say that the run was interrupted and that no output was
-    half written (status 128 + the signal: 130, 143, 129); anything else prints one line with
-    the error's type and the hint to rerun with ``--debug`` (status 1), or the traceback with
-    ``--debug``. A closed standard output (``| head``) is not an error. Long work inside shows
-    its progress (:mod:`neckid.utils.progress`). The outputs the command
+    status 2; Ctrl-C, SIGTERM and SIGHUP stop the command at its next safe point
+    (:mod:`neckid.utils.interrupt`: never inside a compiled kernel or its compilation, and a
+    Ctrl-C that a library swallowed is raised again) and say so in one line, naming what was
+    written before the stop (usually nothing: an output is put in place only once it is whole,
+    and never after a stop signal), with status 128 + the signal: 130, 143, 129; anything else
+    prints one line with the error's type and the hint to rerun with ``--debug`` (status 1), or
+    the traceback with ``--debug``. A closed standard output (``| head``) is not an error. Long
+    work inside shows its progress (:mod:`neckid.utils.progress`). The outputs the command
     claimed (:func:`neckid.utils.files.check_output_file`) are released when it ends.
     """
 
@@ -301,47 +268,57 @@ def handled(command: Command) -> Command:
         from rich.markup import escape
 
         from neckid.models.base import ExtrapolationWarning
-        from neckid.utils.files import release_outputs
+        from neckid.utils.files import recording_outputs, release_outputs
         from neckid.utils.progress import default_reporter, reporting
 
         _Stdout.closed = False
-        try:
-            # Long fits and selections report progress: a bar in a terminal, lines otherwise.
-            with _signals_interrupt(), warnings.catch_warnings(), reporting(default_reporter()):
-                # The commands report extrapolation themselves; other warnings get one line each,
-                # once, without the library's file path.
-                warnings.simplefilter("ignore", ExtrapolationWarning)
-                warnings.showwarning = _show_warning
-                return command(*args, **kwargs)
-        except (typer.Exit, typer.Abort):
-            raise
-        except KeyboardInterrupt as exc:
-            signum = getattr(exc, "signum", int(signal.SIGINT))
-            name = signal.Signals(signum).name if signum != signal.SIGINT else "Ctrl-C"
-            error_console.print(
-                f"[yellow]interrupted[/yellow] ({name}): stopped before the end; outputs are"
-                " written whole or not at all, so no file was left half written"
-            )
-            raise typer.Exit(code=128 + signum) from None
-        except BrokenPipeError:
-            _Stdout._reader_gone()  # the reader of the output went away: nothing more to say
-            raise typer.Exit(code=128 + int(getattr(signal, "SIGPIPE", 13))) from None
-        except _USER_ERRORS as exc:
-            _fail(_message(exc))
-        except Exception as exc:
-            if isinstance(exc, ImportError):
-                _fail_if_missing_extra(exc)
-            if _STATE["debug"]:
+        # The stop signals' handler covers the clean-up too: a second Ctrl-C does not cut it.
+        with stop_signals(), recording_outputs() as written:
+            try:
+                # Long fits and selections report progress: a bar in a terminal, lines otherwise.
+                with warnings.catch_warnings(), reporting(default_reporter()):
+                    # The commands report extrapolation themselves; other warnings get one line
+                    # each, once, without the library's file path.
+                    warnings.simplefilter("ignore", ExtrapolationWarning)
+                    warnings.showwarning = _show_warning
+                    return command(*args, **kwargs)
+            except (typer.Exit, typer.Abort):
                 raise
-            error_console.print(
-                f"[red]unexpected error[/red] ({type(exc).__name__}): {escape(_message(exc))}; rerun with"
-                " `neckid --debug ...` for the traceback and report it",
-                highlight=False,
-                soft_wrap=True,
-            )
-            raise typer.Exit(code=1) from None
-        finally:
-            release_outputs()
+            except KeyboardInterrupt as exc:
+                signum = getattr(exc, "signum", int(signal.SIGINT))
+                what = (
+                    "written whole before the stop: "
+                    + ", ".join(escape(w) for w in written)
+                    + "; nothing else was written"
+                    if written
+                    else "no output was written and an existing one is unchanged"
+                )
+                error_console.print(
+                    f"[yellow]interrupted[/yellow] ({signal_name(signum)}): stopped before the"
+                    f" end; {what}",
+                    highlight=False,
+                    soft_wrap=True,
+                )
+                raise typer.Exit(code=128 + signum) from None
+            except BrokenPipeError:
+                _Stdout._reader_gone()  # the reader of the output went away: nothing more to say
+                raise typer.Exit(code=128 + int(getattr(signal, "SIGPIPE", 13))) from None
+            except _USER_ERRORS as exc:
+                _fail(_message(exc))
+            except Exception as exc:
+                if isinstance(exc, ImportError):
+                    _fail_if_missing_extra(exc)
+                if _STATE["debug"]:
+                    raise
+                error_console.print(
+                    f"[red]unexpected error[/red] ({type(exc).__name__}): {escape(_message(exc))};"
+                    " rerun with `neckid --debug ...` for the traceback and report it",
+                    highlight=False,
+                    soft_wrap=True,
+                )
+                raise typer.Exit(code=1) from None
+            finally:
+                release_outputs()
 
     return run  # type: ignore[return-value]
 

@@ -10,7 +10,8 @@
   (the command line does it when a command ends).
 - :func:`atomic_path` gives a temporary name in the target's folder and renames it into place
   only when the writing finished, so an interrupted run leaves the old file (or none), never a
-  half-written one. The file gets the permissions the user's umask gives (``0644`` under umask
+  half-written one; once a stop signal was received (:mod:`neckid.utils.interrupt`) it renames
+  nothing. The file gets the permissions the user's umask gives (``0644`` under umask
   ``022``), or those of the file it replaces. Temporary files left by a killed run into the same
   place are removed first.
 - :func:`output_folder` locks a folder for one run (``filelock``), stages every file in a hidden
@@ -33,6 +34,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from neckid.utils.interrupt import check as check_interrupted
+from neckid.utils.interrupt import deferred
+
 __all__ = [
     "OutputError",
     "StagedFolder",
@@ -42,6 +46,7 @@ __all__ = [
     "lock_path",
     "output_folder",
     "output_name",
+    "recording_outputs",
     "release_outputs",
     "write_json",
 ]
@@ -187,6 +192,29 @@ def _acquire(target: Path, option: str) -> Any:
     except Timeout:
         raise _busy(option, target) from None
     return lock
+
+
+#: The lists of :func:`recording_outputs` blocks running (innermost last).
+_RECORDERS: list[list[str]] = []
+
+
+@contextlib.contextmanager
+def recording_outputs() -> Iterator[list[str]]:
+    """Yield a list that gets every output (file, folder) put in place inside the block, in order.
+
+    What an interrupted command had written before it stopped (the command line says so).
+    """
+    written: list[str] = []
+    _RECORDERS.append(written)
+    try:
+        yield written
+    finally:
+        _RECORDERS.remove(written)
+
+
+def _written(target: Path) -> None:
+    for recorder in _RECORDERS:
+        recorder.append(str(target))
 
 
 def release_outputs() -> None:
@@ -380,12 +408,17 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         temporary, mode = _temporary(target)
         try:
             yield temporary
+            # Once a stop was asked for, nothing is put in place (even when the interrupt was
+            # swallowed on the way: the file stays as it was).
+            check_interrupted()
             with contextlib.suppress(OSError):
                 old = os.stat(target)
                 if stat.S_ISREG(old.st_mode):
                     mode = stat.S_IMODE(old.st_mode)
             os.chmod(temporary, mode)
-            _place(temporary, target, claim)
+            with deferred():  # the rename is not cut in half by a signal
+                _place(temporary, target, claim)
+                _written(target)
         finally:
             if os.path.lexists(temporary):
                 temporary.unlink()
@@ -478,9 +511,12 @@ def output_folder(folder: str | Path, *, force: bool = False) -> Iterator[Staged
     finished = False
     try:
         yield StagedFolder(target, staging)
-        for item in sorted(staging.iterdir()):
-            os.replace(item, target / item.name)
-        finished = True
+        check_interrupted()  # stopped: none of the run's files is moved in
+        with deferred():  # moved in together: a signal waits until the last one is in place
+            for item in sorted(staging.iterdir()):
+                os.replace(item, target / item.name)
+            finished = True
+            _written(target)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
         if created and not finished:  # a run that failed leaves no empty folder of its own

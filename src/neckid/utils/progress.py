@@ -11,6 +11,9 @@ A Python user can do the same::
 
 The listener lives in a :class:`contextvars.ContextVar`, so threads and asynchronous tasks each
 see their own, and an estimator holds no state of it.
+
+Every ``advance`` is also a safe point for a stop signal (:func:`neckid.utils.interrupt.check`):
+a Ctrl-C that a library swallowed inside a step stops the loop at the next step.
 """
 
 from __future__ import annotations
@@ -22,6 +25,9 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, nullcontext
 from contextvars import ContextVar
 from typing import IO, Any, Protocol
+
+from neckid.utils.interrupt import check as check_interrupted
+from neckid.utils.interrupt import stop_requested
 
 __all__ = [
     "LineReporter",
@@ -65,8 +71,9 @@ def active() -> Reporter | None:
     return _REPORTER.get()
 
 
-def _nothing(steps: float = 1.0) -> None:
-    """``advance`` when nobody listens."""
+def _nothing_but_check(steps: float = 1.0) -> None:
+    """``advance`` when nobody listens: only a safe point for a stop signal."""
+    check_interrupted()
 
 
 @contextmanager
@@ -81,11 +88,16 @@ def task(label: str, total: float | None = None) -> Iterator[Advance]:
     """
     reporter = _REPORTER.get()
     if reporter is None:
-        yield _nothing
+        yield _nothing_but_check
         return
     handle = reporter.start(label, total)
+
+    def advance(steps: float = 1.0) -> None:
+        check_interrupted()  # a step is a safe point: a swallowed Ctrl-C stops the loop here
+        handle.advance(steps)
+
     try:
-        yield handle.advance
+        yield advance
     finally:
         handle.stop()
 
@@ -313,7 +325,9 @@ class _LineHandle:
         self.owner.forget(self)
         elapsed = self.owner.clock() - self.started
         if elapsed >= self.owner.quiet:
-            self.owner.write(f"{self.label}: done in {_duration(elapsed)}")
+            # A task ended by a stop signal is not done: say so (neckid.utils.interrupt).
+            ended = "interrupted after" if stop_requested() is not None else "done in"
+            self.owner.write(f"{self.label}: {ended} {_duration(elapsed)}")
 
 
 class LineReporter:

@@ -11,13 +11,24 @@ A fitted model is an ensemble of ``n_networks`` such networks, trained alike fro
 whose outputs are averaged: one network's result depends on its seed by several points of
 free-run fit on the soft-neck logs; the average of a few depends on it much less. Their weights are
 stacked along a first axis, so one batched product per layer serves every network.
+
+scikit-learn's trainer catches ``KeyboardInterrupt`` inside its epoch loop, warns "Training
+interrupted by user." and returns the half-trained network; every training call here turns that
+warning back into the interrupt and then checks for a stop signal
+(:func:`neckid.utils.interrupt.check`), so Ctrl-C or SIGTERM stops the whole fit within one
+epoch and no half-trained ensemble is ever made (:func:`_interrupts_kept`). The networks are
+still trained by ``MLPRegressor.fit`` itself, not one ``partial_fit`` epoch at a time under a loop
+of ours: ``fit`` alone applies the tolerance, ``n_iter_no_change``, early stopping and the
+restoring of the best weights, so the networks (and every model file) stay what they were.
 """
 
 from __future__ import annotations
 
 import itertools
 import logging
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -30,6 +41,7 @@ from neckid.metrics import fit_percent
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.regressors import Lags, ResolvedLags
 from neckid.utils.checks import Interval, Options
+from neckid.utils.interrupt import check as check_interrupted
 from neckid.utils.memory import check_allocation
 from neckid.utils.progress import task
 from neckid.utils.types import FloatArray
@@ -44,6 +56,32 @@ _ACTIVATIONS = ("tanh", "relu", "logistic", "identity")
 
 #: Fewest samples of a held-out tail beyond its initial conditions for free-run selection.
 _MIN_TAIL_SAMPLES = 20
+
+#: What scikit-learn's MLP trainer warns when it has caught (and dropped) a KeyboardInterrupt.
+_SWALLOWED = "Training interrupted by user"
+
+
+@contextmanager
+def _interrupts_kept() -> Iterator[None]:
+    """Train scikit-learn networks inside; a Ctrl-C that scikit-learn caught comes out again.
+
+    ``MLPRegressor.fit`` and ``partial_fit`` catch ``KeyboardInterrupt`` in their epoch loop,
+    warn :data:`_SWALLOWED` and return the half-trained network. Here that warning is raised
+    as an error in its ``except`` clause, and the interrupt it was handling (the command line's
+    :class:`~neckid.utils.interrupt.Interrupted`, which knows its signal, or Python's own
+    ``KeyboardInterrupt``) is raised again in its place; the block then ends with
+    :func:`neckid.utils.interrupt.check`, for a stop that arrived in any other way.
+    """
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=_SWALLOWED, category=UserWarning)
+        try:
+            yield
+        except UserWarning as exc:
+            if not str(exc).startswith(_SWALLOWED):
+                raise
+            stop = exc.__context__
+            raise (stop if isinstance(stop, KeyboardInterrupt) else KeyboardInterrupt()) from None
+    check_interrupted()
 
 
 def _activate(z: FloatArray, activation: str) -> FloatArray:
@@ -433,9 +471,13 @@ class NeuralNARX(NarxModel):
             "use smaller hidden layers (hidden_layer_sizes) or fewer networks",
         )
         networks = []
-        with task(f"training {len(seeds)} networks", total=len(seeds)) as advance:
+        with (
+            task(f"training {len(seeds)} networks", total=len(seeds)) as advance,
+            _interrupts_kept(),
+        ):
             for seed in seeds:
                 networks.append(self._train_one(xs, target, layers, seed))
+                check_interrupted()  # scikit-learn may have swallowed it: no next network
                 advance()
         self.networks_ = networks
         n_layers = len(networks[0].coefs_)
@@ -731,12 +773,14 @@ class NeuralNARX(NarxModel):
         xs = (x - self.x_mean_) / self.x_scale_
         ys = (y - self.y_mean_) / self.y_scale_
         target = ys[:, 0] if ys.shape[1] == 1 else ys
-        for network in networks:
-            network.set_params(early_stopping=False)
-            if network.best_loss_ is None:  # after early stopping, the loss was not tracked
-                network.best_loss_ = np.inf
-            for _ in range(int(epochs)):
-                network.partial_fit(xs, target)
+        with _interrupts_kept():
+            for network in networks:
+                network.set_params(early_stopping=False)
+                if network.best_loss_ is None:  # after early stopping, the loss was not tracked
+                    network.best_loss_ = np.inf
+                for _ in range(int(epochs)):
+                    network.partial_fit(xs, target)
+                    check_interrupted()
         self.coefs_ = [
             np.stack([np.asarray(n.coefs_[k], dtype=np.float64) for n in networks])
             for k in range(len(self.coefs_))
