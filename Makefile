@@ -33,7 +33,7 @@ pytest: $(STAMP)
 # its baseline and OpenBLAS on another core's kernels: a CPU-dependent assertion fails on any
 # machine, not only on the one whose CPU differs (docs/performance.md, "On every CPU").
 NARROW_NUMPY = $(shell $(BIN)/python -c "import numpy as np; m = getattr(np, '_core', None) or np.core; print(' '.join(m._multiarray_umath.__cpu_dispatch__))" 2>/dev/null)
-NARROW_BLAS = $(shell case "$$(uname -m)" in x86_64|amd64) echo Prescott;; aarch64|arm64) echo ARMV8;; esac)
+NARROW_BLAS = $(if $(filter aarch64 arm64,$(shell uname -m)),ARMV8,Prescott)
 pytest-narrow: $(STAMP)
 	NPY_DISABLE_CPU_FEATURES="$(NARROW_NUMPY)" OPENBLAS_CORETYPE="$(NARROW_BLAS)" \
 		$(BIN)/python -m pytest -p no:cacheprovider -m cpu_dependent tests
