@@ -1444,33 +1444,65 @@ def test_case(case: Case, tmp_path: Path) -> None:
     case.check(tmp_path)
 
 
-def render() -> str:
-    """``docs/reliability.md``: the table of the cases."""
+#: The pages of the table: one per class of case, by the letter of its id. Each page stays under
+#: the user guide's 12,000 characters (tests/test_docs_size.py); a new class gets a row here.
+PAGES = (
+    ("commands", "Commands: outputs, logs, model files and signals", "C",
+     "What a command does with the files it is given and the files it writes, logs it cannot read,"
+     " model files that are damaged, and a run that is stopped or fails."),
+    ("files", "Logs and model files: what they hold", "ILM",
+     "Numbers that are not what they look like, logs that are incomplete or contradict the options,"
+     " Parquet and `.mat` logs, and model files checked in full before they are used."),
+    ("runs", "Runs: units, loops, outputs, stops and the API", "UKOSA",
+     "Runs that disagree on units or conditions, controllers in the lab's loop, what the command"
+     " line prints when piped, runs that are stopped, and the library's own checks."),
+)  # fmt: skip
+
+_HEADER = ["| case | where | the user gives | the user sees | outcome |", "|---|---|---|---|---|"]
+
+
+def _page_of(case: Case) -> str:
+    letter = case.id.rstrip("0123456789")
+    for name, _, letters, _ in PAGES:
+        if letter in letters:
+            return name
+    raise AssertionError(f"case {case.id}: its letter {letter!r} is on no page of PAGES")
+
+
+def render() -> dict[Path, str]:
+    """``docs/reliability.md`` and its pages under ``docs/reliability/``: the tables of the cases."""
     counts = {k: sum(c.outcome == k for c in CASES) for k in ("clear", "correct")}
     lines = [
         "# Reliability: what a user sees on bad input",
         "",
         "Generated from `tests/test_reliability.py` (`python tests/test_reliability.py` rewrites it;",
-        "the test suite checks that it is up to date). Every row is a test: *clear* means refused",
-        "with one line naming what is wrong and no traceback; *correct* means accepted and right.",
-        "The command line exits with status 2 for bad input, 3 for a diverging free run, 130",
-        "after Ctrl-C, 143 after SIGTERM, 129 after SIGHUP and 1 for an unexpected error (its",
-        "traceback with `neckid --debug`). A stopped run stops within a second or two at its next",
-        "safe point, never inside a compiled kernel (a kernel being compiled, on the first run after",
-        "an install, is compiled to its end first), writes nothing and leaves an existing output as",
-        "it was: `tests/test_interrupt.py` interrupts every registered method's `identify` in a",
-        "subprocess; rows S1-S5 are the cases of a stop.",
+        "the test suite checks that it is up to date). Every row of the pages below is a test:",
+        "*clear* means refused with one line naming what is wrong and no traceback; *correct* means",
+        "accepted and right. The command line exits with status 2 for bad input, 3 for a diverging",
+        "free run, 130 after Ctrl-C, 143 after SIGTERM, 129 after SIGHUP and 1 for an unexpected",
+        "error (its traceback with `neckid --debug`). A stopped run stops within a second or two at",
+        "its next safe point, never inside a compiled kernel (a kernel being compiled, on the first",
+        "run after an install, is compiled to its end first), writes nothing and leaves an existing",
+        "output as it was: `tests/test_interrupt.py` interrupts every registered method's `identify`",
+        "in a subprocess; rows S1-S5 are the cases of a stop.",
         "",
         f"Cases: {len(CASES)}; clear {counts['clear']}, correct {counts['correct']}, vague 0,"
         " traceback 0, silent 0.",
         "",
-        "| case | where | the user gives | the user sees | outcome |",
-        "|---|---|---|---|---|",
+        "| page | what it covers | cases |",
+        "|---|---|---|",
     ]
-    for c in CASES:
-        lines.append(f"| {c.id} | {c.surface} | {c.given} | {c.sees} | {c.outcome} |")
+    pages: dict[Path, str] = {}
+    for name, title, _, about in PAGES:
+        cases = [c for c in CASES if _page_of(c) == name]
+        lines.append(f"| [{title}](reliability/{name}.md) | {about} | {len(cases)} |")
+        body = [f"# {title}", "", about, "", "Generated from `tests/test_reliability.py`;",
+                "[Reliability](../reliability.md) says what the outcomes and exit codes mean.", "",
+                *_HEADER]  # fmt: skip
+        body += [f"| {c.id} | {c.surface} | {c.given} | {c.sees} | {c.outcome} |" for c in cases]
+        pages[DOC.parent / "reliability" / f"{name}.md"] = "\n".join(body) + "\n"
     lines += _fuzzing()
-    return "\n".join(lines) + "\n"
+    return {DOC: "\n".join(lines) + "\n", **pages}
 
 
 def _fuzzing() -> list[str]:
@@ -1498,12 +1530,20 @@ def _fuzzing() -> list[str]:
     return lines
 
 
-def test_the_reliability_table_is_up_to_date() -> None:
-    assert DOC.read_text(encoding="utf-8") == render(), (
-        "docs/reliability.md is stale: run `python tests/test_reliability.py`"
+@pytest.mark.parametrize("page", sorted(render()), ids=lambda p: p.name)
+def test_the_reliability_tables_are_up_to_date(page: Path) -> None:
+    assert page.exists() and page.read_text(encoding="utf-8") == render()[page], (
+        f"{page.relative_to(DOC.parents[1])} is stale: run `python tests/test_reliability.py`"
     )
 
 
+def test_every_case_is_on_a_page() -> None:
+    for case in CASES:
+        _page_of(case)
+
+
 if __name__ == "__main__":
-    DOC.write_text(render(), encoding="utf-8")
-    sys.stdout.write(f"wrote {DOC}\n")
+    for path, text in render().items():
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        sys.stdout.write(f"wrote {path}\n")
