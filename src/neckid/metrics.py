@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
+from scipy import linalg, stats
 
 from neckid.utils.checks import check_number, check_vector
 from neckid.utils.types import FloatArray
@@ -247,26 +247,54 @@ def mean_width(lower: ArrayLike, upper: ArrayLike, skip: int = 0) -> FloatArray:
 
 @dataclass(frozen=True)
 class CorrelationTest:
-    """A residual correlation test.
+    """A residual correlation test: the correlations, their band and the chi-square verdict.
 
     Attributes
     ----------
     lags : ndarray of int, shape (n_lags,)
-        Lags at which the normalised correlation was computed.
+        Lags [samples] at which the normalised correlation was computed.
     correlation : ndarray, shape (n_lags,)
         Normalised correlation (1 at lag 0 for an autocorrelation).
     bound : float
-        Half-width of the confidence band, ``z_{(1+confidence)/2} / sqrt(N)``.
+        Half-width of the per-lag band, ``z_{(1+confidence)/2} / sqrt(N)``: each correlation of
+        white residuals independent of the input lies inside it with probability ``confidence``
+        (asymptotically, N large).
     confidence : float
-        Confidence level of the band (e.g. 0.99).
+        Confidence level of the band and of the chi-square test (e.g. 0.99).
+    statistic : float
+        The portmanteau statistic (Notes); chi-square with ``degrees_of_freedom`` degrees of
+        freedom when the residuals are white (and, for a cross-correlation, independent of the
+        input).
+    threshold : float
+        The chi-square quantile at ``confidence``: the test fails above it.
+    degrees_of_freedom : int
+        Of the chi-square distribution (the number of lags tested, or the rank of the input's
+        correlation matrix when that is lower).
+    outside : int
+        Number of tested lags whose correlation lies outside the band. Even for white residuals
+        about ``(1 - confidence)`` of the lags lie outside, so some lags outside do not reject the
+        model; the verdict is the chi-square test's.
     passed : bool
-        True when every correlation except the autocorrelation at lag 0 lies inside the band.
+        True when ``statistic <= threshold``: the hypothesis (white; independent of the input) is
+        not rejected at ``confidence``.
+
+    Notes
+    -----
+    Ljung, *System Identification: Theory for the User*, 2nd ed., 1999, section 16.6. The
+    whiteness statistic is ``N sum_{k=1}^{M} r_e(k)^2`` (chi-square, M degrees of freedom); the
+    independence statistic is ``N r^T R_u^{-1} r`` with ``r = [r_eu(-M), ..., r_eu(M)]`` and
+    ``R_u`` the Toeplitz matrix of the input's normalised autocorrelation (chi-square, 2M + 1
+    degrees of freedom); for a white input it is ``N sum_k r_eu(k)^2``.
     """
 
     lags: NDArray[np.int64]
     correlation: FloatArray
     bound: float
     confidence: float
+    statistic: float
+    threshold: float
+    degrees_of_freedom: int
+    outside: int
     passed: bool
 
 
@@ -292,20 +320,45 @@ def _band(n: int, confidence: float) -> float:
     return float(stats.norm.ppf(0.5 + level / 2.0) / np.sqrt(n))
 
 
+def _verdict(
+    lags: NDArray[np.int64],
+    r: FloatArray,
+    tested: FloatArray,
+    statistic: float,
+    dof: int,
+    n: int,
+    confidence: float,
+) -> CorrelationTest:
+    """The test of ``tested`` (the correlations at the tested lags) against its band and chi-square."""
+    bound = _band(n, confidence)
+    threshold = float(stats.chi2.ppf(confidence, dof))
+    outside = int(np.sum(np.abs(tested) > bound))
+    return CorrelationTest(
+        lags, r, bound, confidence, statistic, threshold, dof, outside, statistic <= threshold
+    )
+
+
 def residual_autocorrelation(
     residuals: ArrayLike, max_lag: int = 25, confidence: float = 0.99
 ) -> CorrelationTest:
     """Whiteness test of prediction residuals (Ljung, *System Identification*, 2nd ed., 16.6).
 
     The normalised autocorrelation at lags ``0..max_lag`` is compared with the band
-    ``±z/sqrt(N)`` that white noise stays inside with probability ``confidence``.
+    ``±z/sqrt(N)`` that white noise stays inside with probability ``confidence`` at each lag,
+    and the portmanteau statistic ``N sum_{k=1}^{M} r(k)^2`` with the chi-square quantile
+    (M = ``max_lag`` degrees of freedom): the verdict.
 
     Parameters
     ----------
     residuals : array_like, shape (n_samples,)
         One output's residuals, ``y - ŷ`` of a one-step-ahead prediction.
     max_lag : int, default 25
+        M, the largest lag [samples].
     confidence : float, default 0.99
+
+    Returns
+    -------
+    CorrelationTest
 
     Examples
     --------
@@ -316,13 +369,15 @@ def residual_autocorrelation(
     0.0576
     >>> float(test.correlation[0])
     1.0
+    >>> round(test.threshold, 2), test.degrees_of_freedom  # chi-square 99 % quantile, 10 lags
+    (23.21, 10)
     """
     e = _residual_vector(residuals, "residuals")
     max_lag = check_number(max_lag, "max_lag", low=1, high=e.size - 1, integer=True)
     lags = np.arange(0, max_lag + 1, dtype=np.int64)
     r = _xcorr(e, e, lags)
-    bound = _band(e.size, confidence)
-    return CorrelationTest(lags, r, bound, confidence, bool(np.all(np.abs(r[1:]) <= bound)))
+    statistic = float(e.size * np.sum(r[1:] ** 2))
+    return _verdict(lags, r, r[1:], statistic, max_lag, e.size, confidence)
 
 
 def residual_input_correlation(
@@ -331,17 +386,48 @@ def residual_input_correlation(
     """Independence test of residuals and a past input (Ljung 16.6): r_eu(k), k = -max_lag..max_lag.
 
     A correlation outside the band at ``k > 0`` means the residual at ``t + k`` still depends on the
-    input at ``t``: input dynamics the model missed.
+    input at ``t``: input dynamics the model missed (at ``k < 0``: the input depends on past
+    residuals, as in a closed loop). The verdict is the chi-square test of all ``2M + 1`` lags
+    together, ``N r^T R_u^{-1} r``, whose correlation between lags a coloured input brings is
+    taken out by its autocorrelation matrix ``R_u`` (:class:`CorrelationTest`, Notes).
+
+    Parameters
+    ----------
+    residuals : array_like, shape (n_samples,)
+        One output's residuals.
+    u : array_like, shape (n_samples,)
+        One input, sampled with the residuals.
+    max_lag : int, default 25
+        M, the largest lag [samples]; ``2M`` must be below the number of samples.
+    confidence : float, default 0.99
+
+    Returns
+    -------
+    CorrelationTest
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(2)
+    >>> u, e = rng.normal(size=3000), rng.normal(size=3000)
+    >>> residual_input_correlation(e, u, max_lag=10).passed
+    True
+    >>> residual_input_correlation(e + 0.3 * np.roll(u, 2), u, max_lag=10).passed
+    False
     """
     e = _residual_vector(residuals, "residuals")
     x = _residual_vector(u, "u")
     if x.size != e.size:
         raise ValueError(f"residuals and u must have the same length; got {e.size} and {x.size}")
-    max_lag = check_number(max_lag, "max_lag", low=1, high=e.size - 1, integer=True)
+    max_lag = check_number(max_lag, "max_lag", low=1, high=(e.size - 1) // 2, integer=True)
     lags = np.arange(-max_lag, max_lag + 1, dtype=np.int64)
     r = _xcorr(e, x, lags)
-    bound = _band(e.size, confidence)
-    return CorrelationTest(lags, r, bound, confidence, bool(np.all(np.abs(r) <= bound)))
+    r_u = _xcorr(x, x, np.arange(0, 2 * max_lag + 1, dtype=np.int64))
+    values, vectors = np.linalg.eigh(linalg.toeplitz(r_u))
+    kept = values > 1e-10 * values.max()
+    projected = vectors[:, kept].T @ r
+    statistic = float(e.size * np.sum(projected**2 / values[kept]))
+    return _verdict(lags, r, r, statistic, int(kept.sum()), e.size, confidence)
 
 
 def _residual_vector(values: ArrayLike, argument: str) -> FloatArray:
