@@ -20,6 +20,7 @@ OPTIONAL_MODULES = {
     "dask": ("distributed", "dask"),
     "sysidentpy": ("sysidentpy", "peers"),
     "padasip": ("padasip", "bench"),
+    "osqp": ("osqp", "mpc"),
 }
 
 
