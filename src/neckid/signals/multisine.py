@@ -209,7 +209,7 @@ def multisine_plan(
     >>> plan = multisine_plan(64, 0.05, (0.5, 20.0), n_realisations=2, n_periods=3, seed=1)
     >>> plan.signal.shape  # 2 realisations x (1 transient + 3 periods) x 64 samples
     (512, 1)
-    >>> sorted(set(plan.roles))
+    >>> sorted(set(plan.roles.tolist()))
     ['even detection', 'excited', 'odd detection']
     >>> bool(np.allclose(plan.signal[64:128], plan.signal[128:192]))  # periodic
     True
