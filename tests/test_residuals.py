@@ -157,3 +157,20 @@ def test_a_constant_input_is_not_tested_and_said_so() -> None:
     tests = residual_tests(model, flat, max_lag=10)
     assert tests.independence[0][1] is None
     assert "not tested: the input is constant" in "\n".join(tests.lines())
+
+
+def test_the_figure_has_a_panel_per_test_with_units() -> None:
+    import matplotlib.pyplot as plt
+
+    from neckid.report.residual_plots import plot_residual_tests
+
+    data = arx_data(1000, 3)
+    fig = plot_residual_tests(residual_tests(_arx(1, data), data, max_lag=15))
+    try:
+        panels = [ax for ax in fig.axes if ax.get_xlabel() == "lag [samples]"]
+        assert len(panels) == 2
+        assert {ax.get_ylabel() for ax in panels} == {"correlation [-]"}
+        assert "FAILED" in panels[0].get_title() and "FAILED" in panels[1].get_title()
+        assert sum(ax.get_xlabel() == "lag [s]" for ax in fig.axes) == 2
+    finally:
+        plt.close(fig)
