@@ -15,11 +15,16 @@ All frequencies are angular, in rad/s.
 
 from neckid.frequency.bla import BestLinearApproximation, periodic_spectra, robust_bla
 from neckid.frequency.levels import DistortionLevels, distortion_levels
+from neckid.frequency.spectral import FrequencyResponse, etfe, indirect_frf, smoothed_frf
 
 __all__ = [
     "BestLinearApproximation",
     "DistortionLevels",
+    "FrequencyResponse",
     "distortion_levels",
+    "etfe",
+    "indirect_frf",
     "periodic_spectra",
     "robust_bla",
+    "smoothed_frf",
 ]
