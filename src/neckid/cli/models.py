@@ -47,6 +47,7 @@ from neckid.cli.options import (
     read_for_model,
     read_training_logs,
 )
+from neckid.cli.resid import RESID_HELP, resid_record
 from neckid.registry import methods
 
 
@@ -349,6 +350,7 @@ def validate(
     controller: str = typer.Option(None, "--controller", help=CONTROLLER_HELP),
     adapt: float = typer.Option(None, "--adapt", metavar="SECONDS", help=ADAPT_HELP),
     adapt_mode: str = typer.Option("offset", "--adapt-mode", help=ADAPT_MODE_HELP),
+    resid: bool = typer.Option(False, "--resid", help=RESID_HELP),
     *,
     spec: LogSpec,
 ) -> None:
@@ -363,6 +365,10 @@ def validate(
     from neckid.utils.files import check_output_file, write_json
 
     adaptation = checked_adaptation(adapt, adapt_mode)
+    if resid and (in_loop or adaptation is not None):
+        raise ValueError(
+            "--resid tests the model's own residuals; it does not combine with --in-loop or --adapt"
+        )
     given = [*logs, model_path]
     for path, option in ((plot, "--plot"), (json_out, "--json")):
         if path is not None:
@@ -382,6 +388,8 @@ def validate(
     for log in logs:
         data = read_for_model(model, log, spec)
         record, result, domain = _validate_one(model, data, log)
+        if resid and (result is not None or not model.predicts_by_simulation):
+            record["resid"] = resid_record(model, data, log)
         records.append(record)
         if result is not None:
             runs.append((log, data, result, domain))
