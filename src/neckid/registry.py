@@ -18,7 +18,7 @@ Examples
 >>> import neckid
 >>> sorted(neckid.methods())
 ['arx', 'greybox-neck', 'greybox-tanks', 'lpv', 'nn', 'pnlss', 'poly', 'rls', 'scheduled',
- 'scheduled-position', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
+ 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -81,6 +81,10 @@ class Method:
     control_form : {"tf", "ss"}, default "tf"
         The form :func:`neckid.export.control.to_control` gives by default: ``"ss"`` for the
         state-space models (a MIMO ``StateSpace`` needs no slycot), ``"tf"`` for the ARX models.
+    c_export : str
+        ``"module:function"`` writing a fitted model of this method as C for
+        :func:`neckid.export.c.c_model`: ``function(model) -> CModel`` (empty: the method has
+        no C export, and ``neckid export --to c`` says so).
     """
 
     name: str
@@ -97,6 +101,7 @@ class Method:
     benchmark_params: Mapping[str, Any] = field(default_factory=dict)
     describer: str = ""
     control_form: str = "tf"
+    c_export: str = ""
 
     @property
     def class_name(self) -> str:
@@ -139,6 +144,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=0,
         unit_cost=0.01,
         describer="neckid.export.describe:describe_arx",
+        c_export="neckid.export.c.narx:c_arx",
     ),
     Method(
         "rls",
@@ -147,6 +153,7 @@ _METHODS: tuple[Method, ...] = (
         "ARX by recursive least squares with a constant forgetting factor (0.98)",
         complexity=1,
         describer="neckid.export.describe:describe_rls",
+        c_export="neckid.export.c.narx:c_rls",
     ),
     Method(
         "ss",
@@ -159,6 +166,7 @@ _METHODS: tuple[Method, ...] = (
         lag_free=True,
         unit_cost=0.3,
         describer="neckid.export.describe:describe_subspace",
+        c_export="neckid.export.c.state_space:c_subspace",
         control_form="ss",
     ),
     Method(
@@ -172,6 +180,7 @@ _METHODS: tuple[Method, ...] = (
         lag_free=True,
         unit_cost=20.0,
         describer="neckid.export.describe:describe_pnlss",
+        c_export="neckid.export.c.state_space:c_pnlss",
         control_form="ss",
     ),
     Method(
@@ -182,6 +191,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=1.0,
         describer="neckid.export.describe:describe_set_membership",
+        c_export="neckid.export.c.set_membership:c_set_membership",
     ),
     Method(
         "sm-linear",
@@ -192,6 +202,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=2,
         unit_cost=1.0,
         describer="neckid.export.describe:describe_set_membership",
+        c_export="neckid.export.c.set_membership:c_set_membership",
     ),
     Method(
         "sm-parallel",
@@ -226,6 +237,7 @@ _METHODS: tuple[Method, ...] = (
         only_on="public",
         unit_cost=10.0,
         describer="neckid.export.describe:describe_polynomial",
+        c_export="neckid.export.c.narx:c_polynomial",
     ),
     Method(
         "lpv",
@@ -238,6 +250,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=3.0,
         describer="neckid.models.lpv.summary:describe_lpv",
+        c_export="neckid.export.c.narx:c_polynomial",
         control_form="ss",
     ),
     Method(
@@ -261,6 +274,7 @@ _METHODS: tuple[Method, ...] = (
         only_on="softneck",
         unit_cost=0.01,
         describer="neckid.export.describe:describe_scheduled",
+        c_export="neckid.export.c.scheduled:c_scheduled",
         control_form="ss",
     ),
     Method(
@@ -271,6 +285,7 @@ _METHODS: tuple[Method, ...] = (
         " it for free runs); operating points by CFF-RLS where the inclination dwells",
         defaults={"form": "position"},
         describer="neckid.export.describe:describe_scheduled",
+        c_export="neckid.export.c.scheduled:c_scheduled",
         control_form="ss",
     ),
     Method(
@@ -307,6 +322,17 @@ _METHODS: tuple[Method, ...] = (
         quick={"horizon": 3},
         complexity=4,
         describer="neckid.export.describe:describe_multistep",
+    ),
+    Method(
+        "sindy",
+        "Sparse NARX (SINDy)",
+        "neckid.models.sindy.model:SparseNARX",
+        "sparse identification with control in discrete time (SINDYc): STLSQ over monomials of"
+        " degree 3, threshold by the selection rule, then fitted for free-run simulation",
+        quick={"degree": 2, "max_iter": 20, "thresholds": (0.1, 0.01)},
+        complexity=3,
+        unit_cost=2.0,
+        describer="neckid.models.sindy.summary:describe_sindy",
     ),
 )
 
