@@ -38,8 +38,8 @@ def _print_tests(tests: Any, title: str) -> None:
     """The tests in words: which residual, one line per test, the verdict."""
     console.print(
         f"{escape(title)}: residual tests on the {tests.residual} residual,"
-        f" {tests.residuals.shape[0]} samples (the first {tests.n_initial} are the model's"
-        f" initial conditions), lags up to {tests.max_lag} samples"
+        f" {tests.residuals.shape[0]} samples after the model's {tests.n_initial} initial"
+        f" one(s), lags up to {tests.max_lag} samples"
         f" ({tests.max_lag * tests.ts:.4g} s)",
         highlight=False,
         soft_wrap=True,
