@@ -7,7 +7,18 @@ them registers them on ``app``. Every command runs under one error policy
 (:func:`neckid.cli._app.handled`).
 """
 
-from neckid.cli import compare, design, export, logs, models, resid, runs, select
+from neckid.cli import compare, design, export, frequency, logs, models, resid, runs, select
 from neckid.cli._app import app
 
-__all__ = ["app", "compare", "design", "export", "logs", "models", "resid", "runs", "select"]
+__all__ = [
+    "app",
+    "compare",
+    "design",
+    "export",
+    "frequency",
+    "logs",
+    "models",
+    "resid",
+    "runs",
+    "select",
+]
