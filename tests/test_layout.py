@@ -75,6 +75,7 @@ FAMILIES = (
     "polynomial",
     "scheduled",
     "set_membership",
+    "sindy",
 )
 
 #: The only modules directly under src/neckid/: the vocabulary a user imports (issue 41).
