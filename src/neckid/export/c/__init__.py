@@ -26,7 +26,7 @@ from neckid.export.c.literals import c_identifier
 from neckid.export.c.preprocess import preprocess_body, preprocess_notes
 from neckid.export.c.program import CModel, render
 
-__all__ = ["CModel", "NoCExport", "c_code", "c_exportable", "c_model", "write_c"]
+__all__ = ["CModel", "NoCExport", "c_code", "c_exportable", "c_identifier", "c_model", "write_c"]
 
 
 class NoCExport(TypeError):
