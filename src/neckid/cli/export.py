@@ -91,7 +91,7 @@ def export(
     target = out if out is not None else model_path.with_suffix(suffix)
     check_output_file(target, force=force, inputs=[model_path], option="--out", suffixes=[suffix])
     model = load_model(model_path)
-    path = write_export(model, target, to=to, without_preprocessing=force)  # type: ignore[arg-type]
+    path = write_export(model, target, to=to, without_preprocessing=force)
     console.print(f"{type(model).__name__} written to {path} ({_WRITTEN[to]})", markup=False)
     missing = unwritten_steps(model) if to == "tf" else []
     if missing:  # written with --force: the script says it in its header, and so does this line
