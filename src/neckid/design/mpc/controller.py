@@ -54,8 +54,11 @@ class SolveStats:
     failed, late : int
         Solves not used: a status other than solved, or a wall time above the deadline.
     slack_steps : int
-        Steps whose plan needed the output constraints' slack (> 1e-6 deg): the constraint
-        could not be met as tightened.
+        Steps whose first constrained prediction, :math:`y_{k+1}`, needed the slack (> 1e-6
+        deg): the constraint could not be met as tightened there (the robust guarantee is void
+        at such a step).
+    slack_plans : int
+        Steps whose plan needed the slack at any horizon step.
     iterations_max : int
         The most ADMM iterations of one solve.
     """
@@ -66,6 +69,7 @@ class SolveStats:
     failed: int
     late: int
     slack_steps: int
+    slack_plans: int
     iterations_max: int
 
     def to_dict(self) -> dict[str, Any]:
@@ -136,20 +140,20 @@ class MPCController:
         moves = np.eye(nu) - np.eye(nu, k=-1)  # D U - e1 u_{k-1} = the moves
         hessian = pr.tracking_weight * phi.T @ phi + pr.move_weight * moves.T @ moves
         blocks = [np.eye(nu), moves]
-        if pr.constrained:
+        if pr.constrained:  # one slack per horizon step: a far step's slack leaves step 1 alone
+            n = pr.horizon
             hessian = np.block(
                 [
-                    [hessian, np.zeros((nu, 1))],
-                    [np.zeros((1, nu)), np.full((1, 1), pr.slack_weight)],
+                    [hessian, np.zeros((nu, n))],
+                    [np.zeros((n, nu)), pr.slack_weight * np.eye(n)],
                 ]
             )
-            n = pr.horizon
             blocks = [
-                np.column_stack([np.eye(nu), np.zeros(nu)]),
-                np.column_stack([moves, np.zeros(nu)]),
-                np.column_stack([phi, -np.ones(n)]),  # y - s <= max - w
-                np.column_stack([phi, np.ones(n)]),  # y + s >= min + w
-                np.concatenate([np.zeros(nu), [1.0]])[None, :],  # s >= 0
+                np.column_stack([np.eye(nu), np.zeros((nu, n))]),
+                np.column_stack([moves, np.zeros((nu, n))]),
+                np.column_stack([phi, -np.eye(n)]),  # y - s <= max - w
+                np.column_stack([phi, np.eye(n)]),  # y + s >= min + w
+                np.column_stack([np.zeros((n, nu)), np.eye(n)]),  # s >= 0
             ]
         self._phi = phi
         self._moves = moves
@@ -171,8 +175,8 @@ class MPCController:
             verbose=False,
             warm_starting=True,
             polishing=False,
-            eps_abs=1e-6,
-            eps_rel=1e-6,
+            eps_abs=1e-4,
+            eps_rel=1e-4,
             max_iter=4000,
             time_limit=self.deadline,
         )
@@ -208,7 +212,7 @@ class MPCController:
         self._plan = np.zeros(self._n_variables)
         self._times: list[float] = []
         self._iterations = 0
-        self._failed = self._late = self._slack = 0
+        self._failed = self._late = self._slack = self._slack_any = 0
 
     @property
     def stats(self) -> SolveStats:
@@ -221,6 +225,7 @@ class MPCController:
             failed=self._failed,
             late=self._late,
             slack_steps=self._slack,
+            slack_plans=self._slack_any,
             iterations_max=self._iterations,
         )
 
@@ -280,12 +285,14 @@ class MPCController:
         lower = [-pr.command_limit * ones, -step * ones + self._first(self._last)]
         upper = [pr.command_limit * ones, step * ones + self._first(self._last)]
         if pr.constrained:
-            gradient = np.append(gradient, pr.slack_linear_weight)
             n = pr.horizon
-            lower += [np.full(n, -np.inf), pr.output_min + pr.tightening - base, np.zeros(1)]
-            upper += [pr.output_max - pr.tightening - base, np.full(n, np.inf), np.full(1, np.inf)]
+            gradient = np.append(gradient, np.full(n, pr.slack_linear_weight))
+            lower += [np.full(n, -np.inf), pr.output_min + pr.tightening - base, np.zeros(n)]
+            upper += [pr.output_max - pr.tightening - base, np.full(n, np.inf), np.full(n, np.inf)]
         self._solver.update(q=gradient, l=np.concatenate(lower), u=np.concatenate(upper))
-        self._solver.warm_start(x=np.append(self._plan[1:nu], self._plan[nu - 1 :]))
+        plan = self._plan
+        shifted = np.concatenate([plan[1:nu], plan[nu - 1 : nu], plan[nu + 1 :], plan[-1:]])
+        self._solver.warm_start(x=shifted[: self._n_variables])
         started = time.perf_counter()
         result = self._solver.solve(raise_error=False)
         elapsed = time.perf_counter() - started
@@ -298,8 +305,10 @@ class MPCController:
             self._late += 1
             return self._last
         self._plan = np.asarray(result.x, dtype=np.float64)
-        if pr.constrained and self._plan[-1] > 1e-6:
+        if pr.constrained and self._plan[nu] > 1e-6:
             self._slack += 1
+        if pr.constrained and np.max(self._plan[nu:]) > 1e-6:
+            self._slack_any += 1
         command = float(self._plan[0])
         command = min(max(command, self._last - step), self._last + step)
         return min(max(command, -pr.command_limit), pr.command_limit)

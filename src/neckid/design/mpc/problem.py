@@ -28,12 +28,14 @@ horizon :math:`N`. The predictions of :math:`y_{k-d+1}, \dots, y_{k+N}` are line
 and the QP, solved at every step (:mod:`neckid.design.mpc.controller`), is
 
 .. math:: \min_{U, s \ge 0}\ w_e \sum_{j=1}^{N} (r_{k+j} - \hat y_{k+j})^2
-          + w_u \sum_{j=0}^{N_u-1} (u_{k+j} - u_{k+j-1})^2 + w_s s^2 + \lambda_s s
+          + w_u \sum_{j=0}^{N_u-1} (u_{k+j} - u_{k+j-1})^2
+          + \sum_{j=1}^{N} (w_s s_j^2 + \lambda_s s_j)
 
 subject to :math:`|u| \le u_{max}`, :math:`|\Delta u| \le \Delta u_{max}` and, when output limits
-are given, :math:`y_{min} + w_j - s \le \hat y_{k+j} \le y_{max} - w_j + s` (:math:`w_j` the
-tightening of :mod:`neckid.design.mpc.robust`, 0 for the nominal controller; :math:`s` a slack
-that keeps the QP feasible, penalised exactly: the controller counts the steps it is used).
+are given, :math:`y_{min} + w_j - s_j \le \hat y_{k+j} \le y_{max} - w_j + s_j` (:math:`w_j` the
+tightening of :mod:`neckid.design.mpc.robust`, 0 for the nominal controller; :math:`s_j` a
+slack per horizon step that keeps the QP feasible, penalised so that it is zero whenever the
+constraint can be met; the controller counts the steps it is used).
 """
 
 from __future__ import annotations
@@ -230,8 +232,8 @@ def mpc_problem(
     tightening: Any = None,
     preview: bool = True,
     disturbance_ratio: float = 0.01,
-    slack_weight: float = 1e4,
-    slack_linear_weight: float = 1e4,
+    slack_weight: float = 1e3,
+    slack_linear_weight: float = 1e3,
     info: dict[str, Any] | None = None,
 ) -> MPCProblem:
     """The predictive controller's data for a linear form.
