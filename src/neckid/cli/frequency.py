@@ -240,7 +240,7 @@ def _bla_figure(bla: Any) -> Any:
     from neckid.report.frequency_plots import plot_bla
 
     pairs = [(i, j) for i in range(bla.frf.shape[1]) for j in range(bla.frf.shape[2])]
-    fig = plt.figure(figsize=(8, 6 * len(pairs)))
+    fig = plt.figure(figsize=(11, 6 * len(pairs)))
     subfigures = fig.subfigures(len(pairs), 1) if len(pairs) > 1 else [fig]
     for pair, sub in zip(pairs, subfigures, strict=True):
         plot_bla(bla, pair, fig=sub)
@@ -252,7 +252,7 @@ def _spectral_figure(responses: list[Any], data: Any) -> Any:
 
     from neckid.report.frequency_plots import plot_frf
 
-    fig = plt.figure(figsize=(8, 7 * len(responses)))
+    fig = plt.figure(figsize=(11, 7 * len(responses)))
     subfigures = fig.subfigures(len(responses), 1) if len(responses) > 1 else [fig]
     for (out, name, response), sub in zip(responses, subfigures, strict=True):
         units = (data.unit(out), data.unit(name))
@@ -264,7 +264,7 @@ def _save(fig: Any, path: Path) -> None:
     from neckid.utils.files import atomic_path
 
     with atomic_path(path) as temporary:
-        fig.savefig(temporary, dpi=110, format="png")
+        fig.savefig(temporary, dpi=110, format="png", bbox_inches="tight")
     console.print(f"figure written to {path}", markup=False)
 
 
@@ -275,7 +275,7 @@ def _report(folder: Path, verdict: str, fig: Any, document: dict[str, Any], forc
     with output_folder(folder, force=force) as staged:
         report = Report("neckid frf")
         report.add_text("Verdict", verdict)
-        fig.savefig(staged.path("frf.png"), dpi=110, format="png")
+        fig.savefig(staged.path("frf.png"), dpi=110, format="png", bbox_inches="tight")
         report.add_figures("Frequency response", [Figure(staged.path("frf.png"), verdict)])
         write_json(staged.path("frf.json"), document)
         report.write(staged.path("report.html"))
@@ -397,7 +397,7 @@ def bode_validation(
     from neckid.report.frequency_plots import plot_bla, plot_frf
 
     shape = parse_multisine(multisine)
-    fig = plt.figure(figsize=(8, 7 * len(logs)))
+    fig = plt.figure(figsize=(11, 7 * len(logs)))
     subfigures = fig.subfigures(len(logs), 1) if len(logs) > 1 else [fig]
     records = []
     for log, sub in zip(logs, subfigures, strict=True):

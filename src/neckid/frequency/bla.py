@@ -74,6 +74,9 @@ class BestLinearApproximation:
         Sampling period, s. ``period``: samples per period.
     levels : DistortionLevels
         The output at the non-excited lines of the band.
+    input_amplitude : ndarray, shape (n_inputs,)
+        RMS over the excited lines of each input's line amplitude ``|U(k)|``: dividing a level
+        at a non-excited line by it puts that level in the FRF's unit.
     input_names, output_names, input_units, output_units : tuple of str
     estimate : str
         Which estimate this is (``"robust BLA"``), as the CLI prints it.
@@ -89,6 +92,7 @@ class BestLinearApproximation:
     ts: float
     period: int
     levels: DistortionLevels
+    input_amplitude: FloatArray
     input_names: tuple[str, ...] = ()
     output_names: tuple[str, ...] = ()
     input_units: tuple[str, ...] = ()
@@ -295,6 +299,7 @@ def robust_bla(
         ts=sample_time,
         period=period,
         levels=distortion_levels(y_spectra, lines, resolution),
+        input_amplitude=np.sqrt(np.mean(np.abs(u_spectra[:, :, lines]) ** 2, axis=(0, 1, 2))),
         input_names=tuple(input_names),
         output_names=tuple(output_names),
         input_units=tuple(input_units),

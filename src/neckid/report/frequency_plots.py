@@ -55,13 +55,13 @@ def plot_bla(
     -------
     matplotlib.figure.Figure
         Top: ``|G_BLA|`` and the standard deviations of the estimate (noise, total, nonlinear)
-        in dB, and at the non-excited lines the output's level and its noise level (in the
-        output's unit, dB re 1). Bottom: the phase of ``G_BLA`` in degrees.
+        in dB, and at the non-excited lines the output's level and its noise level divided by
+        the input's line amplitude (so in the FRF's unit too). Bottom: the phase in degrees.
     """
     import matplotlib.pyplot as plt
 
     out, inp = pair
-    fig = fig or plt.figure(figsize=(8, 6))
+    fig = fig or plt.figure(figsize=(11, 6))
     axes = fig.subplots(2, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1]})
     frf = bla.frf[:, out, inp]
     axes[0].semilogx(bla.omega, _db(frf), "k.-", lw=1, ms=3, label="BLA")
@@ -81,29 +81,30 @@ def plot_bla(
     lines = bla.levels
     if lines.lines.size:
         even = lines.parity == "even"
-        power = np.sqrt(lines.output_power[:, out])
+        scale = bla.input_amplitude[inp]  # output level per input line amplitude: FRF units
+        power = np.sqrt(lines.output_power[:, out]) / scale
         axes[0].semilogx(
             lines.omega[even],
             _db(power[even]),
             "mo",
             mfc="none",
             ms=4,
-            label="output at even lines",
+            label="even lines (output / input amplitude)",
         )
         axes[0].semilogx(
             lines.omega[~even],
             _db(power[~even]),
             "cx",
             ms=4,
-            label="output at non-excited odd lines",
+            label="left-out odd lines (output / input amplitude)",
         )
         axes[0].semilogx(
             lines.omega,
-            _db(np.sqrt(lines.noise_power[:, out])),
+            _db(np.sqrt(lines.noise_power[:, out]) / scale),
             "_",
             color="0.4",
             ms=5,
-            label="noise at those lines",
+            label="noise at those lines (same scale)",
         )
     _overlays(axes, overlays)
     axes[1].semilogx(bla.omega, np.degrees(np.unwrap(np.angle(frf))), "k.-", lw=1, ms=3)
@@ -111,7 +112,7 @@ def plot_bla(
     unit = _gain_unit(bla.output_units[out], bla.input_units[inp])
     axes[0].set(ylabel=f"magnitude [{unit}]", title=f"{bla.estimate}: {name}")
     axes[1].set(ylabel="phase [deg]", xlabel="angular frequency ω [rad/s]")
-    axes[0].legend(fontsize=7, ncol=2, loc="best")
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
@@ -143,7 +144,7 @@ def plot_frf(
     """
     import matplotlib.pyplot as plt
 
-    fig = fig or plt.figure(figsize=(8, 7))
+    fig = fig or plt.figure(figsize=(11, 7))
     axes = fig.subplots(3, 1, sharex=True, gridspec_kw={"height_ratios": [2, 1, 1]})
     frf, radius = response.frf, response.band_radius
     axes[0].semilogx(response.omega, _db(frf), "k-", lw=1, label=response.estimate)
@@ -158,7 +159,7 @@ def plot_frf(
     axes[0].set(ylabel=f"magnitude [{_gain_unit(*units)}]", title=title or response.estimate)
     axes[1].set(ylabel="phase [deg]")
     axes[2].set(ylabel="coherence γ² [-]", xlabel="angular frequency ω [rad/s]", ylim=(0, 1.05))
-    axes[0].legend(fontsize=7)
+    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
