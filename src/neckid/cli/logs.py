@@ -260,6 +260,38 @@ def _info_model(path: Path, as_json: bool) -> None:
         _print_schedule(described["schedule"])
     if "scheduling" in described:
         _print_scheduling(described["scheduling"])
+    if "equation" in described:
+        _print_equation(described["equation"])
+
+
+def _print_equation(equation: dict[str, Any]) -> None:
+    """A sparse model's identified equation and each kept term's coefficient with its unit."""
+    from rich.markup import escape
+
+    for line in equation["equations"]:
+        console.print(f"identified equation: {line}", markup=False, soft_wrap=True)
+    bags = equation["bags"]
+    table = Table(
+        title=escape(
+            f"kept terms: {len(equation['terms'])} of {equation['library_size']} library functions,"
+            f" threshold {equation['threshold']:g} ({equation['chosen_by']})"
+            + (", refitted on the free run" if equation["refined"] else "")
+        )
+    )
+    columns = ["output", "term", "coefficient", "unit"]
+    if bags:
+        columns += [f"95 % of {bags} bags", "kept in bags"]
+    for column in columns:
+        table.add_column(
+            column, justify="left" if column in ("output", "term", "unit") else "right"
+        )
+    for row in equation["terms"]:
+        cells = [row["output"], row["term"], f"{row['coef']:.6g}", row["unit"]]
+        if bags:
+            low, high = row["interval"]
+            cells += [f"{low:.4g} .. {high:.4g}", f"{row['inclusion']:.0%}"]
+        table.add_row(*(escape(c) for c in cells))
+    console.print(table)
 
 
 def _print_scheduling(scheduling: dict[str, Any]) -> None:
