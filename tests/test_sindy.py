@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -132,3 +134,18 @@ def test_the_payload_is_an_input_through_the_lags() -> None:
     assert set(found) == {"y(t-1)", "u(t-1)", "u(t-1) payload(t)"}, found
     assert found["u(t-1) payload(t)"] == pytest.approx(-0.4, rel=1e-6)
     assert model.selection_["scheme"].startswith("experiments")
+
+
+def test_info_prints_the_equation_with_units(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    model = SparseNARX(Lags.arx(1, 1), fit_for="prediction", ensemble=5).fit(_sparse_system(1200))
+    path = model.save(tmp_path / "sindy")
+    result = CliRunner().invoke(app, ["info", str(path)], env={"COLUMNS": "200"})
+    assert result.exit_code == 0, result.output
+    assert "identified equation: y(t) [deg] = 0.4" in result.output
+    assert "deg/V" in result.output and "1/deg^2" in result.output and "5 bags" in result.output
+    described = CliRunner().invoke(app, ["info", str(path), "--json"])
+    assert json.loads(described.output)["equation"]["terms"][1]["unit"] == "deg/V"
