@@ -153,3 +153,30 @@ def test_reset_from_rest_matches_the_simulator(tmp_path: Path) -> None:
     out = subprocess.run([str(program)], input=text, capture_output=True, text=True, check=True)
     got = np.array([float.fromhex(v) for v in out.stdout.split()])
     assert relative_error(got, want[:, 0]) <= 1e-12
+
+
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+def test_cli_export_to_c(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+
+    path = tmp_path / "neck.npz"
+    methods()["sm"].make(Lags.arx(2, 2)).fit(_log(300, 0)).save(path)
+    runner = CliRunner()
+    result = runner.invoke(app, ["export", str(path), "--to", "c", "--driver"])
+    assert result.exit_code == 0, result.output
+    folder = tmp_path / "neck_c"
+    assert sorted(p.name for p in folder.iterdir()) == ["neck.c", "neck.h", "neck_main.c"]
+    assert "neck_step_bounds" in (folder / "neck.h").read_text()
+    again = runner.invoke(app, ["export", str(path), "--to", "c"])
+    assert again.exit_code != 0 and "exists already; use --force" in again.output
+    assert runner.invoke(app, ["export", str(path), "--to", "c", "--force"]).exit_code == 0
+    nn = tmp_path / "nn.npz"
+    methods()["nn"].make(Lags.arx(1, 1), quick=True).fit(_log(200, 0)).save(nn)
+    refused = runner.invoke(app, ["export", str(nn), "--to", "c"])
+    assert refused.exit_code != 0
+    assert "method 'nn' has no C export" in refused.output
+    assert "Traceback" not in refused.output and not (tmp_path / "nn_c").exists()
+    wrong = runner.invoke(app, ["export", str(path), "--to", "json", "--name", "x"])
+    assert wrong.exit_code != 0 and "--name and --driver go with --to c" in wrong.output

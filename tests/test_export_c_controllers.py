@@ -1,0 +1,84 @@
+"""C exports of the designed controllers (issue 44): their commands against ``closed_loop``'s.
+
+A PI (the Tustin integrator, saturated), fractional controllers (the lab's Grünwald–Letnikov sum,
+Oustaloup's filter) and a scheduled PI run in :func:`neckid.plant.closed_loop` on the simulated
+neck; the compiled export is fed the same references and the measurements the loop gave it (the
+inclination of the sample before, 0 at first) and must give the same commands to 1e-12 of their
+scale. Skipped without a C compiler.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from _c_export import build, relative_error, run
+from neckid.design.controllers import DesignedController, GainSchedule
+from neckid.design.operators import (
+    grunwald_letnikov_operator,
+    oustaloup_operator,
+    tustin_integrator,
+)
+from neckid.plant import SoftNeck, closed_loop
+
+TS = 0.02
+
+
+def _controllers() -> dict[str, DesignedController]:
+    schedule = GainSchedule(np.array([0.0, 15.0, 30.0]), np.array([0.3, 0.2, 0.1]),
+                            np.array([0.6, 0.4, 0.3]))  # fmt: skip
+    return {
+        "pi": DesignedController(0.4, 0.8, tustin_integrator(TS), command_limit=1.5),
+        "gl": DesignedController(0.3, 0.5, grunwald_letnikov_operator(-0.6, TS)),
+        "oustaloup": DesignedController(
+            0.3, 0.5, oustaloup_operator(-0.5, TS, (0.05, 50.0), 3), command_limit=2.0
+        ),
+        "scheduled-pi": DesignedController(0.0, 0.0, tustin_integrator(TS), schedule=schedule),
+    }
+
+
+def _reference(n: int) -> np.ndarray:
+    return np.repeat([10.0, 25.0, 15.0, 30.0], n // 4)
+
+
+@pytest.mark.parametrize("kind", list(_controllers()))
+def test_controller_commands_match_closed_loop(kind: str, tmp_path: Path) -> None:
+    controller = _controllers()[kind]
+    reference = _reference(400)
+    log = closed_loop(SoftNeck(), controller, reference, ts=TS)
+    commands = log.u[:, list(log.input_names).index("velocity_command")]
+    measured = np.concatenate([[0.0], log.y[:-1, 0]])  # command k reads output k - 1
+    program = build(controller, tmp_path, "ctl")
+    got = run(program, np.column_stack([reference, measured]))[:, 0]
+    assert relative_error(got, commands) <= 1e-12
+    if controller.command_limit is not None:
+        assert np.max(np.abs(got)) <= controller.command_limit
+
+
+def test_a_failed_read_holds_the_last_command(tmp_path: Path) -> None:
+    controller = _controllers()["gl"]
+    rows = np.array([[10.0, 0.0], [10.0, 1.0], [10.0, np.nan], [10.0, 2.0], [12.0, 3.0]])
+    controller.reset()
+    want = np.array([controller.step(r, y)[0] for r, y in rows])
+    got = run(build(controller, tmp_path, "ctl"), rows)[:, 0]
+    assert relative_error(got, want) <= 1e-12 and got[2] == got[1]
+
+
+def test_cli_exports_a_controller_file(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+    from neckid.design.files import controller_document
+
+    path = tmp_path / "pi.json"
+    path.write_text(json.dumps(controller_document(_controllers()["pi"])))
+    result = CliRunner().invoke(
+        app, ["export", str(path), "--to", "c", "--out", str(tmp_path / "c"), "--name", "pi"]
+    )
+    assert result.exit_code == 0, result.output
+    header = (tmp_path / "c" / "pi.h").read_text()
+    assert "double pi_step(pi_state *s, double reference, double measurement);" in header
+    assert "class pi_controller" in header
