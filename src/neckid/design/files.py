@@ -164,6 +164,10 @@ def save_controller(controller: DesignedController, path: str | Path) -> Path:
     """
     from neckid.utils.files import write_json
 
+    if type(controller).__name__ == "MPCController":  # neckid.design.mpc's, its own file keys
+        from neckid.design.mpc.files import save_mpc
+
+        return save_mpc(controller, path)  # type: ignore[arg-type]
     if not isinstance(controller, DesignedController):
         raise TypeError(f"controller must be a DesignedController; got {type(controller).__name__}")
     target = Path(path)
@@ -262,7 +266,7 @@ def _operator(document: dict[str, Any], path: Path) -> DiscreteOperator:
     )
 
 
-def load_controller(path: str | Path) -> DesignedController:
+def load_controller(path: str | Path) -> Any:
     """Load a controller file written by :func:`save_controller` (or ``neckid design``).
 
     Parameters
@@ -271,8 +275,10 @@ def load_controller(path: str | Path) -> DesignedController:
 
     Returns
     -------
-    DesignedController
-        Its ``info`` holds the file's ``model``, ``spec``, ``achieved`` and ``design``.
+    DesignedController or MPCController
+        A :class:`~neckid.design.controllers.DesignedController` whose ``info`` holds the file's
+        ``model``, ``spec``, ``achieved`` and ``design``; for ``kind`` ``"mpc"`` a
+        :class:`~neckid.design.mpc.MPCController` (:func:`neckid.design.mpc.files.load_mpc`).
 
     Raises
     ------
@@ -302,6 +308,10 @@ def load_controller(path: str | Path) -> DesignedController:
             f"{file}: controller file version {document.get('version')!r}; this neckid reads"
             f" version {VERSION}"
         )
+    if document.get("kind") == "mpc":  # a predictive controller (neckid.design.mpc.files)
+        from neckid.design.mpc.files import load_mpc
+
+        return load_mpc(document, file)
     operator = _operator(document, file)
     kp, kf = _gains(document, operator, file)
     limit = document.get("command_limit")

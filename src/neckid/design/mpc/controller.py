@@ -38,7 +38,10 @@ from numpy.typing import ArrayLike
 from neckid.design.mpc.problem import MPCProblem
 from neckid.utils.types import FloatArray
 
-__all__ = ["MPCController", "SolveStats"]
+__all__ = ["SOLVER_SETTINGS", "MPCController", "SolveStats"]
+
+#: OSQP's settings (written in the controller file; the deadline is ``time_limit``).
+SOLVER_SETTINGS: dict[str, Any] = {"eps_abs": 1e-4, "eps_rel": 1e-4, "max_iter": 4000}
 
 
 @dataclass(frozen=True)
@@ -175,9 +178,7 @@ class MPCController:
             verbose=False,
             warm_starting=True,
             polishing=False,
-            eps_abs=1e-4,
-            eps_rel=1e-4,
-            max_iter=4000,
+            **SOLVER_SETTINGS,
             time_limit=self.deadline,
         )
         return solver

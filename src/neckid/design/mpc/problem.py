@@ -56,6 +56,7 @@ __all__ = [
     "MPCProblem",
     "disturbance_gain",
     "mpc_problem",
+    "prediction_matrices",
 ]
 
 #: Motor velocity limit [rad/s]: the bench's tendon speed limit 0.03 m/s over the winch radius
@@ -203,6 +204,41 @@ def _simulate(
     return rows
 
 
+def prediction_matrices(
+    a: FloatArray, b: FloatArray, delay: int, horizon: int, control_horizon: int
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    r""":math:`F`, :math:`\Phi`, :math:`g` of the difference equation (module docstring).
+
+    Each column is the equation run from one unit entry of :math:`(h, U, \delta)`, in this
+    order of arithmetic (a C export that runs the same recursion gets the same floats).
+
+    Parameters
+    ----------
+    a, b : ndarray
+        The difference equation's coefficients.
+    delay, horizon, control_horizon : int
+        :math:`d`, :math:`N`, :math:`N_u`.
+
+    Returns
+    -------
+    free : ndarray, shape (N + d, n_a + p)
+    forced : ndarray, shape (N + d, N_u)
+    disturbance : ndarray, shape (N + d,)
+    """
+    p = max(delay + b.size - 1, 1)
+    size = a.size + p + control_horizon + 1
+    columns = np.eye(size)
+    rows = horizon + delay
+    matrix = np.column_stack(
+        [_simulate(a, b, delay, rows, control_horizon, columns[:, c]) for c in range(size)]
+    )
+    return (
+        matrix[:, : a.size + p],
+        matrix[:, a.size + p : a.size + p + control_horizon],
+        matrix[:, -1],
+    )
+
+
 def _difference_equation(form: LinearForm) -> tuple[FloatArray, FloatArray]:
     """``(a, b)`` of ``form``'s transfer function (see the module docstring)."""
     den = np.trim_zeros(np.asarray(form.den, dtype=np.float64), "f")
@@ -278,8 +314,10 @@ def mpc_problem(
     >>> problem = mpc_problem(form, horizon=5)
     >>> problem.free.shape, problem.forced.shape   # y_k ... y_{k+5}; u_k ... u_{k+4}
     ((6, 3), (6, 5))
-    >>> [float(v) for v in problem.forced[:, 0]]   # u_k held: 0, 0.1, 0.2, ...
-    [0.0, 0.1, 0.2, 0.30000000000000004, 0.4, 0.5]
+    >>> [float(v) for v in problem.forced[:, 0]]   # u_k alone: y moves by 0.1 from y_{k+1}
+    [0.0, 0.1, 0.1, 0.1, 0.1, 0.1]
+    >>> [round(float(v), 6) for v in problem.forced.sum(axis=1)]   # u = 1 from k on: a ramp
+    [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
     """
     if not isinstance(form, LinearForm):
         raise TypeError(f"form must be a LinearForm; got {type(form).__name__}")
@@ -299,11 +337,7 @@ def mpc_problem(
     tight = np.zeros(n) if tightening is None else np.asarray(tightening, dtype=np.float64)
     if tight.shape != (n,) or not np.all(np.isfinite(tight)) or np.any(tight < 0):
         raise ValueError(f"tightening must be {n} finite values >= 0 [deg], one per horizon step")
-    p = max(delay + b.size - 1, 1)
-    size = a.size + p + nu + 1
-    columns = np.eye(size)
-    rows = n + delay
-    matrix = np.column_stack([_simulate(a, b, delay, rows, nu, columns[:, c]) for c in range(size)])
+    free, forced, disturbance = prediction_matrices(a, b, delay, n, nu)
     return MPCProblem(
         ts=float(form.ts),
         a=a,
@@ -323,9 +357,9 @@ def mpc_problem(
         disturbance_ratio=float(disturbance_ratio),
         disturbance_gain=disturbance_gain(disturbance_ratio),
         preview=bool(preview),
-        free=matrix[:, : a.size + p],
-        forced=matrix[:, a.size + p : a.size + p + nu],
-        disturbance=matrix[:, -1],
+        free=free,
+        forced=forced,
+        disturbance=disturbance,
         source=form.source,
         info=dict(info or {}),
     )

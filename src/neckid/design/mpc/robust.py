@@ -45,10 +45,11 @@ import numpy as np
 
 from neckid.data.iodata import IOData
 from neckid.design.linearise import COMMAND
+from neckid.design.mpc.controller import MPCController
 from neckid.design.mpc.problem import MPCProblem
 from neckid.utils.types import FloatArray
 
-__all__ = ["BandTightening", "band_tightening", "controller_predictions"]
+__all__ = ["BandTightening", "band_tightening", "controller_predictions", "design_mpc"]
 
 
 @dataclass(frozen=True)
@@ -86,7 +87,9 @@ class BandTightening:
         }
 
 
-def controller_predictions(problem: MPCProblem, log: IOData, output: str = "inclination") -> FloatArray:
+def controller_predictions(
+    problem: MPCProblem, log: IOData, output: str = "inclination"
+) -> FloatArray:
     """The controller's predictions along a closed-loop log, with the log's commands as its plan.
 
     Parameters
@@ -134,14 +137,14 @@ def _band(model: Any, log: IOData, steps: int) -> tuple[FloatArray, FloatArray]:
 def band_tightening(
     problem: MPCProblem, model: Any, logs: IOData | Sequence[IOData]
 ) -> BandTightening:
-    """:math:`w_j` of the module docstring, measured on closed-loop logs.
+    r""":math:`w_j` of the module docstring, measured on closed-loop logs.
 
     Parameters
     ----------
     problem : MPCProblem
         The nominal controller (its tightening is not read).
     model : MultiStepSetMembership
-        Fitted with every horizon :math:`1 + d \\dots N + d` (``horizon=N + d``), on the
+        Fitted with every horizon :math:`1 + d \dots N + d` (``horizon=N + d``), on the
         inclination (its first output) and channels the logs hold.
     logs : IOData or sequence of IOData
         Closed-loop logs with ``velocity_command``, the model's channels and the inclination.
@@ -187,8 +190,72 @@ def band_tightening(
     tightening = np.array([float(np.max(np.concatenate(g))) for g in gaps])
     return BandTightening(
         tightening=tightening,
-        band_horizons=wanted,
+        band_horizons=wanted.astype(np.float64),
         half_width=np.array([float(np.mean(np.concatenate(w))) for w in widths]),
         coverage=np.array([float(np.mean(np.concatenate(c))) for c in inside]),
         anchors=int(sum(g.size for g in gaps[0])),
     )
+
+
+def design_mpc(
+    model: Any,
+    *,
+    inclination: float | None = None,
+    computation_delay: int = 1,
+    drive_time_constant: float = 0.0,
+    set_membership: Any = None,
+    design_logs: IOData | Sequence[IOData] | None = None,
+    info: dict[str, Any] | None = None,
+    **settings: Any,
+) -> MPCController:
+    """An MPC controller on a model's linear form, nominal or tightened by SM bands.
+
+    Parameters
+    ----------
+    model : fitted model or python-control system
+        Anything :func:`~neckid.design.linear_form.linear_form` takes.
+    inclination, computation_delay, drive_time_constant
+        As for :func:`~neckid.design.linear_form.linear_form`.
+    set_membership : MultiStepSetMembership, optional
+        Tighten the output limits by its k-step bands (:func:`band_tightening`), measured on
+        ``design_logs`` (required then).
+    design_logs : IOData or sequence of IOData, optional
+        Closed-loop logs (``velocity_command``, the SM model's channels).
+    info : dict, optional
+        Kept in the controller file (``model``: the model's description).
+    **settings
+        :func:`~neckid.design.mpc.problem.mpc_problem`'s keywords (``horizon``,
+        ``output_max``, ...).
+
+    Returns
+    -------
+    MPCController
+        ``problem.info["robust"]`` holds the tightening's measurements when tightened.
+    """
+    from neckid.design.linear_form import linear_form
+    from neckid.design.mpc.problem import mpc_problem
+
+    form = linear_form(
+        model,
+        inclination=inclination,
+        computation_delay=computation_delay,
+        drive_time_constant=drive_time_constant,
+    )
+    record = dict(info or {})
+    record["plant"] = form.to_dict()
+    nominal = mpc_problem(form, info=record, **settings)
+    if set_membership is None:
+        return MPCController(nominal)
+    if design_logs is None:
+        raise ValueError("a tightening by Set Membership bands needs design_logs (closed-loop)")
+    if "tightening" in settings:
+        raise ValueError("give set_membership or tightening, not both")
+    measured = band_tightening(nominal, set_membership, design_logs)
+    record["robust"] = {
+        "set_membership": type(set_membership).__name__,
+        "design_logs": len([design_logs] if isinstance(design_logs, IOData) else design_logs),
+        **measured.to_dict(),
+        **(record.get("robust") or {}),
+    }
+    tightened = mpc_problem(form, tightening=measured.tightening, info=record, **settings)
+    return MPCController(tightened)
