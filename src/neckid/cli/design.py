@@ -9,6 +9,20 @@ from typing import Any, Literal
 import typer
 
 from neckid.cli._app import FORCE_OPTION, app, console, handled
+from neckid.cli.design_mpc import (
+    HORIZON_OPTION,
+    MOVE_WEIGHT_OPTION,
+    MPC_OPTION,
+    OUTPUT_MAX_OPTION,
+    OUTPUT_MIN_OPTION,
+    PREVIEW_OPTION,
+    RATE_LIMIT_OPTION,
+    TIGHTEN_LOG_OPTION,
+    TIGHTEN_OPTION,
+    design_mpc_controller,
+    mpc_summary_lines,
+    refuse_pi_options,
+)
 
 DISCRETISATION_HELP = (
     "How the fractional operator s^order is realised: gl (the lab's truncated Grünwald–Letnikov"
@@ -121,6 +135,51 @@ def _summary_lines(document: dict[str, Any]) -> list[str]:
     return lines
 
 
+def describe_controller_file(path: Path) -> dict[str, Any]:
+    """``neckid info`` of a controller file: its kind, what it says, the model it was designed on."""
+    from neckid.design.files import controller_document, load_controller
+
+    controller = load_controller(path)
+    if getattr(controller, "kind", None) == "mpc":
+        from neckid.design.mpc import mpc_document
+
+        document = mpc_document(controller)
+        problem = document["problem"]
+        return {
+            "file": str(path),
+            "kind": "mpc",
+            "summary": mpc_summary_lines(controller),
+            "model": document["model"],
+            "robust": document["robust"],
+            "solver": document["solver"],
+            "prediction_matrices": {
+                k: [len(problem[k]), len(problem[k][0])] for k in ("free", "forced")
+            },
+        }
+    document = controller_document(controller)
+    return {
+        "file": str(path),
+        "kind": document["kind"],
+        "summary": _summary_lines(document),
+        "model": document["model"],
+    }
+
+
+def _design_mpc(model_path: Path, options: dict[str, Any], out: Path) -> None:
+    """``--mpc``: design, write and describe a predictive controller."""
+    from neckid.design import model_description, save_controller
+    from neckid.models.io import load_model
+
+    refuse_pi_options(options)
+    model = load_model(model_path)
+    description = model_description(model_path, model, options["inclination"])
+    controller = design_mpc_controller(model_path, model, options, description)
+    save_controller(controller, out)
+    for line in mpc_summary_lines(controller):
+        console.print(line, markup=False)
+    console.print(f"controller written to {out}", markup=False)
+
+
 def _write_report(controller: Any, design: Any, staged: Any) -> None:
     import matplotlib
 
@@ -228,6 +287,15 @@ def design(
     report: Path = typer.Option(
         None, "--report", help="Write a short HTML report into this folder."
     ),
+    mpc: bool = MPC_OPTION,
+    horizon: int = HORIZON_OPTION,
+    preview: bool = PREVIEW_OPTION,
+    move_weight: float = MOVE_WEIGHT_OPTION,
+    rate_limit: float = RATE_LIMIT_OPTION,
+    output_min: float = OUTPUT_MIN_OPTION,
+    output_max: float = OUTPUT_MAX_OPTION,
+    tighten: Path = TIGHTEN_OPTION,
+    tighten_logs: list[Path] = TIGHTEN_LOG_OPTION,
     force: bool = FORCE_OPTION,
 ) -> None:
     """Design a PI or a fractional controller for a phase margin at a crossover, from a saved model.
@@ -237,6 +305,11 @@ def design(
     model at --inclination (or over its range with --scheduled), or from a nonlinear model
     linearised at --inclination. Example: neckid design model.npz --pm 50 --wc 3 --fractional
     --out controller.json
+
+    With --mpc, a linear model predictive controller on the same linear form instead (OSQP
+    each step; --horizon, --move-weight, --rate-limit, --command-limit, --output-min/--output-max,
+    --preview, --tighten SM_MODEL with --tighten-log LOG: the documentation page "Predictive
+    control"). Example: neckid design model.npz --mpc --output-max 31 --out mpc.json
 
     The file runs in neckid validate --in-loop --controller FILE, in neckid.plant.closed_loop
     (neckid.design.load_controller) and in python-control (its to_control()). Equations,
@@ -251,6 +324,32 @@ def design(
     check_output_file(out, force=force, inputs=[model_path], option="--out", suffixes=[".json"])
     if command_limit is not None and not (math.isfinite(command_limit) and command_limit > 0):
         raise ValueError(f"--command-limit must be a positive number of rad/s; got {command_limit}")
+    if mpc:
+        _design_mpc(
+            model_path,
+            {
+                "--fractional": fractional,
+                "--scheduled": scheduled,
+                "--discretisation": discretisation,
+                "--order": order,
+                "--report": report,
+                "inclination": inclination,
+                "delay": DEFAULT_DELAY if delay is None else delay,
+                "drive_time_constant": drive_time_constant,
+                "command_limit": command_limit,
+                "horizon": horizon,
+                "preview": preview,
+                "move_weight": move_weight,
+                "rate_limit": rate_limit,
+                "output_min": output_min,
+                "output_max": output_max,
+                "tighten": tighten,
+                "tighten_logs": tighten_logs or [],
+            },
+            out,
+        )
+        console.print(_delay_line(delay), markup=False)
+        return
     options = {
         "pm": pm,
         "wc": wc,

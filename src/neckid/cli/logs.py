@@ -130,7 +130,8 @@ def _shown(value: Any) -> str:
 def info(
     path: Path = typer.Argument(
         None,
-        help="A log or a model file (.npz); without it, the versions of neckid and its libraries.",
+        help="A log, a model file (.npz) or a controller file (.json, of neckid design); without"
+        " it, the versions of neckid and its libraries.",
     ),
     layout: str = LAYOUT_OPTION,
     time: str = TIME_OPTION,
@@ -165,6 +166,23 @@ def info(
 
     if path.suffix.lower() == ".npz" or (path.is_file() and file_format(path) in ("npz", "zip")):
         _info_model(path, as_json)
+        return
+    if path.suffix.lower() == ".json":  # a controller file of neckid design
+        from neckid.cli.design import describe_controller_file
+
+        described_controller = describe_controller_file(path)
+        if as_json:
+            console.print_json(json.dumps(described_controller))
+            return
+        for line in described_controller["summary"]:
+            console.print(line, markup=False)
+        model = described_controller.get("model") or {}
+        if model:
+            console.print(
+                f"designed on {model.get('path')} ({model.get('class')}, sha256"
+                f" {str(model.get('sha256'))[:12]}...)",
+                markup=False,
+            )
         return
     mapping = parse_mapping(maps or [])
     described = describe_log(
