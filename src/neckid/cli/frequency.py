@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from neckid.cli._app import FORCE_OPTION, LOG_HELP, _split, app, console, handled
@@ -146,7 +147,28 @@ def _read(logs: list[Path], inputs: list[str], outputs: list[str], spec: LogSpec
     return [read_log(p, inputs or None, outputs or None, **spec.reading()) for p in logs]
 
 
-def _periodic(datas: list[Any], realisations: int | None, periods: int, transient: int) -> Any:
+def _excited_lines(path: Path | None) -> Any:
+    """The excited lines of a lines' table (``line`` and ``role`` columns), or None."""
+    if path is None:
+        return None
+    import pandas as pd
+
+    table = pd.read_csv(path)
+    missing = [c for c in ("line", "role") if c not in table.columns]
+    if missing:
+        raise ValueError(
+            f"--lines {str(path)!r} has no column {missing[0]!r}: give the PLAN.lines.csv that"
+            " neckid excite wrote"
+        )
+    excited = table.loc[table["role"] == "excited", "line"]
+    if excited.empty:
+        raise ValueError(f"--lines {str(path)!r} lists no line with role 'excited'")
+    return excited.to_numpy(dtype="int64")
+
+
+def _periodic(
+    datas: list[Any], realisations: int | None, periods: int, transient: int, excited: Any
+) -> Any:
     import numpy as np
 
     from neckid.frequency import robust_bla
@@ -174,6 +196,7 @@ def _periodic(datas: list[Any], realisations: int | None, periods: int, transien
         n_realisations=m,
         n_periods=periods,
         transient_periods=transient,
+        excited=excited,
         names=(first.input_names, first.output_names),
         units=(first.input_units, first.output_units),
     )
@@ -204,6 +227,13 @@ def _spectral(data: Any, reference: str | None, method: str, segment: int | None
     return responses
 
 
+def _db_text(variance: float) -> str:
+    """A variance as a standard deviation in dB; '-' for zero or NaN (not measured)."""
+    import math
+
+    return f"{10 * math.log10(variance):.1f}" if variance > 0 else "-"
+
+
 def _bla_table(bla: Any) -> Table:
     import numpy as np
 
@@ -212,12 +242,12 @@ def _bla_table(bla: Any) -> Table:
         "output <- input",
         "lines",
         "ω [rad/s]",
-        "|G| low [dB]",
-        "noise [dB]",
-        "nonlinear [dB]",
+        "|G| first line [dB]",
+        "noise std [dB]",
+        "nonlinear std [dB]",
         "NL detected",
     ):
-        table.add_column(column)
+        table.add_column(escape(column))
     detected = bla.nonlinear_detected()
     with np.errstate(divide="ignore"):
         for i, out in enumerate(bla.output_names):
@@ -227,8 +257,8 @@ def _bla_table(bla: Any) -> Table:
                     str(bla.lines.size),
                     f"{bla.omega.min():.3g}-{bla.omega.max():.3g}",
                     f"{20 * np.log10(abs(bla.frf[0, i, j])):.1f}",
-                    f"{10 * np.log10(np.nanmedian(bla.noise_variance[:, i, j])):.1f}",
-                    f"{10 * np.log10(np.nanmedian(bla.nl_variance[:, i, j]) + 1e-300):.1f}",
+                    _db_text(float(np.nanmedian(bla.noise_variance[:, i, j]))),
+                    _db_text(float(np.nanmedian(bla.nl_variance[:, i, j]))),
                     f"{100 * detected[:, i, j].mean():.0f} %",
                 )
     return table
@@ -240,7 +270,7 @@ def _bla_figure(bla: Any) -> Any:
     from neckid.report.frequency_plots import plot_bla
 
     pairs = [(i, j) for i in range(bla.frf.shape[1]) for j in range(bla.frf.shape[2])]
-    fig = plt.figure(figsize=(11, 6 * len(pairs)))
+    fig = plt.figure(figsize=(11, 6 * len(pairs)), layout="constrained")
     subfigures = fig.subfigures(len(pairs), 1) if len(pairs) > 1 else [fig]
     for pair, sub in zip(pairs, subfigures, strict=True):
         plot_bla(bla, pair, fig=sub)
@@ -252,7 +282,7 @@ def _spectral_figure(responses: list[Any], data: Any) -> Any:
 
     from neckid.report.frequency_plots import plot_frf
 
-    fig = plt.figure(figsize=(11, 7 * len(responses)))
+    fig = plt.figure(figsize=(11, 7 * len(responses)), layout="constrained")
     subfigures = fig.subfigures(len(responses), 1) if len(responses) > 1 else [fig]
     for (out, name, response), sub in zip(responses, subfigures, strict=True):
         units = (data.unit(out), data.unit(name))
@@ -305,6 +335,15 @@ def frf(
     transient: int = typer.Option(
         1, "--transient", help="T: transient periods before the measured ones.", min=0
     ),
+    lines: Path = typer.Option(
+        None,
+        "--lines",
+        help="The lines' table neckid excite wrote (PLAN.lines.csv): its excited lines are used"
+        " (default: the input's lines within 20 dB of its strongest; give the table in a closed"
+        " loop, where the command's spectrum is not flat).",
+        exists=True,
+        dir_okay=False,
+    ),
     reference: str = typer.Option(
         None,
         "--reference",
@@ -346,11 +385,12 @@ def frf(
     if periods is not None:
         if reference:
             raise typer.BadParameter("--reference is for non-periodic logs; drop it with --periods")
-        bla = _periodic(datas, realisations, periods, transient)
+        bla = _periodic(datas, realisations, periods, transient, _excited_lines(lines))
         console.print(_bla_table(bla))
         verdict, document = bla.verdict(), bla.to_dict()
         figure = _bla_figure if (plot or report) else None
-        console.print(f"estimate: {bla.estimate}", markup=False)
+        found = f"from {lines}" if lines else "from the input (within 20 dB of its strongest)"
+        console.print(f"estimate: {bla.estimate}; excited lines {found}", markup=False)
     else:
         if len(datas) > 1:
             raise typer.BadParameter("several logs are realisations of a multisine: give --periods")
@@ -397,7 +437,7 @@ def bode_validation(
     from neckid.report.frequency_plots import plot_bla, plot_frf
 
     shape = parse_multisine(multisine)
-    fig = plt.figure(figsize=(11, 7 * len(logs)))
+    fig = plt.figure(figsize=(11, 7 * len(logs)), layout="constrained")
     subfigures = fig.subfigures(len(logs), 1) if len(logs) > 1 else [fig]
     records = []
     for log, sub in zip(logs, subfigures, strict=True):
@@ -422,3 +462,60 @@ def bode_validation(
         records.append({"log": log.name, **fit.to_dict()})
     _save(fig, bode)
     return records
+
+
+REAL_LOGS_NOTE = (
+    "What the shared real logs allow: the lab's identification log is one record of a"
+    " non-periodic excitation, so it gives the Welch estimate with its coherence and band (neckid"
+    " frf LOG), not a robust BLA, which needs M realisations x P periods of a multisine (neckid"
+    " excite writes one to run on the rig); the stairs logs are closed loop with a reference,"
+    " so neckid frf LOG --reference reference gives the indirect estimate, informative only"
+    " where the steps carry power (the lowest frequencies)."
+)
+
+
+def frequency_demo_command(out: Path, *, seed: int, force: bool) -> None:
+    """``neckid demo --frequency``: the frequency demo's report (docs/frequency.md)."""
+    import numpy as np
+
+    from neckid.experiments.frequency_demo import run_frequency_demo
+    from neckid.report.frequency_plots import plot_bla
+    from neckid.report.html import Figure, Report
+    from neckid.utils.files import output_folder, write_json
+
+    with output_folder(out, force=force) as staged:
+        demo = run_frequency_demo(seed)
+        lines = [
+            f"loop (reference -> inclination): {demo.loop.verdict()}",
+            f"plant (velocity command -> inclination): {demo.plant.verdict()}",
+            f"bandwidth read from the loop's BLA (90 % rule): {demo.bandwidth:.2f} rad/s"
+            " (paper: 4.2 rad/s)",
+            f"model classes: {demo.advice}",
+        ]
+        report = Report("neckid demo --frequency")
+        plan = demo.plan
+        report.add_text(
+            "Experiment",
+            f"Random-odd multisine reference, {plan.n_realisations} realisations x (1 + "
+            f"{plan.n_periods}) periods of {plan.period * plan.ts:.1f} s, {plan.rms} deg RMS around"
+            f" {float(np.mean(plan.signal)):.0f} deg, on the simulated neck's inclination loop.",
+        )
+        report.add_text("What the levels say", "\n\n".join(lines))
+        figures = []
+        for key, bla in (("loop", demo.loop), ("plant", demo.plant)):
+            path = staged.path(f"bla_{key}.png")
+            plot_bla(bla).savefig(path, dpi=110, format="png", bbox_inches="tight")
+            figures.append(Figure(path, f"{key}: {bla.verdict()}"))
+        report.add_figures("Best linear approximations", figures)
+        report.add_text("Real logs", REAL_LOGS_NOTE)
+        document = {
+            "loop": demo.loop.to_dict(),
+            "plant": demo.plant.to_dict(),
+            "bandwidth_rad_s": demo.bandwidth,
+            "model_classes": demo.advice,
+        }
+        write_json(staged.path("frequency.json"), document)
+        report.write(staged.path("report.html"))
+    for line in lines:
+        console.print(line, markup=False)
+    console.print(f"report written to {out / 'report.html'}", markup=False)

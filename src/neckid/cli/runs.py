@@ -121,6 +121,12 @@ def demo(
         "--3d",
         help="The three-tendon neck instead: three motor positions in, the tilt vector out.",
     ),
+    frequency: bool = typer.Option(
+        False,
+        "--frequency",
+        help="The frequency demo instead: a random-odd multisine on the neck's loop, its BLA and"
+        " distortion levels (docs/frequency.md).",
+    ),
 ) -> None:
     """Run the paper's whole protocol on the built-in simulated neck and write a report.
 
@@ -139,6 +145,11 @@ def demo(
 
     from neckid.experiments.paper import EXPERIMENTS, DemoSettings, run_demo
 
+    if frequency:
+        from neckid.cli.frequency import frequency_demo_command
+
+        frequency_demo_command(out or Path("neckid-demo-frequency"), seed=seed, force=force)
+        return
     if three_d:
         if paper_regressor:
             _fail("--paper-regressor has one motor; --3d selects its own regressor")

@@ -193,6 +193,15 @@ def _block_frf(u_spectra: ComplexArray, y_spectra: ComplexArray) -> tuple[Comple
     """One block: u (n_u, P, F, n_u) and y (n_u, P, F, n_y) -> G (F, n_y, n_u), its variance."""
     u_mean = u_spectra.mean(axis=1).transpose(1, 2, 0)  # (F, inputs, experiments)
     y_mean = y_spectra.mean(axis=1).transpose(1, 2, 0)  # (F, outputs, experiments)
+    if u_mean.shape[1] > 1:
+        condition = float(np.median(np.linalg.cond(u_mean)))
+        if not condition < 100.0:  # an orthogonal plan's is 1
+            raise ValueError(
+                f"the {u_mean.shape[1]} inputs are not excited independently (their spectra over"
+                f" a block's experiments have condition number {condition:.3g} at the median"
+                " line): give one input at a time, or run a multi-input plan (neckid excite"
+                " --name a,b)"
+            )
     inverse = np.linalg.inv(u_mean)
     frf = y_mean @ inverse
     p = u_spectra.shape[1]

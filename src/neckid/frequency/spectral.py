@@ -331,5 +331,5 @@ def indirect_frf(
         coherence=np.clip(np.abs(s_ru) ** 2 / (s_rr * s_uu), 0.0, 1.0),
         band_radius=np.sqrt(stats.f.ppf(0.95, 2, dof) * variance),
         averages=averages,
-        estimate=f"indirect through {reference_name} ({name}, G = S_{reference_name}y / S_{reference_name}u)",
+        estimate=f"indirect through {reference_name} ({name}, G = S_ry / S_ru)",
     )

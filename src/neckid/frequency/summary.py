@@ -51,7 +51,7 @@ def model_classes(bla: BestLinearApproximation, pair: tuple[int, int] = (0, 0)) 
     The rule: no distortion detected above the noise (99 % F test at <= 10 % of the lines) ->
     a linear model (``arx``, ``ss``); distortions more than 20 dB below the BLA (median over the
     lines of one block's distortion variance over ``|G_BLA|^2``) -> a linear model is right to
-    within about 10 % in amplitude, a scheduled one (``scheduled``, ``lpv``) if the operating
+    within that share in amplitude (-20 dB: 10 %), a scheduled one (``scheduled``, ``lpv``) if the operating
     point moves; otherwise a nonlinear model (``poly``, ``pnlss``, ``sm``, ``greybox-neck``),
     with even terms when the even lines show power (an asymmetric nonlinearity: slack, gravity)
     and odd terms when the non-excited odd lines do (stiffening, saturation).
@@ -78,8 +78,8 @@ def model_classes(bla: BestLinearApproximation, pair: tuple[int, int] = (0, 0)) 
     if relative < -20:
         return (
             f"distortions {-relative:.0f} dB below the BLA{kind}: a linear model (arx, ss) is"
-            " right to within about 10 % in amplitude at this operating point; scheduled or lpv"
-            " when the operating point moves"
+            f" right to within about {100 * 10 ** (relative / 20):.0f} % in amplitude at this"
+            " operating point; scheduled or lpv when the operating point moves"
         )
     terms = " with even terms (asymmetric: slack, gravity)" if "even" in kinds else ""
     return (

@@ -27,6 +27,22 @@ def _gain_unit(output_unit: str, input_unit: str) -> str:
     return f"dB re 1 {output_unit or '1'}/({input_unit or '1'})"
 
 
+def _tidy(fig: Any) -> None:
+    """``tight_layout`` on a figure of its own (a subfigure is laid out by its parent)."""
+    from matplotlib.figure import Figure
+
+    if isinstance(fig, Figure) and fig.get_layout_engine() is None:
+        fig.tight_layout()
+
+
+def _limit(ax: Any, frf: Any) -> None:
+    """Magnitude axis from the estimate's range: a band reaching 0 (-inf dB) is cut off."""
+    values = _db(frf)
+    values = values[np.isfinite(values)]
+    if values.size:
+        ax.set_ylim(values.min() - 30, values.max() + 15)
+
+
 def _overlays(axes: Any, overlays: Sequence[tuple[Any, Any, str]]) -> None:
     for omega, frf, label in overlays:
         axes[0].semilogx(omega, _db(frf), "-", lw=1.4, label=label)
@@ -107,6 +123,7 @@ def plot_bla(
             label="noise at those lines (same scale)",
         )
     _overlays(axes, overlays)
+    _limit(axes[0], np.concatenate([frf, np.sqrt(bla.noise_variance[:, out, inp])]))
     axes[1].semilogx(bla.omega, np.degrees(np.unwrap(np.angle(frf))), "k.-", lw=1, ms=3)
     name = f"{bla.output_names[out]} / {bla.input_names[inp]}"
     unit = _gain_unit(bla.output_units[out], bla.input_units[inp])
@@ -115,7 +132,7 @@ def plot_bla(
     axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
+    _tidy(fig)
     return fig
 
 
@@ -154,6 +171,7 @@ def plot_frf(
             response.omega, _db(lower), _db(np.abs(frf) + radius), color="0.8", label="95 % band"
         )
     _overlays(axes, overlays)
+    _limit(axes[0], frf)
     axes[1].semilogx(response.omega, np.degrees(np.unwrap(np.angle(frf))), "k-", lw=1)
     axes[2].semilogx(response.omega, response.coherence, "k-", lw=1)
     axes[0].set(ylabel=f"magnitude [{_gain_unit(*units)}]", title=title or response.estimate)
@@ -162,5 +180,5 @@ def plot_frf(
     axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
+    _tidy(fig)
     return fig
