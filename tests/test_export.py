@@ -402,7 +402,7 @@ def test_cli_refuses_an_existing_output_without_force(saved_models: dict[str, Pa
     ("which", "arguments", "message"),
     [
         ("sm", ["--to", "tf"], "SetMembership) is nonlinear: export it with --to json or --to mat"),
-        ("arx", ["--to", "xml"], "--to must be one of json, mat, tf; got 'xml'"),
+        ("arx", ["--to", "xml"], "--to must be one of json, mat, tf, c; got 'xml'"),
         ("arx", ["--to", "mat", "--out", "{dir}/x.json"], "its name must end in .mat"),
         ("arx", ["--to", "tf", "--out", "{dir}/arx-1.m"], "choose e.g. 'arx_1.m'"),
     ],
