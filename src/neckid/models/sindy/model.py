@@ -44,7 +44,7 @@ from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.sindy._kernels import sparse_free_run
 from neckid.models.sindy.library import Library, build_library
 from neckid.models.sindy.selection import DEFAULT_THRESHOLDS, choose_threshold
-from neckid.models.sindy.stlsq import Normal, independent_columns, stlsq
+from neckid.models.sindy.stlsq import Normal, Sums, independent_columns, stlsq
 from neckid.regressors import Lags
 from neckid.utils.checks import Interval, Options
 from neckid.utils.progress import counting, task
@@ -199,23 +199,25 @@ class SparseNARX(NarxModel):
         self.library_ = build_library(
             self.lags_.n_terms, int(self.degree), frequencies, self._function_names()
         )
-        theta = self.library_.evaluate(x, self.functions)
-        rms = np.sqrt(np.mean(theta**2, axis=0))
-        self.scale_ = np.where(rms > 0, rms, 1.0)
-        sd = y.std(axis=0)
-        self.y_scale_ = np.where(sd > 0, sd, 1.0)
-        self.allowed_ = independent_columns(theta / self.scale_)
+        total = self._sums(x, y)
+        self.scale_ = total.column_rms()
+        self.y_scale_ = total.y_std()
+        normal = total.normal(self.scale_, self.y_scale_)
+        self.allowed_ = independent_columns(normal.gram)
         self.allowed_[0] = True  # the constant stays a candidate
-        normal = Normal.from_columns(theta / self.scale_, y / self.y_scale_)
-        del theta
         self._mark_fitted()
         candidates = self._candidate_thresholds()
         self.selection_: dict[str, Any] = {}
         self.threshold_ = candidates[0]
         if len(candidates) > 1:
             counts = [int(np.count_nonzero(self._solve(normal, t))) for t in candidates]
+            cache: dict[int, Sums] = {}
+
+            def fit_records(records: Sequence[IOData], threshold: float) -> FloatArray:
+                return self._fit_records(records, threshold, cache)
+
             self.threshold_, self.selection_ = choose_threshold(
-                experiments, candidates, counts, self._fit_records, self._run, self.max_lag_
+                experiments, candidates, counts, fit_records, self._run, self.max_lag_
             )
         self.coef_ = self._solve(normal, self.threshold_)
         self._fit_bags(x, y)
@@ -229,16 +231,26 @@ class SparseNARX(NarxModel):
         xi = stlsq(normal, threshold, self.allowed_, ridge=float(self.ridge), max_iter=STLSQ_STEPS)
         return np.ascontiguousarray(xi * self.y_scale_[None, :] / self.scale_[:, None])
 
-    def _normal(self, x: FloatArray, y: FloatArray) -> Normal:
-        theta = self.library_.evaluate(x, self.functions) / self.scale_
-        return Normal.from_columns(theta, y / self.y_scale_)
+    def _sums(self, x: FloatArray, y: FloatArray, weights: FloatArray | None = None) -> Sums:
+        def columns(rows: FloatArray) -> FloatArray:
+            return self.library_.evaluate(rows, self.functions)
 
-    def _fit_records(self, records: Sequence[IOData], threshold: float) -> FloatArray:
-        """STLSQ on the rows of ``records`` (a selection split's fit part)."""
-        rows = [self.lags_.build_one(r) for r in records if r.n_samples > self.max_lag_]
-        x = np.vstack([r[0] for r in rows])
-        y = np.vstack([r[1] for r in rows])
-        return self._solve(self._normal(x, y), threshold)
+        return Sums.of_rows(columns, x, y, weights)
+
+    def _fit_records(
+        self, records: Sequence[IOData], threshold: float, cache: dict[int, Sums]
+    ) -> FloatArray:
+        """STLSQ on the rows of ``records`` (a selection split's fit part; sums kept per record)."""
+        total: Sums | None = None
+        for record in records:
+            if record.n_samples <= self.max_lag_:
+                continue
+            if id(record) not in cache:
+                cache[id(record)] = self._sums(*self.lags_.build_one(record))
+            total = cache[id(record)] if total is None else total + cache[id(record)]
+        if total is None:
+            raise ValueError("a selection split has no record longer than the lags")
+        return self._solve(total.normal(self.scale_, self.y_scale_), threshold)
 
     def _fit_bags(self, x: FloatArray, y: FloatArray) -> None:
         """STLSQ at the chosen threshold on ``ensemble`` bootstrap resamples of the rows."""
@@ -253,7 +265,11 @@ class SparseNARX(NarxModel):
         with task("SINDy ensemble (bags)", n_bags) as advance:
             for b in range(n_bags):
                 rows = rng.integers(0, x.shape[0], x.shape[0])
-                self.coef_bags_[b] = self._solve(self._normal(x[rows], y[rows]), self.threshold_)
+                weights = np.bincount(rows, minlength=x.shape[0]).astype(np.float64)
+                sums = self._sums(x, y, weights)
+                self.coef_bags_[b] = self._solve(
+                    sums.normal(self.scale_, self.y_scale_), self.threshold_
+                )
                 advance()
         self.coef_interval_ = np.percentile(self.coef_bags_, INTERVAL_PERCENTILES, axis=0)
         self.inclusion_ = np.mean(self.coef_bags_ != 0, axis=0)

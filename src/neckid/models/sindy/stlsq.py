@@ -23,6 +23,7 @@ Simulation 17(3), 948-972, 2019 (STLSQ stops after at most as many steps as func
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,10 +31,77 @@ import scipy.linalg
 
 from neckid.utils.types import BoolArray, FloatArray
 
-__all__ = ["Normal", "independent_columns", "stlsq"]
+__all__ = ["Normal", "Sums", "independent_columns", "stlsq"]
 
-#: Relative size below which a scaled column counts as a combination of the ones before it.
-RANK_TOLERANCE = 1e-7
+#: Relative size (of QR's ``|R_kk|``) below which a column counts as a combination of the earlier ones.
+RANK_TOLERANCE = 1e-6
+
+
+#: Rows of the library evaluated at a time while its Gram matrix is summed (bounds the memory).
+CHUNK_ROWS = 16_384
+
+
+@dataclass(frozen=True)
+class Sums:
+    """Sums over rows of the raw library columns ``Θ`` and outputs ``y``: ``ΘᵀΘ``, ``Θᵀy``, ``Σy``, ``Σy²``, ``N``.
+
+    They add over records, so a selection split's normal equations are the sum of its records'.
+    """
+
+    gram: FloatArray
+    rhs: FloatArray
+    y_sum: FloatArray
+    y_square: FloatArray
+    n: int
+
+    def __add__(self, other: Sums) -> Sums:
+        return Sums(
+            self.gram + other.gram,
+            self.rhs + other.rhs,
+            self.y_sum + other.y_sum,
+            self.y_square + other.y_square,
+            self.n + other.n,
+        )
+
+    @classmethod
+    def of_rows(
+        cls, columns: Callable[[FloatArray], FloatArray], x: FloatArray, y: FloatArray,
+        weights: FloatArray | None = None,
+    ) -> Sums:  # fmt: skip
+        """The sums of rows ``x`` (library ``columns(x)``), chunk by chunk; ``weights`` per row."""
+        p = columns(x[:1]).shape[1]
+        gram, rhs = np.zeros((p, p)), np.zeros((p, y.shape[1]))
+        for first in range(0, x.shape[0], CHUNK_ROWS):
+            theta = columns(x[first : first + CHUNK_ROWS])
+            target = y[first : first + CHUNK_ROWS]
+            if weights is not None:
+                w = weights[first : first + CHUNK_ROWS, None]
+                gram += theta.T @ (theta * w)
+                rhs += theta.T @ (target * w)
+            else:
+                gram += theta.T @ theta
+                rhs += theta.T @ target
+        w_all = np.ones(x.shape[0]) if weights is None else weights
+        return cls(gram, rhs, w_all @ y, w_all @ y**2, round(float(w_all.sum())))
+
+    def column_rms(self) -> FloatArray:
+        """Root mean square of each library column (1 where it is 0)."""
+        rms = np.sqrt(np.maximum(np.diag(self.gram), 0.0) / max(self.n, 1))
+        return np.where(rms > 0, rms, 1.0)
+
+    def y_std(self) -> FloatArray:
+        """Standard deviation of each output (1 where it is 0)."""
+        n = max(self.n, 1)
+        var = np.maximum(self.y_square / n - (self.y_sum / n) ** 2, 0.0)
+        sd = np.sqrt(var)
+        return np.where(sd > 0, sd, 1.0)
+
+    def normal(self, scale: FloatArray, y_scale: FloatArray) -> Normal:
+        """The scaled normal equations, columns divided by ``scale``, outputs by ``y_scale``."""
+        n = max(self.n, 1)
+        gram = self.gram / np.outer(scale, scale) / n
+        rhs = self.rhs / scale[:, None] / y_scale[None, :] / n
+        return Normal(gram, rhs)
 
 
 @dataclass(frozen=True)
@@ -50,17 +118,32 @@ class Normal:
         return cls(scaled.T @ scaled / n, scaled.T @ target / n)
 
 
-def independent_columns(scaled: FloatArray) -> BoolArray:
-    """The columns (unit RMS each) that are not, to 1e-7, combinations of the ones before them.
+def independent_columns(gram: FloatArray) -> BoolArray:
+    """The columns that are not, to 1e-6, combinations of the ones before them (library order).
 
-    Read off the triangular factor of a QR decomposition in library order: ``|R_kk|`` is the
-    part of column ``k`` orthogonal to the columns before it (a condition with two values in
-    training makes its square such a combination).
+    From the scaled Gram matrix (unit diagonal): a Cholesky factorisation in order, a column
+    whose remaining variance ``d_k`` (the square of QR's ``|R_kk|`` over ``N``) is below
+    ``RANK_TOLERANCE²`` left out (a condition with two values in training makes its square such
+    a combination).
+
+    Examples
+    --------
+    >>> g = np.array([[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> independent_columns(g).tolist()
+    [True, False, True]
     """
-    r = scipy.linalg.qr(scaled, mode="r", check_finite=False)[0]
-    diag = np.abs(np.diag(r))[: scaled.shape[1]]
-    keep = np.zeros(scaled.shape[1], dtype=bool)
-    keep[: diag.size] = diag > RANK_TOLERANCE * np.sqrt(max(scaled.shape[0], 1))
+    p = gram.shape[0]
+    factor = np.zeros((p, p))
+    keep = np.zeros(p, dtype=bool)
+    for k in range(p):
+        row = factor[k, :k]
+        d = gram[k, k] - row @ row
+        if d <= RANK_TOLERANCE**2 * max(gram[k, k], 1e-300):
+            continue
+        keep[k] = True
+        factor[k, k] = np.sqrt(d)
+        rest = np.arange(k + 1, p)
+        factor[rest, k] = (gram[rest, k] - factor[rest, :k] @ row) / factor[k, k]
     return keep
 
 
