@@ -18,7 +18,8 @@ Examples
 >>> import neckid
 >>> sorted(neckid.methods())
 ['arx', 'greybox-neck', 'greybox-tanks', 'lpv', 'nn', 'pnlss', 'poly', 'rls', 'scheduled',
- 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly', 'ss']
+ 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly',
+ 'sm-parallel-sindy', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -333,6 +334,18 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=2.0,
         describer="neckid.models.sindy.summary:describe_sindy",
+    ),
+    Method(
+        "sm-parallel-sindy",
+        "Set Membership parallel (sparse NARX)",
+        "neckid.models.set_membership.parallel:ParallelSetMembership",
+        "Set Membership on the free run of a parallel sparse NARX (sindy): guaranteed one-step"
+        " bounds around the sparse simulator",
+        defaults={"base": "sindy"},
+        complexity=5,
+        builds_on="sindy",
+        unit_cost=3.0,
+        describer="neckid.export.describe:describe_parallel",
     ),
 )
 
