@@ -68,6 +68,7 @@ FORBIDDEN = {
 #: The model families: each a subpackage of neckid.models with its private names.
 FAMILIES = (
     "greybox",
+    "koopman",
     "linear",
     "lpv",
     "neural",

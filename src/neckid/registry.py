@@ -17,8 +17,8 @@ Examples
 --------
 >>> import neckid
 >>> sorted(neckid.methods())
-['arx', 'greybox-neck', 'greybox-tanks', 'lpv', 'nn', 'pnlss', 'poly', 'rls', 'scheduled',
- 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly',
+['arx', 'greybox-neck', 'greybox-tanks', 'koopman', 'lpv', 'nn', 'pnlss', 'poly', 'rls',
+ 'scheduled', 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly',
  'sm-parallel-sindy', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
@@ -346,6 +346,19 @@ _METHODS: tuple[Method, ...] = (
         builds_on="sindy",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+    ),
+    Method(
+        "koopman",
+        "Koopman (EDMD with control)",
+        "neckid.models.koopman.model:KoopmanEDMD",
+        "Koopman model with control (Korda & Mezic 2018): output and input delays plus"
+        " thin-plate RBFs lifted to a linear system by ridge least squares (EDMDc); dictionary"
+        " size and ridge by the selection rule",
+        quick={"n_observables": 10, "ridge": 1e-6},
+        complexity=3,
+        unit_cost=2.0,
+        describer="neckid.models.koopman.summary:describe_koopman",
+        control_form="ss",
     ),
 )
 

@@ -53,6 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from neckid.models.base import Estimator, check_is_fitted
+from neckid.models.koopman.model import KoopmanEDMD
 from neckid.models.linear.arx import LinearARX
 from neckid.models.linear.rls import RecursiveARX
 from neckid.models.linear.subspace import SubspaceStateSpace
@@ -342,6 +343,30 @@ def _pnlss_system(
     return system if form == "ss" else control.ss2tf(system, name=system.name)
 
 
+def _koopman_system(
+    model: KoopmanEDMD, inclination: float | None, form: str, name: str | None
+) -> control.TransferFunction | control.StateSpace:
+    """A KoopmanEDMD's lifted linear system as it is (its offsets are the constant state's)."""
+    if inclination is not None:
+        raise ValueError(
+            f"inclination applies to a GainScheduledModel only; got {inclination!r} for a"
+            " KoopmanEDMD (its lifted system is linear everywhere)"
+        )
+    lifted = model.lifted_system()
+    system = control.StateSpace(
+        lifted.A,
+        lifted.B,
+        lifted.C,
+        lifted.D,
+        dt=model.ts_,
+        inputs=list(model.input_names_),
+        outputs=list(model.output_names_),
+        states=model.state_names(),
+        name=name or type(model).__name__,
+    )
+    return system if form == "ss" else control.ss2tf(system, name=system.name)
+
+
 def default_form(model: Any) -> str:
     """The python-control form :func:`to_control` gives ``model`` by default (``"tf"`` or ``"ss"``).
 
@@ -376,7 +401,7 @@ def to_control(
 
     Parameters
     ----------
-    model : LinearARX, RecursiveARX, GainScheduledModel, SubspaceStateSpace, PolynomialStateSpace or LPVARX
+    model : LinearARX, RecursiveARX, GainScheduledModel, SubspaceStateSpace, PolynomialStateSpace, LPVARX or KoopmanEDMD
         Fitted. ARX models: from every input to every output (MIMO when there are several).
         ``SubspaceStateSpace``: its ``(A_, B_, C_, D_)`` on its own state ``x1 … xn`` (``"ss"``,
         started by ``X0 = model.initial_state(y[:m], u[:m])``), or its transfer matrix; the
@@ -384,6 +409,9 @@ def to_control(
         ``PolynomialStateSpace``: linearised at rest with its inputs at the middle of their
         training range (:func:`neckid.models.pnlss.linearise.linearise`: exact derivatives of
         its monomials at the equilibrium), in deviations from that equilibrium.
+        ``KoopmanEDMD``: its lifted linear system ``z⁺ = A z + B u``, ``y = C z + D u``
+        (:meth:`~neckid.models.koopman.model.KoopmanEDMD.lifted_system`, exact: the offsets sit
+        in its constant state), started by ``X0 = model.initial_state(y[:m], u[:m])``.
         ``RecursiveARX``: its final estimate ``coef_``. ``GainScheduledModel``: frozen at
         ``inclination``, from the velocity command [rad/s] to the inclination [deg]
         (:meth:`~neckid.GainScheduledModel.transfer_function` with ``to="inclination"``).
@@ -479,6 +507,8 @@ def to_control(
         return _subspace_system(model, inclination, form, strict, name)
     if isinstance(model, PolynomialStateSpace):
         return _pnlss_system(model, inclination, form, strict, name)
+    if isinstance(model, KoopmanEDMD):
+        return _koopman_system(model, inclination, form, name)
     if not isinstance(model, LINEAR_MODELS):
         raise TypeError(
             f"to_control needs a linear model (LinearARX, RecursiveARX, GainScheduledModel); a"
