@@ -16,8 +16,13 @@ from rich.table import Table
 from neckid.cli._app import FORCE_OPTION, LOG_HELP, _split, app, console, handled
 from neckid.cli.options import LogSpec, log_options
 
-__all__ = ["bode_validation", "excite", "frf", "parse_multisine"]
+__all__ = ["BODE_HELP", "MULTISINE_HELP", "bode_validation", "excite", "frf", "parse_multisine"]
 
+BODE_HELP = (
+    "Write a PNG of the model's frequency response (first input to first output) over the one"
+    " each log measures, with its 95 % band; print the share of frequencies inside it and the"
+    " weighted error (docs/frequency.md)."
+)
 MULTISINE_HELP = (
     "M,P[,T]: the log is a multisine experiment of M realisations x (T transient + P) periods"
     " (T default 1): the measured response is the robust BLA; without it, the Welch estimate."
@@ -29,9 +34,7 @@ def _band(text: str) -> tuple[float, float]:
     try:
         low, high = (float(p) for p in parts)
     except ValueError:
-        raise typer.BadParameter(
-            f"--band must be LOW,HIGH in rad/s (e.g. 0.5,20); got {text!r}"
-        ) from None
+        raise ValueError(f"--band must be LOW,HIGH in rad/s (e.g. 0.5,20); got {text!r}") from None
     return low, high
 
 
@@ -47,7 +50,7 @@ def parse_multisine(text: str | None) -> tuple[int, int, int] | None:
     if len(values) == 2:
         values.append(1)
     if len(values) != 3 or values[0] < 1 or values[1] < 1 or values[2] < 0:
-        raise typer.BadParameter(
+        raise ValueError(
             f"--multisine must be M,P or M,P,T (realisations >= 1, periods >= 1, transient >= 0);"
             f" got {text!r}"
         )
@@ -106,7 +109,7 @@ def excite(
         period,
         ts,
         _band(band),
-        kind=kind,  # type: ignore[arg-type]
+        kind=kind,  # type: ignore[arg-type]  # checked by multisine_plan
         n_realisations=realisations,
         n_periods=periods,
         transient_periods=transient,
@@ -202,7 +205,7 @@ def _periodic(
     )
 
 
-def _spectral(data: Any, reference: str | None, method: str, segment: int | None) -> list[Any]:
+def _spectral(data: Any, reference: str | None, method: Any, segment: int | None) -> list[Any]:
     from neckid.frequency import indirect_frf, smoothed_frf
 
     responses = []
@@ -212,7 +215,7 @@ def _spectral(data: Any, reference: str | None, method: str, segment: int | None
         for name in names:
             u, y = data.channel(name), data.channel(out)
             if r is None:
-                response = smoothed_frf(u, y, data.ts, method=method, segment=segment)  # type: ignore[arg-type]
+                response = smoothed_frf(u, y, data.ts, method=method, segment=segment)
             else:
                 response = indirect_frf(
                     r,
@@ -221,7 +224,7 @@ def _spectral(data: Any, reference: str | None, method: str, segment: int | None
                     data.ts,
                     method=method,
                     segment=segment,
-                    reference_name=reference,  # type: ignore[arg-type]
+                    reference_name=str(reference),
                 )
             responses.append((out, name, response))
     return responses
@@ -271,7 +274,7 @@ def _bla_figure(bla: Any) -> Any:
 
     pairs = [(i, j) for i in range(bla.frf.shape[1]) for j in range(bla.frf.shape[2])]
     fig = plt.figure(figsize=(11, 6 * len(pairs)), layout="constrained")
-    subfigures = fig.subfigures(len(pairs), 1) if len(pairs) > 1 else [fig]
+    subfigures = _panels(fig, len(pairs))
     for pair, sub in zip(pairs, subfigures, strict=True):
         plot_bla(bla, pair, fig=sub)
     return fig
@@ -283,11 +286,16 @@ def _spectral_figure(responses: list[Any], data: Any) -> Any:
     from neckid.report.frequency_plots import plot_frf
 
     fig = plt.figure(figsize=(11, 7 * len(responses)), layout="constrained")
-    subfigures = fig.subfigures(len(responses), 1) if len(responses) > 1 else [fig]
+    subfigures = _panels(fig, len(responses))
     for (out, name, response), sub in zip(responses, subfigures, strict=True):
         units = (data.unit(out), data.unit(name))
         plot_frf(response, units=units, title=f"{response.estimate}: {out} / {name}", fig=sub)
     return fig
+
+
+def _panels(fig: Any, count: int) -> list[Any]:
+    """``count`` subfigures stacked in ``fig`` (the figure itself for one)."""
+    return list(fig.subfigures(count, 1)) if count > 1 else [fig]
 
 
 def _save(fig: Any, path: Path) -> None:
@@ -384,7 +392,7 @@ def frf(
     datas = _read(logs, names_in, names_out, spec)
     if periods is not None:
         if reference:
-            raise typer.BadParameter("--reference is for non-periodic logs; drop it with --periods")
+            raise ValueError("--reference is for non-periodic logs; drop it with --periods")
         bla = _periodic(datas, realisations, periods, transient, _excited_lines(lines))
         console.print(_bla_table(bla))
         verdict, document = bla.verdict(), bla.to_dict()
@@ -393,7 +401,7 @@ def frf(
         console.print(f"estimate: {bla.estimate}; excited lines {found}", markup=False)
     else:
         if len(datas) > 1:
-            raise typer.BadParameter("several logs are realisations of a multisine: give --periods")
+            raise ValueError("several logs are realisations of a multisine: give --periods")
         responses = _spectral(datas[0], reference, method, segment)
         verdict = "; ".join(
             f"{o} <- {n}: {r.estimate}, median coherence {float(_median(r.coherence)):.2f}"
@@ -438,7 +446,7 @@ def bode_validation(
 
     shape = parse_multisine(multisine)
     fig = plt.figure(figsize=(11, 7 * len(logs)), layout="constrained")
-    subfigures = fig.subfigures(len(logs), 1) if len(logs) > 1 else [fig]
+    subfigures = _panels(fig, len(logs))
     records = []
     for log, sub in zip(logs, subfigures, strict=True):
         data = read_for_model(model, log, spec, quiet=True)

@@ -39,6 +39,7 @@ from neckid.cli.explain import (
     _save_figure,
     _save_panels,
 )
+from neckid.cli.frequency import BODE_HELP, MULTISINE_HELP, bode_validation
 from neckid.cli.in_loop import CONTROLLER_HELP, validate_in_loop
 from neckid.cli.options import (
     LogSpec,
@@ -351,6 +352,8 @@ def validate(
     adapt: float = typer.Option(None, "--adapt", metavar="SECONDS", help=ADAPT_HELP),
     adapt_mode: str = typer.Option("offset", "--adapt-mode", help=ADAPT_MODE_HELP),
     resid: bool = typer.Option(False, "--resid", help=RESID_HELP),
+    bode: Path = typer.Option(None, "--bode", help=BODE_HELP),
+    multisine: str = typer.Option(None, "--multisine", metavar="M,P[,T]", help=MULTISINE_HELP),
     *,
     spec: LogSpec,
 ) -> None:
@@ -369,8 +372,10 @@ def validate(
         raise ValueError(
             "--resid tests the model's own residuals; it does not combine with --in-loop or --adapt"
         )
+    if bode is not None and (in_loop or adaptation is not None):
+        raise ValueError("--bode compares the model's own response; not with --in-loop or --adapt")
     given = [*logs, model_path]
-    for path, option in ((plot, "--plot"), (json_out, "--json")):
+    for path, option in ((plot, "--plot"), (json_out, "--json"), (bode, "--plot")):
         if path is not None:
             check_output_file(path, force=force, inputs=given, option=option)
     if in_loop:
@@ -394,8 +399,11 @@ def validate(
         if result is not None:
             runs.append((log, data, result, domain))
     mean = _print_mean(records) if len(logs) > 1 else None
+    frequency = bode_validation(model, logs, spec, bode, multisine) if bode else None
     if json_out is not None:
         document = {"model": model_path.name, "kind": "free run", "logs": records, "mean": mean}
+        if frequency is not None:
+            document["bode"] = frequency
         write_json(json_out, document)
         console.print(f"results written to {json_out}")
     if plot is not None and runs:

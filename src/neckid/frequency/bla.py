@@ -299,7 +299,7 @@ def robust_bla(
     resolution = 2.0 * math.pi / (period * sample_time)
     return BestLinearApproximation(
         lines=lines,
-        omega=lines * resolution,
+        omega=np.asarray(lines * resolution, dtype=np.float64),
         frf=mean,
         noise_variance=noise,
         total_variance=total,

@@ -146,7 +146,7 @@ def distortion_levels(
         noise_power = np.full(output_power.shape, np.nan)
     return DistortionLevels(
         lines=lines,
-        omega=lines * resolution,
+        omega=np.asarray(lines * resolution, dtype=np.float64),
         output_power=output_power,
         noise_power=noise_power,
         n_realisations=m,

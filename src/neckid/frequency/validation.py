@@ -71,7 +71,12 @@ class FrequencyFit:
 
 
 def measured_response(
-    u: FloatArray, y: FloatArray, ts: float, multisine: tuple[int, int, int] | None
+    u: FloatArray,
+    y: FloatArray,
+    ts: float,
+    multisine: tuple[int, int, int] | None,
+    names: tuple[tuple[str, ...], tuple[str, ...]] | None = None,
+    units: tuple[tuple[str, ...], tuple[str, ...]] | None = None,
 ) -> BestLinearApproximation | FrequencyResponse:
     """The robust BLA (``multisine=(M, P, T)``) or the Welch estimate of one input and output."""
     if multisine is None:
@@ -91,6 +96,8 @@ def measured_response(
         n_realisations=m,
         n_periods=p,
         transient_periods=t,
+        names=names,
+        units=units,
     )
 
 
@@ -109,7 +116,7 @@ def model_response(
     scheduled = type(model).__name__ == "GainScheduledModel"
     system = to_control(model, inclination=inclination if scheduled else None)
     response = system.frequency_response(np.asarray(omega, dtype=np.float64), squeeze=False)
-    return np.asarray(response.fresp)[output, input]
+    return np.asarray(response.complex)[output, input]
 
 
 def frequency_fit(
@@ -138,7 +145,9 @@ def frequency_fit(
     (FrequencyFit, the measured response)
     """
     j, i = data.input_names.index(input_name), data.output_names.index(output_name)
-    measured = measured_response(data.u[:, j], data.y[:, i], data.ts, multisine)
+    names = ((input_name,), (output_name,))
+    units = ((data.input_units[j],), (data.output_units[i],))
+    measured = measured_response(data.u[:, j], data.y[:, i], data.ts, multisine, names, units)
     frf, radius = _pair(measured)
     omega = measured.omega
     model_frf, how = None, ""
