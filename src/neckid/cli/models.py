@@ -39,7 +39,7 @@ from neckid.cli.explain import (
     _save_figure,
     _save_panels,
 )
-from neckid.cli.frequency import BODE_HELP, MULTISINE_HELP, bode_validation
+from neckid.cli.frequency import BODE_HELP, MULTISINE_HELP, bode_validation, parse_multisine
 from neckid.cli.in_loop import CONTROLLER_HELP, validate_in_loop
 from neckid.cli.options import (
     LogSpec,
@@ -374,6 +374,7 @@ def validate(
         )
     if bode is not None and (in_loop or adaptation is not None):
         raise ValueError("--bode compares the model's own response; not with --in-loop or --adapt")
+    parse_multisine(multisine)  # a bad --multisine refused before any run
     given = [*logs, model_path]
     for path, option in ((plot, "--plot"), (json_out, "--json"), (bode, "--plot")):
         if path is not None:
