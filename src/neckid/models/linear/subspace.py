@@ -20,12 +20,14 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from threadpoolctl import threadpool_limits
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.excitation import check_excitation
 from neckid.models.facts import StateOrder
 from neckid.models.linear.subspace_order import order_by_folds
+from neckid.models.linear.subspace_refine import refine_free_run
 from neckid.models.linear.subspace_sizes import check_subspace_sizes
 from neckid.models.linear.subspace_steps import (
     STABILITY_MARGIN,
@@ -39,7 +41,6 @@ from neckid.models.linear.subspace_steps import (
     output_error_regression,
     past_future_factor,
     predictor_run,
-    refine_free_run,
     shift_invariance,
     spectral_radius,
     state_space_run,
@@ -95,7 +96,8 @@ class SubspaceStateSpace(Estimator):
         cost on the soft-neck logs (``docs/subspace.md``).
     refine : bool, default True
         Refine all matrices and ``c`` on the free-run error, every run from the state of its
-        first ``horizon`` samples as in :meth:`simulate` (``scipy.optimize.least_squares``);
+        first ``horizon`` samples as in :meth:`simulate` (Levenberg–Marquardt on compiled
+        sensitivities, :mod:`~neckid.models.linear.subspace_refine`);
         kept only if stable and better.
     max_iter : int, default 100
         Function evaluations of the refinement.
@@ -243,6 +245,16 @@ class SubspaceStateSpace(Estimator):
         return su, sy
 
     def _fit_experiments(self, experiments: Sequence[IOData], order: int | str | None) -> None:
+        """:meth:`_identify` with one BLAS thread.
+
+        Its matrices are tall and narrow (windows or samples by at most a few hundred
+        columns), where a second BLAS thread gains little on a quiet machine and, on a busy
+        one, loses many times over to threads waiting for a core (``docs/performance.md``).
+        """
+        with threadpool_limits(limits=1, user_api="blas"):
+            self._identify(experiments, order)
+
+    def _identify(self, experiments: Sequence[IOData], order: int | str | None) -> None:
         su, sy = self._scales(experiments)
         scaled = [(d.u / su, d.y / sy) for d in experiments]
         i = self._horizon(order)

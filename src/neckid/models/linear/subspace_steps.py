@@ -33,9 +33,9 @@ once :math:`A` and :math:`C` are known (Verhaegen & Verdult 2007, section 9.2.4)
    innovations from a long ARX model, then the output error of step 4 regressed on their
    filtered values.
 
-The refinement of the free-run error over all matrices (``scipy.optimize.least_squares``), the
-initial states again from the first samples, is :func:`refine_free_run`. All of it works on signals scaled to unit standard deviation per
-channel; :mod:`.subspace` maps the matrices back.
+The refinement of the free-run error over all matrices, the initial states again from the first
+samples, is :func:`.subspace_refine.refine_free_run`. All of it works on signals scaled to unit
+standard deviation per channel; :mod:`.subspace` maps the matrices back.
 """
 
 from __future__ import annotations
@@ -45,7 +45,6 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 import scipy.linalg
-from scipy.optimize import least_squares
 
 from neckid.utils.types import FloatArray
 
@@ -63,7 +62,6 @@ __all__ = [
     "output_error_regression",
     "past_future_factor",
     "predictor_run",
-    "refine_free_run",
     "shift_invariance",
     "slowest_mode_radius",
     "spectral_radius",
@@ -375,38 +373,24 @@ def _solve_scaled(x: FloatArray, y: FloatArray) -> FloatArray:
     return np.asarray(theta / scale, dtype=np.float64)
 
 
-def _columns(
-    a: FloatArray,
-    c: FloatArray,
-    u: FloatArray,
-    options: tuple[bool, bool],
-    states: FloatArray | None = None,
-) -> FloatArray:
-    """Derivatives of one experiment's free run over ``[A?, B, C?, D?, c?]``, its state fixed.
+def _columns(a: FloatArray, c: FloatArray, u: FloatArray, options: tuple[bool, bool]) -> FloatArray:
+    """Derivatives of one experiment's free run over ``[B, D?, c?]``, its state fixed.
 
     One row per sample and output (time first, as ``y.ravel()``), one column per parameter,
-    in the order of :func:`_unpack`. ``A`` and ``C`` are there when the state trajectory
-    ``states`` is given: ``∂y/∂A_jk`` is the response through state ``j`` to ``x_k(t)``,
-    ``∂y/∂C_ok = x_k(t)`` on output ``o``. The others do not depend on the parameters.
+    in the order of :func:`_unpack` without ``A`` and ``C``; none depends on the parameters.
     """
     feedthrough, intercept = options
     n, p = a.shape[0], c.shape[0]
     m = u.shape[1]
-    given = states is not None
-    sizes = [n * n if given else 0, n * m, p * n if given else 0]
-    sizes += [p * m if feedthrough else 0, p if intercept else 0]
+    sizes = [n * m, p * m if feedthrough else 0, p if intercept else 0]
     edges = np.concatenate([[0], np.cumsum(sizes)])
     columns = np.zeros((u.shape[0], p, int(edges[-1])))
-    if states is not None:
-        columns[:, :, : edges[1]] = _responses(a, c, states).reshape(-1, p, n * n)
-    columns[:, :, edges[1] : edges[2]] = _responses(a, c, u).reshape(-1, p, n * m)
+    columns[:, :, : edges[1]] = _responses(a, c, u).reshape(-1, p, n * m)
     for o in range(p):
-        if states is not None:
-            columns[:, o, edges[2] + o * n : edges[2] + (o + 1) * n] = states
         if feedthrough:
-            columns[:, o, edges[3] + o * m : edges[3] + (o + 1) * m] = u
+            columns[:, o, edges[1] + o * m : edges[1] + (o + 1) * m] = u
     if intercept:
-        columns[:, :, edges[4] : edges[5]] = np.eye(p)
+        columns[:, :, edges[2] : edges[3]] = np.eye(p)
     return columns.reshape(u.shape[0] * p, -1)
 
 
@@ -590,7 +574,7 @@ def kalman_gain(
 def _unpack(
     theta: FloatArray, shape: tuple[int, int, int], feedthrough: bool, intercept: bool
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """``(A, B, C, D, offset)`` from the refinement's parameter vector."""
+    """``(A, B, C, D, offset)`` from the refinement's parameter vector (:mod:`.subspace_refine`)."""
     n, m, p = shape
     sizes = [n * n, n * m, p * n, p * m if feedthrough else 0]
     parts = np.split(theta, np.cumsum(sizes))
@@ -598,90 +582,6 @@ def _unpack(
     d = parts[3].reshape(p, m) if feedthrough else np.zeros((p, m))
     offset = parts[4] if intercept else np.zeros(p)
     return a, b, c, d, offset
-
-
-def refine_free_run(
-    model: tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray],
-    experiments: Sequence[tuple[FloatArray, FloatArray]],
-    feedthrough: bool,
-    intercept: bool,
-    max_iter: int,
-    n_initial: int,
-    radius: float = 1.0 - STABILITY_MARGIN,
-    output_scale: FloatArray | None = None,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-    """All matrices and the offset refined on the free-run error, runs from their first samples.
-
-    ``scipy.optimize.least_squares`` (Levenberg–Marquardt) over the full parametrisation, from
-    the subspace estimate. Each run starts, as in use, from the least-squares state of its
-    first ``n_initial`` samples under the current matrices, and its error counts from there
-    on. The Jacobian is that of the forward sensitivities (:func:`_columns`) with the initial
-    state's share taken out (:func:`_after_initial`), the derivative of ``pinv(O_m)`` times
-    the residual of the first samples left out (Kaufman's 1975 approximation in variable
-    projection). A step whose ``A`` has an eigenvalue beyond ``radius`` (unstable, or slower
-    than the records show settling, :func:`slowest_mode_radius`) gets a large residual; the
-    result is kept only if it stays within ``radius`` and lowers the sum of squares, otherwise
-    the estimate comes back unchanged. ``output_scale``: see :func:`initial_state_solver`.
-    """
-    limit = radius * (1.0 + 1e-9)  # the start may sit on the circle bound_modes moved it to
-    a, b, c, d, offset = model
-    n, m, p = a.shape[0], b.shape[1], c.shape[0]
-    shape = (n, m, p)
-    parts = [a.ravel(), b.ravel(), c.ravel()]
-    parts += [d.ravel()] if feedthrough else []
-    parts += [offset] if intercept else []
-    theta0 = np.concatenate(parts)
-    y_all = np.concatenate([y[n_initial:].ravel() for _, y in experiments])
-    penalty = 1e3 * (1.0 + float(np.max(np.abs(y_all))))
-
-    def residual(theta: FloatArray) -> FloatArray:
-        matrices = _unpack(theta, shape, feedthrough, intercept)
-        if spectral_radius(matrices[0]) > limit:
-            return np.full(y_all.size, penalty)
-        with np.errstate(all="ignore"):
-            starts = initial_states(matrices, experiments, n_initial, output_scale)
-            runs = [
-                state_space_run(*matrices, u, x)[0][n_initial:].ravel()
-                for (u, _), x in zip(experiments, starts, strict=True)
-            ]
-        error = np.concatenate(runs) - y_all
-        return np.clip(np.nan_to_num(error, nan=penalty), -penalty, penalty)
-
-    def jacobian(theta: FloatArray) -> FloatArray:
-        matrices = _unpack(theta, shape, feedthrough, intercept)
-        a_, b_, c_ = matrices[:3]
-        eye, none, skip = np.eye(n), np.zeros((n, m)), n_initial * p
-        blocks = []
-        with np.errstate(all="ignore"):
-            solver = initial_state_solver(a_, c_, n_initial, output_scale)
-            starts = initial_states(matrices, experiments, n_initial, output_scale)
-            for (u, _), x in zip(experiments, starts, strict=True):
-                states = state_space_run(a_, b_, eye, none, np.zeros(n), u, x)[0]
-                columns = _columns(a_, c_, u, (feedthrough, intercept), states)
-                free = _free_response(a_, c_, u.shape[0]).reshape(-1, n)
-                blocks.append(_after_initial(columns, free, solver, skip))
-        return np.nan_to_num(np.vstack(blocks), nan=0.0, posinf=penalty, neginf=-penalty)
-
-    if theta0.size > y_all.size:  # scipy's "lm" would refuse in its own words
-
-        def unknowns(k: int) -> int:
-            return k * k + k * m + p * k + (p * m if feedthrough else 0) + (p if intercept else 0)
-
-        fits = [k for k in range(1, n + 1) if unknowns(k) <= y_all.size]
-        raise ValueError(
-            f"order {n} has {theta0.size} parameters to refine on the free-run error, more than"
-            f" the {y_all.size} output values the logs give after their first {n_initial}"
-            f" samples: give an order of at most {max(fits, default=0)}, or longer logs"
-        )
-    start = float(np.sum(residual(theta0) ** 2))
-    fitted = least_squares(
-        residual, theta0, jac=jacobian, method="lm", x_scale="jac", max_nfev=max_iter
-    )
-    refined = _unpack(fitted.x, shape, feedthrough, intercept)
-    inside = spectral_radius(refined[0]) <= min(limit, 1.0 - STABILITY_MARGIN)
-    if inside and 2.0 * fitted.cost < start:
-        return refined
-    return model
 
 
 # ============================================================================ initial state
