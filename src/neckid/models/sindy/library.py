@@ -69,16 +69,20 @@ class Library:
         x: FloatArray,
         functions: Mapping[str, Callable[..., object]] | None = None,
         rows: IntArray | None = None,
+        hold: tuple[FloatArray, FloatArray] | None = None,
     ) -> FloatArray:
         """The library's columns at the regressor rows ``x``: ``(n_rows, n_functions)``.
 
         ``rows`` picks library functions (all by default); ``functions`` are the user functions
-        by name (needed when the library has some).
+        by name (needed when the library has some); with ``hold = (low, high)`` the monomials of
+        degree >= 2 take each term clipped into ``[low_j, high_j]``.
         """
         picked = np.arange(self.size) if rows is None else np.asarray(rows, dtype=np.int64)
+        held = x if hold is None else np.clip(x, hold[0], hold[1])
         out = np.empty((x.shape[0], picked.size))
         for i, k in enumerate(picked):
-            out[:, i] = self._column(x, int(k), functions)
+            source = held if int(self.powers[k].sum()) >= 2 else x
+            out[:, i] = self._column(source, int(k), functions)
         return out
 
     def _column(

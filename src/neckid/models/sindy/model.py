@@ -93,6 +93,11 @@ class SparseNARX(NarxModel):
         Bags of the bootstrap (0: none); they give :attr:`coef_interval_` and :attr:`inclusion_`.
     random_state : int, default 0
         Seed of the bootstrap.
+    hold_margin : float, default 0.5
+        As for :class:`~neckid.PolynomialNARX`: the monomials of degree >= 2 take each term held
+        inside its training range widened by this fraction of it on each side; beyond, only the
+        linear terms keep growing (a cubic that leaves the data diverges in free run). Inside
+        that range the equation is the identified one.
 
     Attributes
     ----------
@@ -106,6 +111,8 @@ class SparseNARX(NarxModel):
         Root mean square of each library column on the training rows.
     y_scale_ : ndarray, shape (n_outputs,)
         Standard deviation of each output on the training rows.
+    hold_low_, hold_high_ : ndarray, shape (n_terms,)
+        Where the monomials of degree >= 2 hold each regressor term (see ``hold_margin``).
     threshold_ : float
         The threshold used (chosen or given).
     selection_ : dict
@@ -147,6 +154,7 @@ class SparseNARX(NarxModel):
         "max_iter": [Interval("int", 1, None)],
         "ensemble": [Interval("int", 0, None)],
         "random_state": [Interval("int", 0, None)],
+        "hold_margin": [Interval("real", 0, None)],
     }
 
     def __init__(
@@ -162,6 +170,7 @@ class SparseNARX(NarxModel):
         max_iter: int = 200,
         ensemble: int = 0,
         random_state: int = 0,
+        hold_margin: float = 0.5,
     ) -> None:
         self.lags = lags
         self.degree = degree
@@ -173,6 +182,7 @@ class SparseNARX(NarxModel):
         self.max_iter = max_iter
         self.ensemble = ensemble
         self.random_state = random_state
+        self.hold_margin = hold_margin
 
     # ------------------------------------------------------------------ fitting
     def _candidate_thresholds(self) -> list[float]:
@@ -199,6 +209,8 @@ class SparseNARX(NarxModel):
         self.library_ = build_library(
             self.lags_.n_terms, int(self.degree), frequencies, self._function_names()
         )
+        margin = float(self.hold_margin) * (x.max(axis=0) - x.min(axis=0))
+        self.hold_low_, self.hold_high_ = x.min(axis=0) - margin, x.max(axis=0) + margin
         total = self._sums(x, y)
         self.scale_ = total.column_rms()
         self.y_scale_ = total.y_std()
@@ -233,7 +245,7 @@ class SparseNARX(NarxModel):
 
     def _sums(self, x: FloatArray, y: FloatArray, weights: FloatArray | None = None) -> Sums:
         def columns(rows: FloatArray) -> FloatArray:
-            return self.library_.evaluate(rows, self.functions)
+            return self.library_.evaluate(rows, self.functions, hold=self._hold())
 
         return Sums.of_rows(columns, x, y, weights)
 
@@ -346,7 +358,8 @@ class SparseNARX(NarxModel):
         if not lib.compiled:  # user functions: Python, one step at a time
             for t in range(r.max_lag, y.shape[0]):
                 w = r.regressor_from_history(y, u, t)[None, :]
-                step = _sum_terms(lib.evaluate(w, self.functions, kept), coef[kept])[0]
+                theta = lib.evaluate(w, self.functions, kept, self._hold())
+                step = _sum_terms(theta, coef[kept])[0]
                 y[t] = np.clip(step, low, high)
             return y
         sparse_free_run(
@@ -361,6 +374,8 @@ class SparseNARX(NarxModel):
             lib.frequency[kept],
             np.ascontiguousarray(coef[kept]),
             r.max_lag,
+            self.hold_low_,
+            self.hold_high_,
             low,
             high,
         )
@@ -368,7 +383,11 @@ class SparseNARX(NarxModel):
 
     def _predict_rows(self, x: FloatArray) -> FloatArray:
         kept = self._kept()
-        return _sum_terms(self.library_.evaluate(x, self.functions, kept), self.coef_[kept])
+        theta = self.library_.evaluate(x, self.functions, kept, self._hold())
+        return _sum_terms(theta, self.coef_[kept])
+
+    def _hold(self) -> tuple[FloatArray, FloatArray]:
+        return self.hold_low_, self.hold_high_
 
     def simulate(self, data: IOData, initial: ArrayLike | None = None) -> ModelResult:
         """Free-run simulation (compiled unless the library has user functions)."""
@@ -414,6 +433,8 @@ class SparseNARX(NarxModel):
             "scale": self.scale_,
             "y_scale": self.y_scale_,
             "coef_bags": self.coef_bags_,
+            "hold_low": self.hold_low_,
+            "hold_high": self.hold_high_,
             **self.library_.to_arrays(),
         }
         meta = {
@@ -428,6 +449,7 @@ class SparseNARX(NarxModel):
                 "max_iter": int(self.max_iter),
                 "ensemble": int(self.ensemble),
                 "random_state": int(self.random_state),
+                "hold_margin": float(self.hold_margin),
             },
             "threshold": float(self.threshold_),
             "selection": self.selection_,
@@ -449,6 +471,8 @@ class SparseNARX(NarxModel):
         model.scale_ = np.asarray(arrays["scale"], dtype=np.float64)
         model.y_scale_ = np.asarray(arrays["y_scale"], dtype=np.float64)
         model.coef_bags_ = np.asarray(arrays["coef_bags"], dtype=np.float64)
+        model.hold_low_ = np.asarray(arrays["hold_low"], dtype=np.float64)
+        model.hold_high_ = np.asarray(arrays["hold_high"], dtype=np.float64)
         n_kind = np.asarray(arrays["library_kind"]).shape[0]
         model.library_ = Library(
             np.asarray(arrays["library_kind"], dtype=np.int64),

@@ -141,6 +141,10 @@ def check_library(model: Any) -> None:
     model._check_shape("allowed", model.allowed_, (p,))
     model._check_shape("scale", model.scale_, (p,))
     model._check_shape("y_scale", model.y_scale_, (n_out,))
+    model._check_shape("hold_low", model.hold_low_, (n_terms,))
+    model._check_shape("hold_high", model.hold_high_, (n_terms,))
+    if not np.all(model.hold_low_ <= model.hold_high_):
+        raise ValueError("hold_low must be <= hold_high")
     if model.coef_bags_.ndim != 3 or model.coef_bags_.shape[1:] != (p, n_out):
         raise ValueError(
             f"coef_bags must have shape (bags, {p}, {n_out}); got {model.coef_bags_.shape}"
