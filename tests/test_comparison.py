@@ -12,6 +12,7 @@ from typer.testing import CliRunner
 import neckid
 from neckid import IOData, Lags, LinearARX
 from neckid.cli import app
+from neckid.data.training import TrainingSet
 from neckid.selection.comparison import compare, select_safely, stretched, time_blocks
 
 
@@ -141,7 +142,7 @@ def test_the_stress_check_reaches_as_far_as_the_test_inputs() -> None:
     train, test = _run(1), _run(3)
     wide = test.replace(u=3.0 * test.u)  # the test inputs go well beyond the training range
     result = compare([train], [wide], methods=["arx"], lags=Lags.arx(1, 1))
-    reach = neckid.selection.comparison.input_reach([train], [wide])
+    reach = TrainingSet.of([train]).input_reach([wide])
     assert reach > 1.0
     assert any(f"stretched {reach:.0%}" in r for r in result.reasons)
     two = [Lags.arx(1, 1), Lags.arx(2, 2)]

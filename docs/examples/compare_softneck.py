@@ -34,9 +34,10 @@ from sklearn.base import clone
 
 import neckid
 from neckid import Lags, ParallelSetMembership
+from neckid.data.training import TrainingSet
 from neckid.experiments.benchmark.datasets import load_softneck_cross_run
 from neckid.metrics import fit_percent
-from neckid.selection.comparison import COMPLEXITY, input_reach
+from neckid.selection.comparison import COMPLEXITY
 
 #: Every method measured in ``docs/compare.md`` ("Measured on the real neck").
 DEFAULT_METHODS = (
@@ -92,7 +93,7 @@ def main(argv: list[str] | None = None) -> None:
         bench = load_softneck_cross_run(f"{args.data_dir}/softneck", f"softneck-{split}")
         tests = list(bench.tests.values())
         started = time.perf_counter()
-        reach = max(0.1, input_reach(bench.train, tests))
+        reach = max(0.1, TrainingSet.of(bench.train).input_reach(tests))
         selection = neckid.select_safely(
             [(name, estimator) for name, (estimator, _) in options.items()],
             bench.train,

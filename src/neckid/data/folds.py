@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from neckid.data.iodata import IOData
+from neckid.data.iodata import IOData, as_experiments
 from neckid.utils.types import BoolArray, FloatArray
 
 __all__ = [
@@ -56,6 +56,7 @@ __all__ = [
     "fold_plan",
     "fold_records",
     "fold_statistics",
+    "holdout_plan",
     "input_period",
     "one_standard_error",
     "period_average",
@@ -279,6 +280,76 @@ def fold_plan(
         names.extend([p.name or f"train[{i}]"] for p in parts)
     scheme = "leave-one-experiment-out" if blocks < 2 else "experiments × time-blocks"
     return FoldPlan(tuple(splits_list), names, scheme)
+
+
+def _experiment_folds(n: int, folds: int | None) -> tuple[list[list[int]], str]:
+    """The held-out experiments of every fold: experiment ``i`` is held out in fold ``i mod k``."""
+    if n < 2:
+        raise ValueError(
+            "validation is None, so the candidates are scored on held-out experiments"
+            " (leave-one-experiment-out), which needs train to be a list of at least 2"
+            f" experiments; got {n}. Give validation records, or train as a list of experiments"
+        )
+    if folds is None:
+        k = n
+    elif isinstance(folds, bool) or not isinstance(folds, int | np.integer):
+        raise TypeError(f"folds must be an int or None; got {folds!r}")
+    elif not 2 <= folds <= n:
+        raise ValueError(
+            f"folds must be in [2, {n}] (the number of experiments in train), or None for"
+            f" leave-one-experiment-out; got {folds}"
+        )
+    else:
+        k = int(folds)
+    held_out = [list(range(j, n, k)) for j in range(k)]
+    return held_out, "leave-one-experiment-out" if k == n else "grouped-k-fold"
+
+
+def holdout_plan(
+    train: list[IOData],
+    validation: IOData | Sequence[IOData] | None,
+    folds: int | None,
+    blocks: int | None = 1,
+) -> FoldPlan:
+    """The folds of :func:`neckid.selection.lags.score_candidates`: every fit, its folds, the scheme.
+
+    ``validation`` given: one fold, fitted on ``train`` and scored on ``validation``
+    (``"validation"``). Otherwise held-out experiments of ``train``: fold ``j`` of ``folds``
+    (default one per experiment) holds out the experiments ``i`` with ``i mod folds == j``
+    (``"leave-one-experiment-out"`` or ``"grouped-k-fold"``); ``blocks`` other than 1 (and
+    ``folds=None``) scores every held-out experiment in time blocks (:func:`fold_plan`; ``None``:
+    its rule).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> logs = [IOData(np.zeros(60), np.zeros(60), ts=0.1, name=f"run{i}") for i in range(4)]
+    >>> plan = holdout_plan(logs, None, 2)
+    >>> plan.scheme, plan.names
+    ('grouped-k-fold', [['run0', 'run2'], ['run1', 'run3']])
+    """
+    if validation is None:
+        if folds is None and len(train) >= 2 and blocks != 1:
+            return fold_plan(train, blocks=blocks)
+        held_out, scheme = _experiment_folds(len(train), folds)
+        splits = tuple(
+            Split(
+                tuple(d for i, d in enumerate(train) if i not in fold),
+                (tuple(train[i] for i in fold),),
+            )
+            for fold in held_out
+        )
+        held_names = [[train[i].name or f"train[{i}]" for i in f] for f in held_out]
+        return FoldPlan(splits, held_names, scheme)
+    if folds is not None:
+        raise ValueError(
+            f"folds applies only when validation is None; got folds={folds!r} and validation"
+            " records: drop one of them"
+        )
+    records = as_experiments(validation, "validation")
+    as_experiments([train[0], records[0]], "[train[0], validation[0]]")
+    names = [d.name or f"validation[{i}]" for i, d in enumerate(records)]
+    return FoldPlan((Split(tuple(train), (tuple(records),)),), [names], "validation")
 
 
 def _blocks_of(record: IOData, blocks: int) -> list[IOData]:

@@ -51,13 +51,12 @@ from sklearn.base import clone
 from neckid.data.folds import (
     MIN_BLOCKS,
     Ranking,
-    fold_records,
     fold_statistics,
     rank_candidates,
-    refuse_resting_runs,
     time_blocks,
 )
-from neckid.data.iodata import IOData, as_experiments
+from neckid.data.iodata import IOData
+from neckid.data.training import TrainingSet
 from neckid.metrics import coverage, fit_percent, mean_width, rmse
 from neckid.models.adapted import adaptation_label, adapted_run, check_adaptation, diverged_rows
 from neckid.models.bands import band_meaning
@@ -65,7 +64,7 @@ from neckid.models.base import DivergenceError, ModelResult
 from neckid.registry import get_method, methods
 from neckid.regressors import Lags
 from neckid.selection.baselines import baseline_candidates, baseline_warnings
-from neckid.selection.lags import score_candidates
+from neckid.selection.lags import score_plan
 from neckid.utils.progress import task
 
 __all__ = [
@@ -73,8 +72,6 @@ __all__ = [
     "Comparison",
     "SafeSelection",
     "compare",
-    "input_reach",
-    "outside_training_range",
     "select_safely",
     "stretched",
     "time_blocks",
@@ -88,32 +85,6 @@ COMPLEXITY: Mapping[str, int] = MappingProxyType({m.name: m.complexity for m in 
 #: singular values): one candidate each, not one per lag set
 #: (:attr:`~neckid.registry.Method.lag_free`).
 LAG_FREE_METHODS = frozenset(m.name for m in methods().values() if m.lag_free)
-
-
-def input_reach(train: Sequence[IOData], tests: Sequence[IOData]) -> float:
-    """How far the test inputs go beyond the training inputs' range, as a share of its half-width.
-
-    0 when every test input stays inside; 0.5 when one goes half the half-width beyond an end
-    (the ``stress`` of :func:`stretched` that reaches it). A constant training input is left out.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> train = IOData(np.linspace(-1.0, 1.0, 20), np.zeros(20), ts=0.1)
-    >>> input_reach([train], [IOData(np.linspace(-1.5, 0.0, 20), np.zeros(20), ts=0.1)])
-    0.5
-    """
-    u = np.vstack([d.u for d in train])
-    low, high = u.min(axis=0), u.max(axis=0)
-    middle, half = 0.5 * (low + high), 0.5 * (high - low)
-    varied = half > 0
-    reach = 0.0
-    for record in tests:
-        if not record.n_samples or not varied.any():
-            continue
-        extent = np.abs(record.u - middle).max(axis=0)
-        reach = max(reach, float(np.max(extent[varied] / half[varied] - 1.0)))
-    return reach
 
 
 def stretched(data: IOData, stress: float) -> IOData:
@@ -224,10 +195,6 @@ class SafeSelection:
         return out
 
 
-def _folds_of(train: list[IOData], n_blocks: int) -> tuple[list[IOData], str]:
-    return fold_records(train, n_blocks)
-
-
 def _n_terms(estimator: Any, data: IOData) -> int:
     lags = estimator.get_params().get("lags")
     if not isinstance(lags, Lags):
@@ -235,14 +202,14 @@ def _n_terms(estimator: Any, data: IOData) -> int:
     return lags.resolve(lags.conditioned(data)).n_terms  # conditions as the model adds them
 
 
-def _stress_reason(estimator: Any, train: list[IOData], stress: float) -> str:
-    """Why the candidate fitted on all of ``train`` runs away on stretched inputs ('' if not)."""
+def _stress_reason(estimator: Any, logs: TrainingSet, stress: float) -> str:
+    """Why the candidate fitted on all training runs runs away on stretched inputs ('' if not)."""
     model = clone(estimator)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model.fit(train if len(train) > 1 else train[0])
-            for record in train:
+            model.fit(logs.fit_data())
+            for record in logs.experiments:
                 model.simulate(stretched(record, stress))
     except DivergenceError as exc:
         return f"runs away with inputs {stress:.0%} beyond the training range: {exc}"
@@ -346,35 +313,51 @@ def select_safely(
         raise ValueError(f"candidate names must differ; got {names}")
     if not math.isfinite(float(stress)) or stress < 0:
         raise ValueError(f"stress must be a finite number >= 0; got {stress!r}")
-    experiments = as_experiments(train, "train")
-    records, scheme = _folds_of(experiments, n_blocks)
+    ranks = {name: int((complexity or {}).get(name, 0)) for name in names}
+    logs = TrainingSet.of(train, n_blocks)
+    return _select(options, logs, ranks, stress, n_initial, n_jobs, backend, progress, adapt)
+
+
+def _select(
+    options: list[tuple[str, Any]],
+    logs: TrainingSet,
+    ranks: Mapping[str, int],
+    stress: float,
+    n_initial: int | None,
+    n_jobs: int | None,
+    backend: str | None,
+    progress: bool,
+    adapt: tuple[float, str] | None,
+) -> SafeSelection:
+    """:func:`select_safely` on logs checked and cut once (:class:`~neckid.data.training.TrainingSet`)."""
+    names = [name for name, _ in options]
     references = baseline_candidates()
-    scored = score_candidates(
+    # The regressor's terms, bound to the runs' channels (the tie-break toward fewer terms).
+    terms = [_n_terms(estimator, logs.experiments[0]) for _, estimator in options]
+    scored = score_plan(
         [*options, *references],
-        records,
+        logs.plan,
+        logs.output_names,
         criteria=["simulation"],
         n_initial=n_initial,
         n_jobs=n_jobs,
         backend=backend,
         progress=progress,
-        blocks_per_log=None if len(experiments) >= 2 else 1,
         adapt=adapt,
     )
     fold_fits = scored.fold_fits["fit_simulation"]
-    ranks = [int((complexity or {}).get(name, 0)) for name in names]
-    terms = [_n_terms(estimator, experiments[0]) for _, estimator in options]
     rows = []
     for i, (name, estimator) in enumerate(options):
         fits = np.asarray(fold_fits[i], dtype=np.float64)
         reason = str(scored.table.at[i, "error"])
         if not reason and stress > 0:
-            reason = _stress_reason(estimator, experiments, stress)
+            reason = _stress_reason(estimator, logs, stress)
         mean, se, worst = fold_statistics(fits)
         finite = bool(np.isfinite(mean))
         rows.append(
             {
                 "name": name,
-                "complexity": ranks[i],
+                "complexity": ranks[name],
                 "n_terms": terms[i],
                 "fit_mean": mean,
                 "fit_se": se,
@@ -393,7 +376,7 @@ def select_safely(
     return SafeSelection(
         table,
         chosen,
-        scored.scheme if len(experiments) >= 2 else scheme,
+        logs.plan.scheme,
         list(scored.folds),
         ranking.bar,
         ranking,
@@ -515,27 +498,6 @@ def _outside_domain(model: Any, data: IOData) -> float:
             values = data.channel(name)
             outside |= (values < low) | (values > high)
     return float(outside.mean()) if data.n_samples else 0.0
-
-
-def outside_training_range(train: Sequence[IOData], record: IOData) -> float:
-    """Share of ``record``'s samples at which some channel lies outside its training range.
-
-    The range of every input and output channel over all training logs: a property of the
-    data, the same for every method (the model's own domain is :func:`_outside_domain`).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> train = IOData(np.linspace(0.0, 1.0, 10), np.linspace(0.0, 2.0, 10), ts=0.1)
-    >>> outside_training_range([train], IOData(np.linspace(0.5, 1.5, 10), np.ones(10), ts=0.1))
-    0.4
-    """
-    outside = np.zeros(record.n_samples, dtype=bool)
-    for name in (*record.input_names, *record.output_names):
-        values = np.concatenate([d.channel(name) for d in train])
-        seen = record.channel(name)
-        outside |= (seen < values.min()) | (seen > values.max())
-    return float(outside.mean()) if record.n_samples else 0.0
 
 
 def _test_rows(
@@ -718,28 +680,20 @@ def compare(
     regressors = (
         [Lags.arx(2, 2, 1)] if lags is None else ([lags] if isinstance(lags, Lags) else list(lags))
     )
-    experiments = as_experiments(train, "train")
-    tests = as_experiments(test, "test")
-    refuse_resting_runs(tests, "test log")
-    as_experiments([experiments[0], tests[0]], "[train[0], test[0]]")
+    logs = TrainingSet.of(train, n_blocks, tests=test)
     if adapt is not None:
         adapt = check_adaptation(*adapt)
     options, method_of, lags_of = _candidates(methods, regressors, seed)
     # The stress check reaches as far as the test inputs go beyond the training range: the
     # inputs the models will be run on are known (their outputs are not looked at).
-    reach = max(float(stress), input_reach(experiments, tests)) if stress > 0 else 0.0
-    selection = select_safely(
-        options,
-        experiments,
-        n_blocks=n_blocks,
-        stress=reach,
-        complexity={name: COMPLEXITY.get(method_of[name], 99) for name, _ in options},
-        n_jobs=n_jobs,
-        progress=progress,
-        adapt=adapt,
-    )
+    reach = max(float(stress), logs.input_reach(logs.tests)) if stress > 0 else 0.0
+    if not math.isfinite(reach):
+        raise ValueError(f"stress must be a finite number >= 0; got {stress!r}")
+    ranks = {name: COMPLEXITY.get(method_of[name], 99) for name, _ in options}
+    selection = _select(options, logs, ranks, reach, None, n_jobs, None, progress, adapt)
     table = selection.table
-    reaches = {record.name: outside_training_range(experiments, record) for record in tests}
+    tests = logs.tests
+    reaches = {record.name: logs.outside_range(record) for record in tests}
     models, settings, rows = {}, {}, []
     runs: list[dict[str, ModelResult]] = [{} for _ in tests]
     for method in dict.fromkeys(method_of.values()):
@@ -752,7 +706,7 @@ def compare(
         fitting = f"fitting {name} on every training log, for the test logs"  # a progress line
         with warnings.catch_warnings(), task(fitting):
             warnings.simplefilter("ignore")
-            models[method] = estimator.fit(experiments if len(experiments) > 1 else experiments[0])
+            models[method] = estimator.fit(logs.fit_data())
         for record, by_method in zip(tests, runs, strict=True):
             made, result = (
                 _test_rows(method, models[method], record, reaches[record.name])

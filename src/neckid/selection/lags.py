@@ -33,9 +33,8 @@ from sklearn.base import clone
 from neckid.data.folds import (
     FoldPlan,
     Ranking,
-    Split,
-    fold_plan,
     fold_records,
+    holdout_plan,
     rank_candidates,
     refuse_resting_runs,
 )
@@ -58,6 +57,7 @@ __all__ = [
     "lag_grid",
     "lipschitz_quotients",
     "score_candidates",
+    "score_plan",
     "select_lags",
 ]
 
@@ -434,64 +434,6 @@ def _fit_and_score(
     return rows
 
 
-def _experiment_folds(n: int, folds: int | None) -> tuple[list[list[int]], Scheme]:
-    """The held-out experiments of every fold: experiment ``i`` is held out in fold ``i mod k``."""
-    if n < 2:
-        raise ValueError(
-            "validation is None, so the candidates are scored on held-out experiments"
-            " (leave-one-experiment-out), which needs train to be a list of at least 2"
-            f" experiments; got {n}. Give validation records, or train as a list of experiments"
-        )
-    if folds is None:
-        k = n
-    elif isinstance(folds, bool) or not isinstance(folds, int | np.integer):
-        raise TypeError(f"folds must be an int or None; got {folds!r}")
-    elif not 2 <= folds <= n:
-        raise ValueError(
-            f"folds must be in [2, {n}] (the number of experiments in train), or None for"
-            f" leave-one-experiment-out; got {folds}"
-        )
-    else:
-        k = int(folds)
-    held_out = [list(range(j, n, k)) for j in range(k)]
-    return held_out, "leave-one-experiment-out" if k == n else "grouped-k-fold"
-
-
-def _splits(
-    train: list[IOData],
-    validation: IOData | Sequence[IOData] | None,
-    folds: int | None,
-    blocks: int | None = 1,
-) -> FoldPlan:
-    """Every fit with the folds it is scored on, their names and the scheme.
-
-    ``blocks``: time blocks per held-out experiment (``None``: :func:`~neckid.data.folds.fold_plan`'s
-    rule); only with leave-one-experiment-out.
-    """
-    if validation is None:
-        if folds is None and len(train) >= 2 and blocks != 1:
-            return fold_plan(train, blocks=blocks)
-        held_out, scheme = _experiment_folds(len(train), folds)
-        splits = tuple(
-            Split(
-                tuple(d for i, d in enumerate(train) if i not in fold),
-                (tuple(train[i] for i in fold),),
-            )
-            for fold in held_out
-        )
-        held_names = [[train[i].name or f"train[{i}]" for i in f] for f in held_out]
-        return FoldPlan(splits, held_names, scheme)
-    if folds is not None:
-        raise ValueError(
-            f"folds applies only when validation is None; got folds={folds!r} and validation"
-            " records: drop one of them"
-        )
-    records = as_experiments(validation, "validation")
-    as_experiments([train[0], records[0]], "[train[0], validation[0]]")
-    names = [d.name or f"validation[{i}]" for i, d in enumerate(records)]
-    return FoldPlan((Split(tuple(train), (tuple(records),)),), [names], "validation")
-
-
 def _combine_folds(
     folds: list[dict[str, Any]], kinds: Sequence[Criterion], output_names: Sequence[str]
 ) -> dict[str, Any]:
@@ -657,7 +599,41 @@ def score_candidates(
         if not (isinstance(option, tuple) and len(option) == 2 and isinstance(option[0], str)):
             raise TypeError(f"candidates[{i}] must be a (name, estimator) pair; got {option!r}")
     train_list = as_experiments(train, "train")
-    plan = _splits(train_list, validation, folds, blocks_per_log)
+    plan = holdout_plan(train_list, validation, folds, blocks_per_log)
+    return score_plan(
+        options,
+        plan,
+        train_list[0].output_names,
+        criteria=kinds,
+        n_initial=n_initial,
+        n_jobs=n_jobs,
+        backend=backend,
+        progress=progress,
+        adapt=adapt,
+    )
+
+
+def score_plan(
+    candidates: Sequence[tuple[str, Any]],
+    plan: FoldPlan,
+    output_names: Sequence[str],
+    *,
+    criteria: Sequence[Criterion] = ("prediction", "simulation"),
+    n_initial: int | None = None,
+    n_jobs: int | None = None,
+    backend: str | None = None,
+    progress: bool = False,
+    adapt: tuple[float, str] | None = None,
+) -> CandidateScores:
+    """:func:`score_candidates` on folds already cut (:func:`~neckid.data.folds.fold_plan`).
+
+    ``candidates`` as checked by :func:`score_candidates`; ``output_names`` the records'
+    output channels (the per-output columns). The other parameters and the result are those
+    of :func:`score_candidates`.
+    """
+    options, kinds = list(candidates), list(criteria)
+    shown = progress_label(len(options), plan.splits)
+    units = progress_units(options, plan.splits)  # what runs and the time left, by cost
     jobs = (
         delayed(_fit_and_score)(name, estimator, split.fit_on, split.folds, kinds, n_initial, adapt)
         for name, estimator in options
@@ -669,15 +645,14 @@ def score_candidates(
         n_jobs=n_jobs,
         backend=backend,
         progress=progress,
-        label=progress_label(len(options), plan.splits),
-        units=progress_units(options, plan.splits),  # what runs and the time left, by cost
+        label=shown,
+        units=units,
     )
     per_candidate = len(plan.splits)
     fold_rows = [
         [row for rows in split_rows[i * per_candidate : (i + 1) * per_candidate] for row in rows]
         for i in range(len(options))
     ]
-    output_names = train_list[0].output_names
     rows = [_combine_folds(candidate, kinds, output_names) for candidate in fold_rows]
     columns = ["candidate", "name"]
     for kind in kinds:
@@ -866,9 +841,9 @@ def select_lags(
     if validation is None and folds is None and len(train_list) == 1:
         # one record: contiguous time blocks (of one period if periodic), each held out
         train_list, block_scheme = fold_records(train_list)
-        plan = replace(_splits(train_list, None, None, 1), scheme=block_scheme)
+        plan = replace(holdout_plan(train_list, None, None, 1), scheme=block_scheme)
     else:
-        plan = _splits(train_list, validation, folds, blocks)
+        plan = holdout_plan(train_list, validation, folds, blocks)
     rows: list[dict[str, Any]] = []
     for i, lags in enumerate(lag_list):
         row: dict[str, Any] = {"candidate": i, "lags": repr(lags), "max_lag": lags.max_lag}
@@ -884,15 +859,13 @@ def select_lags(
         (row["lags"], clone(estimator).set_params(lags=lag_list[row["candidate"]]))
         for row in fitted
     ]
-    scores = score_candidates(
+    scores = score_plan(  # on the folds just cut: they are cut once
         [*options, *baseline_candidates()],
-        train_list,
-        validation,
+        plan,
+        train_list[0].output_names,
         n_jobs=n_jobs,
         progress=progress,
-        folds=folds,
         backend=backend,
-        blocks_per_log=blocks,
     )
     records = scores.table.to_dict(orient="records")
     for row, score, fits in zip(fitted, records, scores.fold_fits[column], strict=False):
