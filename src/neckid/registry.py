@@ -264,6 +264,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=6,
         unit_cost=8.0,
         describer="neckid.export.describe:describe_neural",
+        c_export="neckid.export.c.neural:c_neural",
     ),
     Method(
         "scheduled",
