@@ -225,3 +225,71 @@ def test_tighten_needs_a_limit_and_logs(tmp_path: Path) -> None:
         app, ["design", str(model), "--mpc", "--tighten", str(model), "--out", out]
     )
     assert result.exit_code == 2 and "give --output-max or --output-min" in result.output
+
+
+class _Neckish:
+    """A neck-like plant the linear model gets wrong: a motor that integrates, a sine in the gain."""
+
+    def __init__(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.reset()
+
+    def reset(self) -> None:
+        self.p, self.y = 0.0, 0.0
+        self.motor_position, self.motor_velocity = np.zeros(1), np.zeros(1)
+
+    def step(self, u):
+        noise = self.rng.uniform(-0.02, 0.02)  # bounded: the SM prior can hold
+        self.y = 0.8 * self.y + 0.2 * (8.0 * self.p + 1.5 * np.sin(2.0 * self.p)) + noise
+        self.p += TS * float(u[0])
+        self.motor_position, self.motor_velocity = np.array([self.p]), np.array([float(u[0])])
+        return [self.y]
+
+
+class _Proportional:
+    ts = TS
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, reference, measurement):
+        return np.array([np.clip(0.8 * (reference - measurement), -4.0, 4.0)])
+
+
+def test_sm_tightening_bounds_the_prediction_error_and_keeps_a_limit() -> None:
+    from neckid.design.mpc import band_tightening, controller_predictions
+    from neckid.models.set_membership.multistep import MultiStepSetMembership
+
+    rng = np.random.default_rng(0)
+    logs = [
+        closed_loop(_Neckish(s), _Proportional(), np.repeat(rng.uniform(0, 20, 30), 60), TS)
+        for s in (1, 2)
+    ]
+    views = [log.select(inputs=["motor_position"], outputs=["inclination"]) for log in logs]
+    form = linear_form(LinearARX(Lags(outputs=[1], inputs=[1])).fit(views))
+    nominal = mpc_problem(form, horizon=8)
+    sm = MultiStepSetMembership(
+        Lags(outputs=[1], inputs=[1]),
+        horizon=9,
+        epsilon_factor=2.0,
+        input_weight=1.0,
+        lipschitz="global",
+    ).fit(views)
+    tight = band_tightening(nominal, sm, logs)
+    assert np.all(tight.tightening >= tight.half_width) and tight.coverage.min() == 1.0
+    # where the measurement is in the band, the controller's prediction is within w_j of it
+    predictions = controller_predictions(nominal, logs[0])
+    y = logs[0].channel("inclination")
+    for j in (0, 7):
+        steps = j + 1 + nominal.delay
+        error = np.abs(y[steps:] - predictions[:-steps, nominal.delay + j])
+        assert np.nanmax(error) <= tight.tightening[j] + 1e-9
+        assert np.nanmax(error) > 0.2 * tight.tightening[j]  # not loose by orders
+    reference = np.repeat([5.0, 10.0, 15.0, 10.0, 15.0], 100)
+    peaks = {}
+    for name, tightening in (("nominal", None), ("tightened", tight.tightening)):
+        problem = mpc_problem(form, horizon=8, output_max=15.1, tightening=tightening)
+        controller = MPCController(problem, deadline=PATIENT)
+        controller.set_reference(reference)
+        peaks[name] = np.sum(closed_loop(_Neckish(3), controller, reference, TS).y[:, 0] > 15.1)
+    assert peaks["nominal"] > 0 and peaks["tightened"] == 0

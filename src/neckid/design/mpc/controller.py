@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -54,8 +54,12 @@ class SolveStats:
         QPs solved (or tried).
     median_ms, max_ms : float
         Per-step wall time of OSQP's ``solve`` [ms] (NaN before any step).
+    median_cpu_ms, max_cpu_ms : float
+        The same in CPU time of the calling thread [ms] (``time.thread_time``: what the solve
+        costs, without the time other processes took the core).
     failed, late : int
-        Solves not used: a status other than solved, or a wall time above the deadline.
+        A status other than solved (not used), and a wall time above the deadline (not used
+        unless ``on_late="use"``).
     slack_steps : int
         Steps whose first constrained prediction, :math:`y_{k+1}`, needed the slack (> 1e-6
         deg): the constraint could not be met as tightened there (the robust guarantee is void
@@ -69,6 +73,8 @@ class SolveStats:
     steps: int
     median_ms: float
     max_ms: float
+    median_cpu_ms: float
+    max_cpu_ms: float
     failed: int
     late: int
     slack_steps: int
@@ -95,6 +101,10 @@ class MPCController:
         :func:`~neckid.design.mpc.problem.mpc_problem`.
     deadline : float, optional
         Wall time a solve may take [s] (default the period); OSQP's ``time_limit`` too.
+    on_late : {"hold", "use"}, default "hold"
+        What a late solve does: hold the previous command (a real-time loop), or be counted
+        and used all the same (a simulation, whose period is not wall time: its results then
+        do not depend on the machine's load; OSQP then has no time limit).
 
     Attributes
     ----------
@@ -124,12 +134,21 @@ class MPCController:
     n_motors = 1
     kind = "mpc"
 
-    def __init__(self, problem: MPCProblem, *, deadline: float | None = None) -> None:
+    def __init__(
+        self,
+        problem: MPCProblem,
+        *,
+        deadline: float | None = None,
+        on_late: Literal["hold", "use"] = "hold",
+    ) -> None:
         if not isinstance(problem, MPCProblem):
             raise TypeError(f"problem must be an MPCProblem; got {type(problem).__name__}")
+        if on_late not in ("hold", "use"):
+            raise ValueError(f"on_late must be 'hold' or 'use'; got {on_late!r}")
         self.problem = problem
         self.ts = problem.ts
         self.deadline = problem.ts if deadline is None else float(deadline)
+        self.on_late = on_late
         self._future: FloatArray | None = None
         self._setup_matrices()
         self.reset()
@@ -179,7 +198,7 @@ class MPCController:
             warm_starting=True,
             polishing=False,
             **SOLVER_SETTINGS,
-            time_limit=self.deadline,
+            time_limit=self.deadline if self.on_late == "hold" else 1e10,
         )
         return solver
 
@@ -212,6 +231,7 @@ class MPCController:
         self._last = 0.0
         self._plan = np.zeros(self._n_variables)
         self._times: list[float] = []
+        self._cpu: list[float] = []
         self._iterations = 0
         self._failed = self._late = self._slack = self._slack_any = 0
 
@@ -219,10 +239,13 @@ class MPCController:
     def stats(self) -> SolveStats:
         """:class:`SolveStats` since the last ``reset``."""
         times = np.asarray(self._times) * 1e3
+        cpu = np.asarray(self._cpu) * 1e3
         return SolveStats(
             steps=len(self._times),
             median_ms=float(np.median(times)) if times.size else math.nan,
             max_ms=float(np.max(times)) if times.size else math.nan,
+            median_cpu_ms=float(np.median(cpu)) if cpu.size else math.nan,
+            max_cpu_ms=float(np.max(cpu)) if cpu.size else math.nan,
             failed=self._failed,
             late=self._late,
             slack_steps=self._slack,
@@ -294,9 +317,10 @@ class MPCController:
         plan = self._plan
         shifted = np.concatenate([plan[1:nu], plan[nu - 1 : nu], plan[nu + 1 :], plan[-1:]])
         self._solver.warm_start(x=shifted[: self._n_variables])
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.thread_time()
         result = self._solver.solve(raise_error=False)
         elapsed = time.perf_counter() - started
+        self._cpu.append(time.thread_time() - cpu)
         self._times.append(elapsed)
         self._iterations = max(self._iterations, int(result.info.iter))
         if int(result.info.status_val) not in (1, 2) or result.x is None:
@@ -304,7 +328,8 @@ class MPCController:
             return self._last
         if elapsed > self.deadline:
             self._late += 1
-            return self._last
+            if self.on_late == "hold":
+                return self._last
         self._plan = np.asarray(result.x, dtype=np.float64)
         if pr.constrained and self._plan[nu] > 1e-6:
             self._slack += 1

@@ -16,7 +16,7 @@ problem          every field of :class:`~neckid.design.mpc.problem.MPCProblem`: 
                  none), ``tightening`` [deg], the slack's weights, ``disturbance_ratio`` and
                  ``disturbance_gain``, ``preview``, the prediction matrices ``free`` (rows of
                  :math:`F`), ``forced`` (:math:`\Phi`) and ``disturbance`` (:math:`g`), ``source``
-solver           ``name`` (``"osqp"``), its tolerances, ``deadline`` [s]
+solver           ``name`` (``"osqp"``), its tolerances, ``deadline`` [s], ``on_late``
 model            the model designed on (path, sha256, class, channels)
 robust           null, or the Set Membership model and its tightening (horizons, half-widths,
                  coverage on the design logs)
@@ -102,7 +102,12 @@ def mpc_document(controller: MPCController) -> dict[str, Any]:
         "law": _LAW,
         "ts": pr.ts,
         "problem": problem,
-        "solver": {"name": "osqp", **SOLVER_SETTINGS, "deadline": controller.deadline},
+        "solver": {
+            "name": "osqp",
+            **SOLVER_SETTINGS,
+            "deadline": controller.deadline,
+            "on_late": controller.on_late,
+        },
         "model": info.pop("model", None),
         "robust": info.pop("robust", None),
         "design": info,
@@ -245,4 +250,15 @@ def load_mpc(document: dict[str, Any], path: str | Path) -> MPCController:
     )
     solver = document.get("solver") or {}
     deadline = solver.get("deadline")
-    return MPCController(problem, deadline=None if deadline is None else float(deadline))
+    if deadline is not None and (
+        isinstance(deadline, bool) or not isinstance(deadline, int | float) or not deadline > 0
+    ):
+        raise ValueError(
+            f"{file}: solver.deadline must be a positive number of s; got {deadline!r}"
+        )
+    on_late = solver.get("on_late", "hold")
+    if on_late not in ("hold", "use"):
+        raise ValueError(f"{file}: solver.on_late must be 'hold' or 'use'; got {on_late!r}")
+    return MPCController(
+        problem, deadline=None if deadline is None else float(deadline), on_late=on_late
+    )
