@@ -8,7 +8,10 @@ the one-step error. :class:`FrolsPeer` wraps it in the estimator contract the be
 (``fit(IOData)``, ``max_lag_``, ``simulate(IOData)``), so the peer gets the data set's lag grid,
 the hold-out selection and the free-run protocol of every neckid method.
 
-SysIdentPy is not a dependency of neckid: ``pip install "neckid[peers]"``. Without it the
+The second peer is PySINDy's ``DiscreteSINDy`` (``pysindy-stlsq``,
+:mod:`neckid.experiments.benchmark.peers_sindy`), beside neckid's ``sindy``.
+
+SysIdentPy and PySINDy are not dependencies of neckid: ``pip install "neckid[peers]"``. Without it the
 benchmark writes one row per test record that says so (:func:`peer_unavailable`).
 
 References
@@ -50,6 +53,10 @@ def peer_unavailable(name: str) -> str | None:
     """Why peer ``name`` cannot run here (one line), or None when it can."""
     if name not in PEER_METHODS:
         raise ValueError(f"peer must be one of {list(PEER_METHODS)}; got {name!r}")
+    if name == "pysindy-stlsq":
+        from neckid.experiments.benchmark.peers_sindy import pysindy_unavailable
+
+        return pysindy_unavailable()
     if importlib.util.find_spec("sysidentpy") is None:
         return 'skipped: SysIdentPy is not installed (pip install "neckid[peers]")'
     try:
@@ -67,6 +74,15 @@ def peer_candidates(name: str, benchmark: str, quick: bool = False) -> list[Cand
     """
     if peer_unavailable(name) is not None or benchmark not in PUBLIC_BENCHMARKS:
         return []
+    if name == "pysindy-stlsq":
+        from neckid.experiments.benchmark.peers_sindy import PYSINDY_THRESHOLDS, PySindyPeer
+
+        thresholds = PYSINDY_THRESHOLDS[:2] if quick else PYSINDY_THRESHOLDS
+        return [
+            (f"lags={lags!r}, degree=3, STLSQ threshold={t:g}", PySindyPeer(lags, threshold=t))
+            for lags in lag_grid(benchmark, quick)
+            for t in thresholds
+        ]
     info = 10 if quick else FROLS_INFO_VALUES
     return [
         (

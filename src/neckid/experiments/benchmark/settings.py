@@ -224,6 +224,7 @@ ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType(
     {
         **{m.name: BENCHMARK_GROUPS[m.only_on] for m in methods().values() if m.only_on},
         "sysidentpy-frols": PUBLIC_BENCHMARKS,
+        "pysindy-stlsq": PUBLIC_BENCHMARKS,
     }
 )
 
@@ -519,6 +520,52 @@ def _parallel_polynomial_grid(g: GridInput) -> list[Candidate]:
     return out
 
 
+def _sindy_grid(g: GridInput) -> list[Candidate]:
+    """The sparse NARX: one candidate per lag set (its threshold chosen inside, on the same data)."""
+    make = methods()["sindy"].make
+    out: list[Candidate] = []
+    for lags in g.lag_sets():
+        model = make(lags, quick=g.quick)
+        label = (
+            f"lags={lags!r}, degree={model.degree}, threshold by the rule, fit_for={model.fit_for}"
+        )
+        out.append((label, model))
+    return out
+
+
+def _free_run_rms(model: Any, train: Training) -> float:
+    """RMS free-run error of a fitted model over the training records (pooled)."""
+    errors = [(model.simulate(r).y - r.y)[model.max_lag_ :] for r in as_experiments(train, "train")]
+    return float(np.sqrt(np.mean(np.square(np.vstack(errors)))))
+
+
+def _parallel_sindy_grid(g: GridInput) -> list[Candidate]:
+    """SM on a parallel sparse NARX: as on the parallel polynomial, ε × the sparse model's error."""
+    method = methods()["sm-parallel-sindy"]
+    regressors = SM_PARALLEL_POLY_REGRESSORS[:1] if g.quick else SM_PARALLEL_POLY_REGRESSORS
+    factors: tuple[float | None, ...] = (None,) if g.quick else SM_PARALLEL_POLY_EPSILON_FACTORS
+    out: list[Candidate] = []
+    for lags in g.lag_sets():
+        scale = 0.0
+        if not g.quick:
+            sparse = g.shared.fitted(methods()["sindy"].make(lags), g.train)
+            scale = _free_run_rms(sparse, g.train)
+            if not np.isfinite(scale):
+                continue  # a sparse model that runs away cannot run in parallel
+        for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if g.quick else SM_PARALLEL_POLY_ESTIMATES:
+            out += _parallel_candidates(
+                method.make,
+                lags,
+                g.quick,
+                regressors,
+                factors,
+                scale,
+                ", base=sindy",
+                {**SM_PARALLEL_POLY_OPTIONS, "estimate": estimate},
+            )
+    return out
+
+
 def _neural_grid(g: GridInput) -> list[Candidate]:
     make = methods()["nn"].make
     params = {} if g.quick else dict(NEURAL_PARAMS)
@@ -595,6 +642,8 @@ CANDIDATE_GRIDS: Mapping[str, Callable[[GridInput], list[Candidate]]] = MappingP
         "sm-parallel-poly": _parallel_polynomial_grid,
         "poly": _polynomial_grid,
         "lpv": _lpv_grid,
+        "sindy": _sindy_grid,
+        "sm-parallel-sindy": _parallel_sindy_grid,
         "nn": _neural_grid,
         "scheduled": _scheduled_grid,
         "greybox-neck": _state_model_grid("greybox-neck"),
@@ -611,7 +660,7 @@ OPT_IN_METHODS: frozenset[str] = frozenset({"lpv"})
 
 #: Other toolkits' models, run beside neckid's on the public data sets with the same lag grid and
 #: selection rule (:mod:`neckid.experiments.benchmark.peers`; ``pip install "neckid[peers]"``).
-PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols",)
+PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols", "pysindy-stlsq")
 
 #: What a benchmark runs when no methods are named: neckid's own. A peer runs when named
 #: (``--methods ...,sysidentpy-frols``; one that is not installed gives a row that says so).

@@ -65,9 +65,12 @@ class Sums:
 
     @classmethod
     def of_rows(
-        cls, columns: Callable[[FloatArray], FloatArray], x: FloatArray, y: FloatArray,
+        cls,
+        columns: Callable[[FloatArray], FloatArray],
+        x: FloatArray,
+        y: FloatArray,
         weights: FloatArray | None = None,
-    ) -> Sums:  # fmt: skip
+    ) -> Sums:
         """The sums of rows ``x`` (library ``columns(x)``), chunk by chunk; ``weights`` per row."""
         p = columns(x[:1]).shape[1]
         gram, rhs = np.zeros((p, p)), np.zeros((p, y.shape[1]))
