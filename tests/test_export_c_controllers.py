@@ -82,3 +82,32 @@ def test_cli_exports_a_controller_file(tmp_path: Path) -> None:
     header = (tmp_path / "c" / "pi.h").read_text()
     assert "double pi_step(pi_state *s, double reference, double measurement);" in header
     assert "class pi_controller" in header
+
+
+def test_the_cpp_wrapper_compiles_and_steps(tmp_path: Path) -> None:
+    """The header's C++ class (``NAME_controller``) gives the C function's commands."""
+    import shutil
+    import subprocess
+
+    from _c_export import compiler
+
+    cxx = shutil.which("c++") or shutil.which("g++") or shutil.which("clang++")
+    if cxx is None:
+        pytest.skip("no C++ compiler (c++, g++ or clang++) on PATH")
+    from neckid.export.c import write_c
+
+    controller = _controllers()["pi"]
+    write_c(controller, tmp_path, "pi")
+    (tmp_path / "use.cpp").write_text(
+        '#include <cstdio>\n#include "pi.h"\nint main() { pi_controller c;\n'
+        '  for (int k = 0; k < 5; ++k) std::printf("%a\\n", c.step(10.0, 0.5 * k));\n'
+        "  return 0; }\n"
+    )
+    subprocess.run([compiler(), "-O2", "-std=c99", "-c", str(tmp_path / "pi.c"), "-o",
+                    str(tmp_path / "pi.o")], check=True)  # fmt: skip
+    subprocess.run([cxx, "-O2", "-Wall", "-Werror", str(tmp_path / "use.cpp"),
+                    str(tmp_path / "pi.o"), "-lm", "-o", str(tmp_path / "use")], check=True)  # fmt: skip
+    out = subprocess.run([str(tmp_path / "use")], capture_output=True, text=True, check=True)
+    controller.reset()
+    want = [controller.step(10.0, 0.5 * k)[0] for k in range(5)]
+    assert [float.fromhex(v) for v in out.stdout.split()] == want
