@@ -293,3 +293,55 @@ def test_sm_tightening_bounds_the_prediction_error_and_keeps_a_limit() -> None:
         controller.set_reference(reference)
         peaks[name] = np.sum(closed_loop(_Neckish(3), controller, reference, TS).y[:, 0] > 15.1)
     assert peaks["nominal"] > 0 and peaks["tightened"] == 0
+
+
+SOFTNECK = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "softneck"
+
+
+@pytest.mark.skipif(
+    not (SOFTNECK / "stair").is_dir(),
+    reason="the shared soft-neck logs (../shared/data) are absent",
+)
+def test_the_file_runs_in_the_labs_loop_and_tracks_better_than_the_labs_pi(tmp_path: Path) -> None:
+    from neckid.data.preprocess import Pipeline, Relative
+    from neckid.datasets import load_softneck_log
+    from neckid.loops.lab_loop import in_loop_on_log
+
+    stair = SOFTNECK / "stair"
+    pipeline = Pipeline([Relative("motor_position")])
+    train = [
+        load_softneck_log(stair / f"int{p}response.csv").select(
+            inputs=["motor_position", "motor_velocity"], outputs=["inclination"]
+        )
+        for p in ("000", "600")
+    ]
+    model = LinearARX(Lags(outputs=[1, 2], inputs=[0, 1])).fit(pipeline.apply(train))
+    model.preprocessing_ = pipeline
+    path = model.save(tmp_path / "arx.npz")
+    out = tmp_path / "mpc.json"
+    designed = runner.invoke(
+        app, ["design", str(path), "--mpc", "--delay", "0", "--on-late", "use", "--out", str(out)]
+    )
+    assert designed.exit_code == 0, designed.output
+    log = stair / "int200response.csv"
+    result = runner.invoke(
+        app,
+        [
+            "validate",
+            str(path),
+            str(log),
+            "--layout",
+            "softneck",
+            "--in-loop",
+            "--controller",
+            str(out),
+            "--force",
+            "--json",
+            str(tmp_path / "loop.json"),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert "in the loop with MPCController" in result.output
+    mpc_rms = in_loop_on_log(model, log, controller=load_controller(out), check_tolerance=None)
+    pi_rms = in_loop_on_log(model, log)  # the lab's PI (the log's own), the same model
+    assert mpc_rms.tracking_rms < 0.7 * pi_rms.tracking_rms

@@ -13,6 +13,7 @@ from neckid.cli.design_mpc import (
     HORIZON_OPTION,
     MOVE_WEIGHT_OPTION,
     MPC_OPTION,
+    ON_LATE_OPTION,
     OUTPUT_MAX_OPTION,
     OUTPUT_MIN_OPTION,
     PREVIEW_OPTION,
@@ -296,6 +297,7 @@ def design(
     output_max: float = OUTPUT_MAX_OPTION,
     tighten: Path = TIGHTEN_OPTION,
     tighten_logs: list[Path] = TIGHTEN_LOG_OPTION,
+    on_late: str = ON_LATE_OPTION,
     force: bool = FORCE_OPTION,
 ) -> None:
     """Design a PI or a fractional controller for a phase margin at a crossover, from a saved model.
@@ -345,6 +347,7 @@ def design(
                 "output_max": output_max,
                 "tighten": tighten,
                 "tighten_logs": tighten_logs or [],
+                "on_late": on_late,
             },
             out,
         )

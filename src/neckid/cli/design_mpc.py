@@ -48,6 +48,13 @@ TIGHTEN_OPTION = typer.Option(
     " the controller's prediction, measured on the --tighten-log logs.",
     exists=True,
 )
+ON_LATE_OPTION = typer.Option(
+    "hold",
+    "--on-late",
+    help="With --mpc: a solve later than the period holds the previous command (hold, a"
+    " real-time loop), or is counted and used (use, a simulation: results that do not depend"
+    " on the machine's load).",
+)
 TIGHTEN_LOG_OPTION = typer.Option(
     None,
     "--tighten-log",
@@ -87,6 +94,8 @@ def design_mpc_controller(
     from neckid.design.mpc import DEFAULT_COMMAND_LIMIT, design_mpc
     from neckid.models.io import load_model
 
+    if options["on_late"] not in ("hold", "use"):
+        raise ValueError(f"--on-late must be hold or use; got {options['on_late']!r}")
     limit = options["command_limit"]
     low, high = options["output_min"], options["output_max"]
     settings: dict[str, Any] = {
@@ -118,6 +127,7 @@ def design_mpc_controller(
         set_membership=sm,
         design_logs=logs,
         info={"model": description},
+        on_late=options["on_late"],
         **settings,
     )
 

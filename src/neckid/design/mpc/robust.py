@@ -39,7 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -206,6 +206,7 @@ def design_mpc(
     set_membership: Any = None,
     design_logs: IOData | Sequence[IOData] | None = None,
     info: dict[str, Any] | None = None,
+    on_late: Literal["hold", "use"] = "hold",
     **settings: Any,
 ) -> MPCController:
     """An MPC controller on a model's linear form, nominal or tightened by SM bands.
@@ -223,6 +224,8 @@ def design_mpc(
         Closed-loop logs (``velocity_command``, the SM model's channels).
     info : dict, optional
         Kept in the controller file (``model``: the model's description).
+    on_late : {"hold", "use"}, default "hold"
+        :class:`~neckid.design.mpc.controller.MPCController`'s.
     **settings
         :func:`~neckid.design.mpc.problem.mpc_problem`'s keywords (``horizon``,
         ``output_max``, ...).
@@ -245,7 +248,7 @@ def design_mpc(
     record["plant"] = form.to_dict()
     nominal = mpc_problem(form, info=record, **settings)
     if set_membership is None:
-        return MPCController(nominal)
+        return MPCController(nominal, on_late=on_late)
     if design_logs is None:
         raise ValueError("a tightening by Set Membership bands needs design_logs (closed-loop)")
     if "tightening" in settings:
@@ -258,4 +261,4 @@ def design_mpc(
         **(record.get("robust") or {}),
     }
     tightened = mpc_problem(form, tightening=measured.tightening, info=record, **settings)
-    return MPCController(tightened)
+    return MPCController(tightened, on_late=on_late)
