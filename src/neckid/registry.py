@@ -213,6 +213,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=2.0,
         describer="neckid.export.describe:describe_parallel",
+        c_export="neckid.export.c.parallel:c_parallel",
     ),
     Method(
         "sm-parallel-poly",
@@ -227,6 +228,7 @@ _METHODS: tuple[Method, ...] = (
         only_on="public",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+        c_export="neckid.export.c.parallel:c_parallel",
     ),
     Method(
         "poly",

@@ -16,13 +16,12 @@ hexadecimal literals (exact), and the arithmetic follows the Python's operation 
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from neckid.export.c.driver import driver_source
 from neckid.export.c.literals import c_identifier
+from neckid.export.c.lookup import exporter_of
 from neckid.export.c.preprocess import preprocess_body, preprocess_notes
 from neckid.export.c.program import CModel, render
 
@@ -35,21 +34,6 @@ class NoCExport(TypeError):
 
 def _is_controller(obj: Any) -> bool:
     return hasattr(obj, "control_law") and hasattr(obj, "operator")
-
-
-def _exporter(model: Any) -> Callable[[Any], CModel] | None:
-    from neckid.registry import methods
-
-    by_class: dict[str, str] = {}
-    for method in methods().values():
-        by_class.setdefault(method.class_name, method.c_export)
-    names = [cls.__name__ for cls in type(model).__mro__]
-    text = next((by_class[n] for n in names if n in by_class), None)
-    if not text:
-        return None
-    module, _, function = text.partition(":")
-    exporter: Callable[[Any], CModel] = getattr(importlib.import_module(module), function)
-    return exporter
 
 
 def c_exportable() -> list[str]:
@@ -90,7 +74,7 @@ def c_model(obj: Any, *, without_preprocessing: bool = False) -> CModel:
     from neckid.models.base import check_is_fitted
     from neckid.registry import method_of
 
-    exporter = _exporter(obj)
+    exporter = exporter_of(obj)
     if exporter is None:
         method = method_of(obj)
         what = type(obj).__name__ if method is None else f"method {method.name!r}"

@@ -55,6 +55,8 @@ class CModel:
         ``double NAME_step(NAME_state *s, double reference, double measurement)``).
     n_inputs, n_outputs, reset_rows : int
         Sizes of ``u``, ``y`` and of the history ``reset`` takes.
+    types : str
+        C type definitions the state needs (the parts' states of a composed model), in the header.
     initial_rows : int
         The samples ``simulate`` takes as initial conditions (its ``max_lag_``): a log's first
         ``initial_rows`` rows go to ``reset`` (none: ``init``), the others are stepped.
@@ -82,6 +84,7 @@ class CModel:
     bounded: bool = False
     controller: bool = False
     initial_rows: int = 0
+    types: str = ""
     preprocess: str = "    (void)n; (void)u; (void)y;\n    return 0;\n"
     names: dict[str, list[str]] = field(default_factory=dict)
 
@@ -185,6 +188,7 @@ def _header(model: CModel, name: str, guard: str) -> str:
         'extern "C" {',
         "#endif",
         "",
+        *([model.types, ""] if model.types else []),
         _state_struct(model),
         "",
         *api,
