@@ -1,8 +1,11 @@
-"""The compiled free run of a sparse NARX: only the functions it kept, evaluated at each step.
+"""The compiled free run of a sparse NARX: every monomial built by one product, the kept ones summed.
 
-Each kept library function is a monomial of the raw regressor terms, or ``sin``/``cos`` of one
-term (:mod:`neckid.models.sindy.library`; user functions are Python code and run through the
-generic loop of :class:`~neckid.models.base.NarxModel` instead).
+The library's monomials come first, in the graded order of
+:func:`neckid.models.polynomial.monomials.monomial_tables`: monomial ``m`` is monomial
+``parent[m]`` times term ``var[m]``, so all of them cost one multiplication each per step (the
+ones of degree >= 2 from the terms held in their range, the linear ones from the terms as they
+are). Sines and cosines of one term are evaluated for the kept ones only. User functions are
+Python code and run through the model's Python loop instead.
 """
 
 from __future__ import annotations
@@ -16,38 +19,17 @@ __all__ = ["sparse_free_run"]
 
 
 @njit(cache=True)
-def _function(
-    x: FloatArray, held: FloatArray, kind: int, powers: IntArray, var: int, frequency: float
-) -> float:
-    """One library function at the regressor ``x`` (kind 0 monomial, 1 sin, 2 cos).
-
-    A monomial of degree >= 2 takes the terms ``held`` in their range; a linear one ``x``.
-    """
-    if kind == 1:
-        return np.sin(frequency * x[var])
-    if kind == 2:
-        return np.cos(frequency * x[var])
-    degree = 0
-    for j in range(powers.shape[0]):
-        degree += powers[j]
-    source = x if degree < 2 else held
-    value = 1.0
-    for j in range(powers.shape[0]):
-        for _ in range(powers[j]):
-            value *= source[j]
-    return value
-
-
-@njit(cache=True)
 def sparse_free_run(
     u: FloatArray,
     y: FloatArray,
     source: IntArray,
     channel: IntArray,
     lag: IntArray,
-    kind: IntArray,
-    powers: IntArray,
+    parent: IntArray,
     var: IntArray,
+    kept: IntArray,
+    kind: IntArray,
+    term: IntArray,
     frequency: FloatArray,
     coef: FloatArray,
     max_lag: int,
@@ -56,15 +38,19 @@ def sparse_free_run(
     low: FloatArray,
     high: FloatArray,
 ) -> None:
-    """Free-run ``y`` in place from row ``max_lag`` on: ``y(t) = Σ_k coef[k] θ_k(w(t))``.
+    """Free-run ``y`` in place from row ``max_lag`` on: ``y(t) = Σ_i coef[i] θ_{kept[i]}(w(t))``.
 
-    ``kind``, ``powers``, ``var``, ``frequency`` and ``coef`` hold the kept functions only;
-    the monomials of degree >= 2 take each term held in ``[hold_low, hold_high]``; each simulated
-    output is clipped into ``[low, high]`` (``±inf``: not clipped).
+    ``parent`` and ``var`` are the monomial tables of the library's monomials; per kept function
+    ``i``: its library row ``kept[i]``, ``kind[i]`` (0 monomial, 1 sin, 2 cos), the term
+    ``term[i]`` and ``frequency[i]`` of a sine or cosine, and ``coef[i]``. The monomials of
+    degree >= 2 take the terms held in ``[hold_low, hold_high]``; each simulated output is
+    clipped into ``[low, high]`` (``±inf``: not clipped).
     """
     n_terms = source.shape[0]
+    n_mono = parent.shape[0]
     x = np.empty(n_terms)
     held = np.empty(n_terms)
+    phi = np.empty(n_mono)
     for t in range(max_lag, y.shape[0]):
         for j in range(n_terms):
             if source[j] == 0:
@@ -72,11 +58,21 @@ def sparse_free_run(
             else:
                 x[j] = u[t - lag[j], channel[j]]
             held[j] = min(max(x[j], hold_low[j]), hold_high[j])
+        phi[0] = 1.0
+        for m in range(1, n_mono):
+            phi[m] = phi[parent[m]] * held[var[m]]
+        for j in range(min(n_terms, n_mono - 1)):
+            phi[1 + j] = x[j]  # the linear terms are never held
         for o in range(y.shape[1]):
             y[t, o] = 0.0
-        for k in range(kind.shape[0]):
-            value = _function(x, held, kind[k], powers[k], var[k], frequency[k])
+        for i in range(kept.shape[0]):
+            if kind[i] == 0:
+                value = phi[kept[i]]
+            elif kind[i] == 1:
+                value = np.sin(frequency[i] * x[term[i]])
+            else:
+                value = np.cos(frequency[i] * x[term[i]])
             for o in range(y.shape[1]):
-                y[t, o] += coef[k, o] * value
+                y[t, o] += coef[i, o] * value
         for o in range(y.shape[1]):
             y[t, o] = min(max(y[t, o], low[o]), high[o])

@@ -41,6 +41,7 @@ from scipy.optimize import least_squares
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.polynomial.monomials import monomial_tables
 from neckid.models.sindy._kernels import sparse_free_run
 from neckid.models.sindy.library import Library, build_library
 from neckid.models.sindy.selection import DEFAULT_THRESHOLDS, choose_threshold
@@ -362,14 +363,17 @@ class SparseNARX(NarxModel):
                 step = _sum_terms(theta, coef[kept])[0]
                 y[t] = np.clip(step, low, high)
             return y
+        _, parent, var, _ = monomial_tables(r.n_terms, int(self.degree))
         sparse_free_run(
             u,
             y,
             r.source,
             r.channel,
             r.lag,
+            parent,
+            var,
+            kept,
             lib.kind[kept],
-            np.ascontiguousarray(lib.powers[kept]),
             lib.var[kept],
             lib.frequency[kept],
             np.ascontiguousarray(coef[kept]),
