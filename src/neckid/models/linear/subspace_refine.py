@@ -275,12 +275,12 @@ def _next_damping(damping: float, ratio: float) -> float:
 
 
 def _levenberg_marquardt(
-    problem: _Problem, theta: FloatArray, max_iter: int
+    problem: _Problem, theta: FloatArray, error: FloatArray, max_iter: int
 ) -> tuple[FloatArray, float]:
-    """Minimise ``‖residuals‖²`` from ``theta`` (module docstring); ``(θ, sum of squares)``."""
-    error = problem.residuals(theta)
-    if error is None:
-        return theta, np.inf
+    """Minimise ``‖residuals‖²`` from ``theta``, its errors ``error`` (module docstring).
+
+    Returns ``(θ, sum of squares)``.
+    """
     cost = float(error @ error)
     scale = np.zeros(theta.size)
     damping = 1e-3
@@ -338,7 +338,9 @@ def refine_free_run(
         If the order has more parameters than the logs give output values after their first
         ``n_initial`` samples.
     """
-    limit = radius * (1.0 + 1e-9)  # the start may sit on the circle bound_modes moved it to
+    # Trials stay within the bound the result must meet; the start may sit just beyond it, on
+    # the circle bound_modes moved it to.
+    limit = min(radius, 1.0 - STABILITY_MARGIN)
     options = (bool(feedthrough), bool(intercept))
     problem = _Problem(model, experiments, options, n_initial, limit, output_scale)
     theta0 = _pack(model, *options)
@@ -355,12 +357,13 @@ def refine_free_run(
             f" {n_initial} samples: give an order of at most {max(fits, default=0)}, or longer"
             " logs"
         )
+    problem.limit = radius * (1.0 + 1e-9)
     start = problem.residuals(theta0)
-    start_cost = np.inf if start is None else float(start @ start)
-    problem.evaluations = 0
-    theta, cost = _levenberg_marquardt(problem, theta0, max_iter)
+    problem.limit, problem.evaluations = limit, 0
+    if start is None:
+        return model
+    theta, cost = _levenberg_marquardt(problem, theta0, start, max_iter)
     refined = problem.matrices(theta)
-    inside = spectral_radius(refined[0]) <= min(limit, 1.0 - STABILITY_MARGIN)
-    if inside and cost < start_cost:
+    if cost < float(start @ start) and spectral_radius(refined[0]) <= limit:
         return refined
     return model
