@@ -13,6 +13,8 @@ r"""Controllers designed from identified models: PI and fractional PI^λ / PD^μ
 - :mod:`.files`: the JSON controller file (:func:`save_controller`, :func:`load_controller`);
 - :mod:`.verify`: margins on models, the paper's tests 1–3 on the simulated neck, models in the
   loop, the Set Membership bands.
+- :mod:`.mpc`: linear model predictive control on the same linear forms, solved by OSQP, with
+  inclination limits tightened by Set Membership k-step bands (``docs/mpc.md``).
 
 The page ``docs/design.md`` has the equations, the discretisations and the measurements.
 """
