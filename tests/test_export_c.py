@@ -23,9 +23,9 @@ from neckid.export.c import NoCExport, c_code, c_exportable, c_model
 
 #: The methods the issue asks to export (every other one is refused in one line).
 REQUIRED = {"arx", "rls", "ss", "lpv", "poly", "pnlss", "scheduled", "scheduled-position", "sm",
-            "sm-linear", "nn", "sm-parallel", "sm-parallel-poly"}  # fmt: skip
+            "sm-linear", "nn", "sm-parallel", "sm-parallel-poly", "sm-multistep"}  # fmt: skip
 
-LINEAR = {"arx", "rls", "ss", "sm", "sm-linear", "sm-parallel", "sm-parallel-poly"}
+LINEAR = {"arx", "rls", "ss", "sm", "sm-linear", "sm-parallel", "sm-parallel-poly", "sm-multistep"}
 
 
 def _log(n: int, seed: int) -> IOData:
@@ -63,7 +63,8 @@ def _fitted(name: str) -> tuple[Any, IOData]:
         model = method.make(lags, segments=4, skip=50, window=150).fit(_staircase(1600, 0))
         return model, _staircase(400, 1)
     lags = None if method.lag_free else Lags.arx(2, 2)
-    return method.make(lags, quick=True).fit(_log(500, 0)), _log(300, 1)
+    settings = {"lipschitz": "global"} if name == "sm-multistep" else {}
+    return method.make(lags, quick=True, **settings).fit(_log(500, 0)), _log(300, 1)
 
 
 def _rows(model: Any, data: IOData) -> np.ndarray:
@@ -172,11 +173,11 @@ def test_cli_export_to_c(tmp_path: Path) -> None:
     again = runner.invoke(app, ["export", str(path), "--to", "c"])
     assert again.exit_code != 0 and "exists already; use --force" in again.output
     assert runner.invoke(app, ["export", str(path), "--to", "c", "--force"]).exit_code == 0
-    other = tmp_path / "multi.npz"
-    methods()["sm-multistep"].make(Lags.arx(1, 1), quick=True).fit(_log(300, 0)).save(other)
+    other = tmp_path / "local.npz"
+    methods()["sm"].make(Lags.arx(1, 1), lipschitz="local").fit(_log(300, 0)).save(other)
     refused = runner.invoke(app, ["export", str(other), "--to", "c"])
     assert refused.exit_code != 0
-    assert "method 'sm-multistep' has no C export" in refused.output
-    assert "Traceback" not in refused.output and not (tmp_path / "multi_c").exists()
+    assert "lipschitz='local' has no C export" in refused.output
+    assert "Traceback" not in refused.output and not (tmp_path / "local_c").exists()
     wrong = runner.invoke(app, ["export", str(path), "--to", "json", "--name", "x"])
     assert wrong.exit_code != 0 and "--name and --driver go with --to c" in wrong.output

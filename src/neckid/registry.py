@@ -326,6 +326,7 @@ _METHODS: tuple[Method, ...] = (
         quick={"horizon": 3},
         complexity=4,
         describer="neckid.export.describe:describe_multistep",
+        c_export="neckid.export.c.multistep:c_multistep",
     ),
     Method(
         "sindy",

@@ -24,7 +24,7 @@ from neckid.export.c.literals import c_array, c_int_array
 from neckid.export.c.narx import narx_model
 from neckid.export.c.program import CModel
 
-__all__ = ["c_set_membership"]
+__all__ = ["c_set_membership", "sm_map_parts"]
 
 _QUERY = r"""
 static double NAME_box_distance(const double *ws, long node)
@@ -100,7 +100,7 @@ _MAP = (
     "        double ws[NAME_N_TERMS];\n"
     "        int k, c;\n"
     "        for (k = 0; k < NAME_N_TERMS; ++k) ws[k] = w[k] * NAME_weights[k];\n"
-    "        for (c = 0; c < NAME_N_OUTPUTS; ++c) {\n"
+    "        for (c = 0; c < NAME_N_MAP_OUTPUTS; ++c) {\n"
     "            double linear = NAME_intercept[c], low, high, f_lower, f_upper;\n"
     "            for (k = 0; k < NAME_N_TERMS; ++k) linear += w[k] * NAME_coef[k][c];\n"
     "            NAME_query(ws, c, NAME_gamma[c], &low, &high);\n"
@@ -114,8 +114,11 @@ _MAP = (
 )
 
 
-def c_set_membership(model: Any) -> CModel:
-    """The C export of a fitted :class:`~neckid.SetMembership` (``sm``, ``sm-linear``).
+def sm_map_parts(model: Any) -> tuple[str, str, list[str]]:
+    """``(constants, map code, notes)`` of a fitted SetMembership's map from ``w[]`` to the band.
+
+    The map code reads ``w[]`` and writes ``out[]``, ``lower[]`` and ``upper[]``; a model that
+    steps several maps (the multi-step predictors) embeds each under its own prefix.
 
     Raises
     ------
@@ -133,6 +136,7 @@ def c_set_membership(model: Any) -> CModel:
     constants = "\n".join(
         [
             f"#define NAME_N_TERMS {n_terms}",
+            f"#define NAME_N_MAP_OUTPUTS {int(targets.shape[1])}",
             f"#define NAME_N_POINTS {int(points.shape[0])}",
             f"#define NAME_N_NODES {int(start.shape[0])}",
             "#define NAME_STACK_DEPTH 128",
@@ -165,5 +169,18 @@ def c_set_membership(model: Any) -> CModel:
         "lower = linear + f_l, upper = linear + f_u, y = linear + (f_l + f_u) / 2 (the central",
         "estimate, fed back), linear = intercept + coef' w (zero without a linear part)",
     ]
+    return constants, _MAP, notes
+
+
+def c_set_membership(model: Any) -> CModel:
+    """The C export of a fitted :class:`~neckid.SetMembership` (``sm``, ``sm-linear``).
+
+    Raises
+    ------
+    ValueError
+        For a model with local Lipschitz constants (not exported).
+    """
+    constants, map_code, notes = sm_map_parts(model)
+    structure = "Set Membership + linear part" if model.linear_part else "Set Membership"
     title = f"{structure} (neckid SetMembership)"
-    return narx_model(model, title, notes, constants, _MAP, bounded=True)
+    return narx_model(model, title, notes, constants, map_code, bounded=True)
