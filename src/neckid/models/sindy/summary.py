@@ -111,13 +111,16 @@ def describe_sindy(model: Any) -> tuple[str, dict[str, Any]]:
     return "sparse_narx", {
         "equation": "y_o(t) = sum_k coef(k, o) theta_k(w(t)), w the raw regressor terms;"
         " theta_k = prod_j w_j^powers(k, j) (kind 0), sin(frequency_k w_var(k)) (kind 1),"
-        " cos(frequency_k w_var(k)) (kind 2); functions names row k",
+        " cos(frequency_k w_var(k)) (kind 2); functions names row k; inside the monomials of"
+        " degree >= 2 each w_j is held in [hold_low_j, hold_high_j] (the degree-1 ones use w_j)",
         "functions": names,
         "kind": [KIND_NAMES[int(v)] for v in lib.kind],
         "powers": np.array(lib.powers, dtype=np.int64),
         "var": np.array(lib.var, dtype=np.int64),
         "frequency": np.array(lib.frequency, dtype=np.float64),
         "coef": np.array(model.coef_, dtype=np.float64),
+        "hold_low": np.array(model.hold_low_, dtype=np.float64),
+        "hold_high": np.array(model.hold_high_, dtype=np.float64),
         "threshold": float(model.threshold_),
         "terms": equation_summary(model)["terms"],
     }
