@@ -185,7 +185,7 @@ class _NoisySensor:
 def test_indirect_estimate_recovers_the_neck_in_closed_loop() -> None:
     from neckid.plant import InclinationController, closed_loop
 
-    n, ts, segment = 2**14, 0.02, 1024
+    n, ts, segment = 2**15, 0.02, 2048
     rng = np.random.default_rng(0)
     reference = 10 + 2 * sps.lfilter(*sps.butter(2, 0.1), rng.standard_normal(n))
     noise = sps.lfilter(*sps.butter(1, 0.3), rng.standard_normal(n))

@@ -172,8 +172,10 @@ def _welch(
             freq, value = sps.csd(
                 signals[a], signals[b], fs=1 / ts, window=window, noverlap=segment // 2
             )
-            spectra[(a, b)] = value[1:]
-            omega = 2 * math.pi * freq[1:]
+            spectra[(a, b)] = value[
+                2:
+            ]  # from the second line: the first is in the Hann lobe around DC
+            omega = 2 * math.pi * freq[2:]
     return omega, spectra, _welch_averages(window, step, count)
 
 
