@@ -175,3 +175,36 @@ def test_the_figure_has_a_panel_per_test_with_units() -> None:
         assert len(seconds) == 2
     finally:
         plt.close(fig)
+
+
+@pytest.mark.parametrize("pole", [0.0, 0.9, 0.99])
+def test_the_cross_correlation_statistic_is_the_quadratic_form(pole: float) -> None:
+    """Levinson's solve gives N r' R_u^-1 r as a dense solve does (to 1e-8 relative)."""
+    rng = np.random.default_rng(7)
+    u = lfilter([1.0], [1.0, -pole], rng.normal(size=3000))
+    e = rng.normal(size=3000) + 0.1 * np.roll(u, 2)
+    test = residual_input_correlation(e, u, max_lag=12)
+    centred = u - u.mean()
+    r_u = [np.dot(centred[k:], centred[: 3000 - k]) / (3000 * centred.var()) for k in range(25)]
+    matrix = np.array([[r_u[abs(i - j)] for j in range(25)] for i in range(25)])
+    expected = 3000 * test.correlation @ np.linalg.solve(matrix, test.correlation)
+    assert test.degrees_of_freedom == 25
+    assert test.statistic == pytest.approx(expected, rel=1e-8)
+
+
+def test_the_eigen_fallback_gives_the_same_statistic(monkeypatch: pytest.MonkeyPatch) -> None:
+    """When Levinson's recursion fails (a singular matrix), the eigen-decomposition takes over."""
+    import neckid.metrics
+
+    rng = np.random.default_rng(9)
+    u = lfilter([1.0], [1.0, -0.8], rng.normal(size=2000))
+    e = rng.normal(size=2000)
+    direct = residual_input_correlation(e, u, max_lag=10)
+
+    def singular(*args: object, **kwargs: object) -> None:
+        raise np.linalg.LinAlgError("singular")
+
+    monkeypatch.setattr(neckid.metrics.linalg, "solve_toeplitz", singular)
+    fallback = residual_input_correlation(e, u, max_lag=10)
+    assert fallback.degrees_of_freedom == direct.degrees_of_freedom == 21
+    assert fallback.statistic == pytest.approx(direct.statistic, rel=1e-8)

@@ -423,11 +423,29 @@ def residual_input_correlation(
     lags = np.arange(-max_lag, max_lag + 1, dtype=np.int64)
     r = _xcorr(e, x, lags)
     r_u = _xcorr(x, x, np.arange(0, 2 * max_lag + 1, dtype=np.int64))
-    values, vectors = np.linalg.eigh(linalg.toeplitz(r_u))
+    quadratic, dof = _toeplitz_quadratic(r_u, r)
+    return _verdict(lags, r, r, float(e.size * quadratic), dof, e.size, confidence)
+
+
+def _toeplitz_quadratic(column: FloatArray, r: FloatArray) -> tuple[float, int]:
+    """``r' T^-1 r`` for the symmetric Toeplitz ``T`` of ``column``, and the rank it used.
+
+    Levinson's recursion (``scipy.linalg.solve_toeplitz``, O(n^2), no threaded LAPACK call);
+    when ``T`` is singular or the solution does not solve it (an input of a few sinusoids), the
+    eigen-decomposition on the eigenvalues above ``1e-10`` times the largest, whose count is
+    then the degrees of freedom.
+    """
+    matrix = linalg.toeplitz(column)
+    try:
+        solution = linalg.solve_toeplitz(column, r)
+        if np.linalg.norm(matrix @ solution - r) <= 1e-8 * float(np.linalg.norm(r)) + 1e-300:
+            return float(r @ solution), r.size
+    except np.linalg.LinAlgError:
+        pass
+    values, vectors = np.linalg.eigh(matrix)
     kept = values > 1e-10 * values.max()
     projected = vectors[:, kept].T @ r
-    statistic = float(e.size * np.sum(projected**2 / values[kept]))
-    return _verdict(lags, r, r, statistic, int(kept.sum()), e.size, confidence)
+    return float(np.sum(projected**2 / values[kept])), int(kept.sum())
 
 
 def _residual_vector(values: ArrayLike, argument: str) -> FloatArray:
