@@ -1,6 +1,7 @@
 """Predictive control on the identified models (issue 44): the figures of docs/benchmarks/mpc.md.
 
 Run:  .venv/bin/python benchmarks/bench_mpc.py [--demo DIR] [--softneck ../shared/data/softneck]
+          [--plot docs/img/mpc_staircase.png]
 
 1. **Simulated neck, tests 1-3** (``neckid.design.simulated_neck_tests``, seed 7): the MPC
    designed on the demo's identified ARX (``neckid demo``'s ``model_linear_arx.npz``; the
@@ -151,6 +152,49 @@ def simulated(models: dict) -> tuple[object, list]:
     return form, solves
 
 
+def plot_staircase(form, tightening: np.ndarray, path: Path) -> None:
+    """Test 2: the demo PI and the MPC with and without preview; the limit at 30.5 deg."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    reference = paper_test_references(TS)[PAPER_TESTS[1]]
+    runs = {
+        "demo PI": InclinationController(ts=TS),
+        "MPC, preview": MPCController(mpc_problem(form), on_late="use"),
+        "MPC, no preview": MPCController(mpc_problem(form, preview=False), on_late="use"),
+        "MPC, limit 30.5, nominal": MPCController(
+            mpc_problem(form, output_max=30.5), on_late="use"
+        ),
+        "MPC, limit 30.5, SM-tightened": MPCController(
+            mpc_problem(form, output_max=30.5, tightening=tightening), on_late="use"
+        ),
+    }
+    logs = {name: run(controller, reference) for name, controller in runs.items()}
+    fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    t = logs["demo PI"].time
+    for ax, names in ((axes[0], list(runs)[:3]), (axes[1], list(runs)[3:])):
+        ax.plot(t, reference, "k--", lw=1, label="reference")
+        for name in names:
+            ax.plot(t, logs[name].y[:, 0], lw=1, label=name)
+        ax.set_ylabel("inclination [deg]")
+        ax.legend(loc="lower right", fontsize=8)
+    axes[1].axhline(30.5, color="r", lw=0.8, label="limit")
+    axes[1].set_ylim(24.0, 32.0)
+    axes[1].set_xlim(0.0, 20.0)
+    for name in list(runs)[:3]:
+        axes[2].plot(t, logs[name].channel("velocity_command"), lw=1, label=name)
+    axes[2].set_ylabel("velocity command [rad/s]")
+    axes[2].set_xlabel("time [s]")
+    axes[2].legend(loc="upper right", fontsize=8)
+    axes[0].set_title("Test 2 on the simulated neck (seed 7): MPC on the demo's ARX")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    print(f"figure written to {path}")
+
+
 def closed_loop_logs() -> list:
     """Two closed-loop runs of the neck with the demo's PI over random levels."""
     rng = np.random.default_rng(1)
@@ -161,7 +205,7 @@ def closed_loop_logs() -> list:
     return logs
 
 
-def robust(form) -> list:
+def robust(form, plot: Path | None = None) -> list:
     """Part 2: the inclination limit near the staircase's top."""
     from neckid.models.set_membership.multistep import MultiStepSetMembership
 
@@ -181,6 +225,8 @@ def robust(form) -> list:
     )
     print("SM band half-width [deg] at the same:", np.round(tight.half_width[[0, 4, 9, 24]], 3))
     print(f"coverage on the design runs: min {tight.coverage.min():.4f}")
+    if plot is not None:
+        plot_staircase(form, tight.tightening, plot)
     reference = paper_test_references(TS)[PAPER_TESTS[1]]
     rows, solves = {}, []
     for limit in LIMITS:
@@ -256,6 +302,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--demo", type=Path, help="a folder neckid demo wrote")
     parser.add_argument("--softneck", type=Path, help="../shared/data/softneck")
+    parser.add_argument("--plot", type=Path, help="write the staircase figure (PNG) there")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     folder = args.demo
@@ -269,7 +316,7 @@ def main() -> None:
     }
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     form, solves = simulated(models)
-    solves += robust(form)
+    solves += robust(form, args.plot)
     if args.softneck is not None and (args.softneck / "stair").is_dir():
         solves += real(args.softneck)
     table = pd.DataFrame(solves).set_index("run")

@@ -25,7 +25,7 @@ PREVIEW_OPTION = typer.Option(
     " ahead); without, the current reference is held over the horizon.",
 )
 MOVE_WEIGHT_OPTION = typer.Option(
-    0.05, "--move-weight", min=0.0, help="With --mpc: weight of the command moves [1/(rad/s)^2]."
+    5.0, "--move-weight", min=0.0, help="With --mpc: weight of the command moves [1/(rad/s)^2]."
 )
 RATE_LIMIT_OPTION = typer.Option(
     200.0,
