@@ -37,18 +37,18 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.polynomial.monomials import monomial_tables
 from neckid.models.sindy._kernels import sparse_free_run
 from neckid.models.sindy.library import Library, build_library
+from neckid.models.sindy.refine import refit_free_run
 from neckid.models.sindy.selection import DEFAULT_THRESHOLDS, choose_threshold
 from neckid.models.sindy.stlsq import Normal, Sums, independent_columns, stlsq
 from neckid.regressors import Lags
 from neckid.utils.checks import Interval, Options
-from neckid.utils.progress import counting, task
+from neckid.utils.progress import task
 from neckid.utils.types import FloatArray
 
 __all__ = ["SparseNARX"]
@@ -309,20 +309,17 @@ class SparseNARX(NarxModel):
             return np.nan_to_num(np.concatenate(errors).ravel(), nan=1e6, posinf=1e6, neginf=-1e6)
 
         start = self.coef_.ravel()[kept]
-        before = residuals(start)
-        n_rows = before.size
+        n_rows = sum(d.n_samples - m for d in experiments) * weight.size
         if kept.size == 0 or n_rows < kept.size:
             return
         budget = int(self.max_iter)
         with task("SINDy free-run fit (free runs, at most)", budget) as advance:
-            solution = least_squares(
-                counting(residuals, advance), start, method="lm", x_scale="jac", max_nfev=budget
-            )
-        cost = float(np.sum(before**2))
-        improved = bool(2 * solution.cost < cost)
+            refit = refit_free_run(residuals, start, budget, advance)
+        before = residuals(start)
+        improved = bool(refit.cost < float(before @ before))
         if improved:
-            self.coef_ = np.ascontiguousarray(coef_of(solution.x))
-        after = solution.fun if improved else before
+            self.coef_ = np.ascontiguousarray(coef_of(refit.theta))
+        after = refit.errors if improved else before
 
         def rmse(e: FloatArray) -> list[float]:
             return [
@@ -333,7 +330,7 @@ class SparseNARX(NarxModel):
             "refined": improved,
             "rmse_start": rmse(before),
             "rmse": rmse(after),
-            "evaluations": int(solution.nfev),
+            "evaluations": int(refit.runs),
         }
         logger.info("SINDy simulation fit: %s", self.fit_report_)
 
