@@ -111,3 +111,59 @@ def test_the_cpp_wrapper_compiles_and_steps(tmp_path: Path) -> None:
     controller.reset()
     want = [controller.step(10.0, 0.5 * k)[0] for k in range(5)]
     assert [float.fromhex(v) for v in out.stdout.split()] == want
+
+
+def _mpc_commands(tmp_path: Path, **limits: float) -> tuple[np.ndarray, np.ndarray]:
+    """An MPC on a first-order plant in ``closed_loop``, and its C export's commands on the log."""
+    import glob
+    import subprocess
+
+    import control
+
+    from _c_export import CFLAGS, compiler
+    from neckid.design import linear_form
+    from neckid.design.mpc import MPCController, mpc_problem
+    from neckid.export.c import write_c
+
+    problem = mpc_problem(linear_form(control.tf([0.1], [1, -0.95], dt=TS)), horizon=15, **limits)
+    mpc = MPCController(problem, on_late="use")  # a simulation: no wall-clock deadline
+
+    class Lag:
+        def reset(self) -> None:
+            self.y = 0.0
+
+        def step(self, u: np.ndarray) -> list[float]:
+            y, self.y = self.y, 0.95 * self.y + 0.1 * float(u[0])
+            return [y]
+
+    reference = np.repeat([1.0, -0.5, 0.7], 60)
+    log = closed_loop(Lag(), mpc, reference, ts=TS)
+    write_c(mpc, tmp_path, "mpc", driver=True)
+    osqp = tmp_path / "mpc_osqp"
+    includes = ["-I", str(osqp / "inc" / "public"), "-I", str(osqp / "inc" / "private"),
+                "-I", str(osqp)]  # fmt: skip
+    ours = [str(tmp_path / "mpc.c"), str(tmp_path / "mpc_main.c")]
+    for source in ours:  # our code is clean C99; OSQP's generated code is compiled as it is
+        subprocess.run([compiler(), *CFLAGS, *includes, "-c", source, "-o", source + ".o"],
+                       check=True)  # fmt: skip
+    theirs = [*sorted(glob.glob(str(osqp / "src" / "*.c"))), str(osqp / "mpc_workspace.c")]
+    program = tmp_path / "run"
+    subprocess.run([compiler(), "-O2", "-std=c99", *includes, *(s + ".o" for s in ours), *theirs,
+                    "-lm", "-o", str(program)], check=True)  # fmt: skip
+    measured = np.concatenate([[0.0], log.y[:-1, 0]])
+    got = run(program, np.column_stack([reference, measured]))[:, 0]
+    return got, log.u[:, 1]
+
+
+def test_mpc_commands_match_closed_loop(tmp_path: Path) -> None:
+    """Without output limits OSQP's generated code gives the Python solver's commands (1e-12)."""
+    got, want = _mpc_commands(tmp_path)
+    assert relative_error(got, want) <= 1e-12
+
+
+def test_mpc_with_an_output_limit_within_the_solver_tolerance(tmp_path: Path) -> None:
+    """With an output limit, within 1e-3 rad/s: OSQP's tolerance (1e-4) and its step-size
+    adaptation, which the Python solver does and the embedded code (no refactoring) does not."""
+    got, want = _mpc_commands(tmp_path, output_max=0.8)
+    assert np.max(np.abs(got - want)) <= 1e-3
+    assert np.max(np.abs(got)) <= 4.0

@@ -71,6 +71,10 @@ def c_model(obj: Any, *, without_preprocessing: bool = False) -> CModel:
         from neckid.export.c.controllers import c_controller
 
         return c_controller(obj)
+    if getattr(obj, "kind", None) == "mpc" and hasattr(obj, "problem"):
+        from neckid.export.c.mpc import c_mpc
+
+        return c_mpc(obj)
     from neckid.models.base import check_is_fitted
     from neckid.registry import method_of
 
@@ -164,4 +168,5 @@ def write_c(
     for path, text in files.items():
         with atomic_path(path) as temporary:
             temporary.write_text(text, encoding="utf-8")
-    return list(files)
+    extra = [] if model.companion is None else model.companion(folder, identifier)
+    return [*files, *extra]

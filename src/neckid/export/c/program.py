@@ -25,7 +25,9 @@ measurement)``. Every ``NAME_`` in a family's text is replaced by the export's n
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from neckid._version import __version__
 from neckid.export.c.literals import c_double, comment_text
@@ -57,6 +59,12 @@ class CModel:
         Sizes of ``u``, ``y`` and of the history ``reset`` takes.
     types : str
         C type definitions the state needs (the parts' states of a composed model), in the header.
+    includes, extra_api, extra_source
+        Headers the source includes (``'"osqp.h"'``), more declarations for the header and their
+        definitions for the source.
+    companion : callable, optional
+        ``companion(folder, name) -> files``: writes the files the source needs beside it (the
+        solver code OSQP generates for a predictive controller).
     initial_rows : int
         The samples ``simulate`` takes as initial conditions (its ``max_lag_``): a log's first
         ``initial_rows`` rows go to ``reset`` (none: ``init``), the others are stepped.
@@ -85,6 +93,10 @@ class CModel:
     controller: bool = False
     initial_rows: int = 0
     types: str = ""
+    includes: list[str] = field(default_factory=list)
+    extra_api: list[str] = field(default_factory=list)
+    extra_source: str = ""
+    companion: Callable[[Path, str], list[Path]] | None = None
     preprocess: str = "    (void)n; (void)u; (void)y;\n    return 0;\n"
     names: dict[str, list[str]] = field(default_factory=dict)
 
@@ -168,6 +180,7 @@ def _header(model: CModel, name: str, guard: str) -> str:
             "/* One period: the command [rad/s] from the reference and the last measurement [deg]",
             "   (NaN: a failed read, the last command held). */",
             "double NAME_step(NAME_state *s, double reference, double measurement);",
+            *model.extra_api,
         ]
     else:
         api = _model_api(model)
@@ -211,6 +224,7 @@ def _source(model: CModel, name: str) -> str:
         "#include <math.h>",
         "#include <string.h>",
         f'#include "{name}.h"',
+        *(f"#include {header}" for header in model.includes),
         "",
         "/* The arithmetic is the Python's, operation by operation: no contraction into FMA",
         "   (GCC contracts only outside ISO mode: compile with -std=c99 or -ffp-contract=off). */",
@@ -230,6 +244,8 @@ def _source(model: CModel, name: str) -> str:
             "double NAME_step(NAME_state *s, double reference, double measurement)\n{\n"
             + model.step
             + "}",
+            "",
+            model.extra_source,
         ]
     else:
         parts += [
