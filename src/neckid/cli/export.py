@@ -132,7 +132,13 @@ def _export_c(
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"--out {str(folder)!r} is a file; with --to c it names a folder")
     model = _load(model_path)
-    c_model(model, without_preprocessing=force)  # refused here (one line) before any file
+    code = c_model(model, without_preprocessing=force)  # refused here (one line) before any file
+    companion = folder / code.companion_folder.replace("NAME_", f"{identifier}_")
+    if code.companion_folder and companion.exists() and not force:
+        raise ValueError(
+            f"--out {str(companion)!r} exists already; use --force to overwrite it or choose"
+            " another name"
+        )
     folder.mkdir(parents=True, exist_ok=True)
     names = [f"{identifier}.h", f"{identifier}.c"] + ([f"{identifier}_main.c"] if driver else [])
     for file in names:
@@ -143,8 +149,11 @@ def _export_c(
         model, folder, identifier, driver=driver, force=True, without_preprocessing=force
     )
     what = type(model).__name__
+    ours = ", ".join(str(p) for p in paths[: len(names)])
+    solver = f"; the solver's code in {companion} ({len(paths) - len(names)} files)"
     console.print(
-        f"{what} written to {', '.join(str(p) for p in paths)} ({_WRITTEN['c']})", markup=False
+        f"{what} written to {ours} ({_WRITTEN['c']}{solver if code.companion_folder else ''})",
+        markup=False,
     )
     missing = [] if hasattr(model, "control_law") else unwritten_steps(model)
     if missing:

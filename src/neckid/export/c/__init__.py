@@ -161,7 +161,9 @@ def write_c(
     files = {folder / f"{identifier}.h": header, folder / f"{identifier}.c": source}
     if driver:
         files[folder / f"{identifier}_main.c"] = driver_source(model, identifier)
-    existing = [path for path in files if path.exists()]
+    companion = model.companion_folder.replace("NAME_", f"{identifier}_")
+    targets = [*files, *([folder / companion] if companion else [])]
+    existing = [path for path in targets if path.exists()]
     if existing and not force:
         raise FileExistsError(f"{existing[0]} exists; give --force to overwrite it")
     folder.mkdir(parents=True, exist_ok=True)

@@ -293,4 +293,5 @@ def c_mpc(controller: Any) -> CModel:
             "    s->future = n > 0 ? reference : NULL;\n    s->n_future = n;\n}"
         ),
         companion=lambda folder, name: _generate(controller, name, folder),
+        companion_folder="NAME_osqp",
     )

@@ -64,7 +64,8 @@ class CModel:
         definitions for the source.
     companion : callable, optional
         ``companion(folder, name) -> files``: writes the files the source needs beside it (the
-        solver code OSQP generates for a predictive controller).
+        solver code OSQP generates for a predictive controller), in ``companion_folder``
+        (``NAME_`` replaced by the export's name), which must not exist without ``force``.
     initial_rows : int
         The samples ``simulate`` takes as initial conditions (its ``max_lag_``): a log's first
         ``initial_rows`` rows go to ``reset`` (none: ``init``), the others are stepped.
@@ -97,6 +98,7 @@ class CModel:
     extra_api: list[str] = field(default_factory=list)
     extra_source: str = ""
     companion: Callable[[Path, str], list[Path]] | None = None
+    companion_folder: str = ""
     preprocess: str = "    (void)n; (void)u; (void)y;\n    return 0;\n"
     names: dict[str, list[str]] = field(default_factory=dict)
 
