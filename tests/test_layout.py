@@ -63,6 +63,15 @@ FORBIDDEN = {
         "neckid.report",
         "neckid.cli",
     ),
+    "neckid.frequency": (
+        "neckid.plant",
+        "neckid.loops",
+        "neckid.design",
+        "neckid.selection",
+        "neckid.experiments",
+        "neckid.report",
+        "neckid.cli",
+    ),
 }
 
 #: The model families: each a subpackage of neckid.models with its private names.
