@@ -169,3 +169,19 @@ def test_a_periodic_record_is_averaged_and_folded_within_one_period() -> None:
     found = select_safely([("arx", LinearARX(Lags.arx(1, 1)))], record)
     assert found.scheme == "time-blocks of one period"
     assert input_period(_run(6)) is None
+
+
+def test_compare_gives_each_methods_seconds_and_runs_the_stress_checks_model() -> None:
+    """Per-method wall seconds in the result and the JSON; no second fit for the test logs."""
+    result = compare([_run(1), _run(2)], [_run(3)], methods=["ss"], lags=Lags.arx(1, 1))
+    assert set(result.seconds) == {"arx", "ss"}
+    for spent in result.seconds.values():
+        assert spent["selection"] > 0.0 and spent["test"] >= 0.0
+    assert all(result.selection.table["seconds"] > 0.0)
+    for method, setting in result.settings.items():
+        assert result.models[method] is result.selection.fitted[setting["candidate"]]
+    by_method = {entry["method"]: entry for entry in result.to_json()["methods"]}
+    assert by_method["ss"]["seconds"] == pytest.approx(result.seconds["ss"])
+    fresh = compare([_run(1), _run(2)], [_run(3)], methods=["ss"], lags=Lags.arx(1, 1), stress=0)
+    assert fresh.selection.fitted == {}
+    np.testing.assert_allclose(fresh.models["ss"].A_, result.models["ss"].A_, rtol=1e-12)

@@ -30,7 +30,7 @@ from neckid.utils.parallel import check_backend, run_jobs
 SKIP_REASON = "the Dask tests need the distributed package: pip install neckid[dask]"
 
 #: Columns that are wall times: the only ones a run elsewhere may change.
-WALL_TIMES = ("fit_time_s", "train_time_s", "simulate_time_s")
+WALL_TIMES = ("fit_time_s", "score_time_s", "train_time_s", "simulate_time_s")
 
 
 @pytest.fixture

@@ -57,6 +57,7 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
                 f"band width [{unit}]": _number(float(row["band_width"])),
                 "band holds [%]": _number(float(100 * row["band_coverage"])),
                 **roles[row["method"]],
+                "seconds": "",
             }
         )
     band_columns = [k for k in rows[0] if k.startswith("band ")] if rows else []
@@ -78,9 +79,16 @@ def _result_rows(comparison: Any) -> list[dict[str, Any]]:
                 "outside model domain [%]": float(100 * row["outside_domain"]),
                 **dict.fromkeys(band_columns, ""),  # the per-log rows' columns, kept aligned
                 **roles[row["method"]],
+                "seconds": _number(_method_seconds(comparison, row["method"])),
             }
         )
     return rows
+
+
+def _method_seconds(comparison: Any, method: str) -> float:
+    """Wall seconds the method took: its selection on the folds and its test runs."""
+    spent = comparison.seconds.get(method)
+    return float(sum(spent.values())) if spent else float("nan")
 
 
 def _roles(comparison: Any) -> dict[str, dict[str, Any]]:

@@ -38,6 +38,7 @@ Springer, 2009, §7.10.
 from __future__ import annotations
 
 import math
+import time
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -109,8 +110,9 @@ class SafeSelection:
         fit of the free run, %), ``fit_se`` (its standard error, points), ``fit_worst``,
         ``diff_best`` and ``diff_se`` (the mean per-fold difference to the best candidate and
         its standard error, points), ``bar`` (the mean fit it needed), ``fold_fits`` (each
-        fold's fit), ``status`` (``"chosen"``, ``"accepted"`` or ``"rejected"``) and ``reason``
-        (why rejected; empty otherwise). Best first.
+        fold's fit), ``status`` (``"chosen"``, ``"accepted"`` or ``"rejected"``), ``reason``
+        (why rejected; empty otherwise) and ``seconds`` (wall time of its fits and runs on the
+        folds and of the stress check). Best first.
     chosen : str
         The chosen candidate's name.
     scheme : str
@@ -129,6 +131,9 @@ class SafeSelection:
         is left out).
     baseline_fits : dict of str to list of float
         Their fit on each fold.
+    fitted : dict of str to estimator
+        Per candidate, the model the stress check fitted on all training runs (none without
+        the check, or when that fit failed).
     """
 
     table: pd.DataFrame
@@ -140,6 +145,7 @@ class SafeSelection:
     names: tuple[str, ...] = ()
     baselines: dict[str, float] = field(default_factory=dict)
     baseline_fits: dict[str, list[float]] = field(default_factory=dict)
+    fitted: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rejected(self) -> dict[str, str]:
@@ -202,20 +208,29 @@ def _n_terms(estimator: Any, data: IOData) -> int:
     return lags.resolve(lags.conditioned(data)).n_terms  # conditions as the model adds them
 
 
-def _stress_reason(estimator: Any, logs: TrainingSet, stress: float) -> str:
-    """Why the candidate fitted on all training runs runs away on stretched inputs ('' if not)."""
+def _stress_reason(estimator: Any, logs: TrainingSet, stress: float) -> tuple[str, Any]:
+    """Why the candidate fitted on all training runs runs away on stretched inputs ('' if not).
+
+    Returns the reason and the model fitted on all training runs (``None`` if the fit failed),
+    which :func:`compare` runs on the test logs instead of fitting it again.
+    """
     model = clone(estimator)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model.fit(logs.fit_data())
+    except Exception as exc:  # a failing candidate is out, with the reason
+        return f"fails on all training logs: {type(exc).__name__}: {exc}", None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
             for record in logs.experiments:
                 model.simulate(stretched(record, stress))
     except DivergenceError as exc:
-        return f"runs away with inputs {stress:.0%} beyond the training range: {exc}"
+        return f"runs away with inputs {stress:.0%} beyond the training range: {exc}", model
     except Exception as exc:  # a failing candidate is out, with the reason
-        return f"fails on all training logs: {type(exc).__name__}: {exc}"
-    return ""
+        return f"fails on all training logs: {type(exc).__name__}: {exc}", model
+    return "", model
 
 
 def _ranked(rows: list[dict[str, Any]], fold_fits: np.ndarray) -> tuple[pd.DataFrame, str, Ranking]:
@@ -346,12 +361,15 @@ def _select(
         adapt=adapt,
     )
     fold_fits = scored.fold_fits["fit_simulation"]
-    rows = []
+    rows, fitted = [], {}
     for i, (name, estimator) in enumerate(options):
         fits = np.asarray(fold_fits[i], dtype=np.float64)
         reason = str(scored.table.at[i, "error"])
+        started = time.perf_counter()
         if not reason and stress > 0:
-            reason = _stress_reason(estimator, logs, stress)
+            reason, fitted[name] = _stress_reason(estimator, logs, stress)
+        times = scored.table.reindex(columns=["fit_time_s", "score_time_s"]).iloc[i]
+        spent = time.perf_counter() - started + float(np.nansum(times.to_numpy(np.float64)))
         mean, se, worst = fold_statistics(fits)
         finite = bool(np.isfinite(mean))
         rows.append(
@@ -365,6 +383,7 @@ def _select(
                 "fold_fits": [float(f) for f in fits],
                 "status": "rejected" if reason or not finite else "accepted",
                 "reason": reason or ("" if finite else "a fold's fit is not finite"),
+                "seconds": spent,
             }
         )
     table, chosen, ranking = _ranked(rows, fold_fits[: len(options)])
@@ -383,6 +402,7 @@ def _select(
         tuple(names),
         {name: float(np.mean(fits)) for name, fits in applied},
         {name: [float(f) for f in fits] for name, fits in applied},
+        {name: model for name, model in fitted.items() if model is not None},
     )
 
 
@@ -418,6 +438,11 @@ class Comparison:
     kind : str
         What was scored: ``"free run"``, or ``"free run after 5 s of adaptation (offset)"``
         (:func:`compare` with ``adapt``).
+    seconds : dict of str to dict of str to float
+        Per method, wall seconds: ``selection`` (its candidates' fits and free runs on the
+        training folds and the stress check, which fits the model the test logs run) and
+        ``test`` (the test logs' runs, and the fit on all training logs when the stress check
+        did not make it).
     """
 
     selection: SafeSelection
@@ -429,6 +454,7 @@ class Comparison:
     runs: list[dict[str, ModelResult]] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
     kind: str = "free run"
+    seconds: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def summary(self) -> pd.DataFrame:
         """Per method: the mean over test logs and outputs of fit, RMSE and outside shares."""
@@ -455,6 +481,7 @@ class Comparison:
                     "fold_differences_to_arx": [_plain(float(g)) for g in gaps],
                     "status": row["status"],
                     "reason": row["reason"],
+                    "seconds": {k: _plain(v) for k, v in self.seconds.get(method, {}).items()},
                     "tests": [
                         {k: _plain(v) for k, v in r.items() if k != "method"}
                         for r in tests.to_dict("records")
@@ -615,6 +642,27 @@ def _candidates(
     return options, method_of, lags_of
 
 
+def _fitted_on_all(selection: SafeSelection, name: str, estimator: Any, logs: TrainingSet) -> Any:
+    """Candidate ``name`` fitted on every training log: the stress check's model, or a new fit."""
+    if name in selection.fitted:
+        return selection.fitted[name]
+    fitting = f"fitting {name} on every training log, for the test logs"  # a progress line
+    with warnings.catch_warnings(), task(fitting):
+        warnings.simplefilter("ignore")
+        return clone(estimator).fit(logs.fit_data())
+
+
+def _selection_seconds(
+    table: pd.DataFrame, method_of: Mapping[str, str]
+) -> dict[str, dict[str, float]]:
+    """Per method, the wall seconds of its candidates in the selection (``test`` added later)."""
+    seconds: dict[str, dict[str, float]] = {}
+    for name, spent in zip(table["name"], table["seconds"], strict=True):
+        entry = seconds.setdefault(method_of[name], {"selection": 0.0, "test": 0.0})
+        entry["selection"] += float(spent)
+    return seconds
+
+
 def compare(
     train: IOData | Sequence[IOData],
     test: IOData | Sequence[IOData],
@@ -696,17 +744,15 @@ def compare(
     reaches = {record.name: logs.outside_range(record) for record in tests}
     models, settings, rows = {}, {}, []
     runs: list[dict[str, ModelResult]] = [{} for _ in tests]
+    seconds = _selection_seconds(table, method_of)
     for method in dict.fromkeys(method_of.values()):
         pick = _method_pick(table, method, method_of, selection.chosen)
         name = str(pick["name"])
         settings[method] = {"candidate": name, "lags": repr(lags_of[name])}
         if pick["status"] == "rejected":
             continue  # no test run for a method whose every candidate was rejected
-        estimator = clone(dict(options)[name])
-        fitting = f"fitting {name} on every training log, for the test logs"  # a progress line
-        with warnings.catch_warnings(), task(fitting):
-            warnings.simplefilter("ignore")
-            models[method] = estimator.fit(logs.fit_data())
+        started = time.perf_counter()
+        models[method] = _fitted_on_all(selection, name, dict(options)[name], logs)
         for record, by_method in zip(tests, runs, strict=True):
             made, result = (
                 _test_rows(method, models[method], record, reaches[record.name])
@@ -716,6 +762,7 @@ def compare(
             rows.extend(made)
             if result is not None:
                 by_method[method] = result
+        seconds[method]["test"] = time.perf_counter() - started
     recommended = method_of[selection.chosen]
     reasons = [
         *selection.explain(),
@@ -740,4 +787,5 @@ def compare(
         runs,
         list(selection.warnings),
         "free run" if adapt is None else adaptation_label(*adapt),
+        seconds,
     )

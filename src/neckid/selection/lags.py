@@ -162,8 +162,8 @@ class LagSelection:
         ``fit_<criterion>_diff`` and ``fit_<criterion>_diff_se`` (the mean per-fold difference
         to the best candidate and its standard error: what the paired rule reads),
         ``fit_<criterion>_folds`` (each fold's fit),
-        ``fit_time_s`` (seconds to train, summed over folds), ``scheme``, ``n_folds``, ``error``
-        (empty, or the error of a failed candidate), ``status`` (``"chosen"``, ``"accepted"``
+        ``fit_time_s`` (seconds to train, summed over folds), ``score_time_s`` (seconds to
+        score), ``scheme``, ``n_folds``, ``error`` (empty, or the error of a failed candidate), ``status`` (``"chosen"``, ``"accepted"``
         or ``"rejected"``) and ``reason`` (why rejected: it failed, or its free run diverged, in
         a fold).
     candidates : tuple of Lags
@@ -411,6 +411,7 @@ def _fit_and_score(
     for j, validation in enumerate(groups):
         # the fit's time is counted once, on the split's first fold
         row: dict[str, Any] = {"name": name, "fit_time_s": spent if j == 0 else 0.0}
+        scoring = time.perf_counter()
         try:
             with np.errstate(all="ignore"):
                 for kind in criteria:
@@ -430,6 +431,7 @@ def _fit_and_score(
                         row[f"{label}_{kind}"] = float(np.mean(per_output))
         except Exception as exc:  # a diverged or failing run is this fold's score
             row["error"] = f"{type(exc).__name__}: {exc}"
+        row["score_time_s"] = time.perf_counter() - scoring
         rows.append(row)
     return rows
 
@@ -441,6 +443,7 @@ def _combine_folds(
     row: dict[str, Any] = {
         "name": folds[0]["name"],
         "fit_time_s": float(sum(f.get("fit_time_s", np.nan) for f in folds)),
+        "score_time_s": float(sum(f.get("score_time_s", 0.0) for f in folds)),
     }
     for kind in kinds:
         for label, missing, worst in (("fit", -np.inf, np.min), ("rmse", np.inf, np.max)):
@@ -538,7 +541,8 @@ def score_candidates(
         criterion ``fit_<kind>``, ``fit_<kind>_worst`` (the worst fold's fit), ``rmse_<kind>``,
         ``rmse_<kind>_worst`` (the worst fold's RMSE), ``fit_<kind>[<output>]``,
         ``rmse_<kind>[<output>]`` (means over folds), and ``fit_time_s`` (seconds to train,
-        summed over folds), ``scheme``, ``n_folds`` and ``error`` (empty, or the error of a
+        summed over folds), ``score_time_s`` (seconds to score, summed), ``scheme``, ``n_folds``
+        and ``error`` (empty, or the error of a
         failed candidate, per fold). A candidate that fails in a fold (a training error, a free
         run that diverges) has fit ``-inf`` and RMSE ``inf`` for every score not computed there,
         so its mean and worst fold are ``-inf`` / ``inf`` too. ``folds``: the names of the
