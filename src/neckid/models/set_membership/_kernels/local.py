@@ -63,7 +63,8 @@ from neckid.models.set_membership._kernels.tree import (
     box_distance2,
     push_children,
     query_one,
-    squared_distance,
+    reach_cap,
+    squared_distance_capped,
 )
 from neckid.utils.types import FloatArray, IntArray
 
@@ -114,7 +115,11 @@ def _steepest(
                 rise = abs(t - targets[p, c]) - twice_eps
                 if rise <= 0.0:
                     continue
-                d = math.sqrt(squared_distance(w, points, p))
+                cap = reach_cap(rise / best) if best > 0.0 else np.inf
+                acc = squared_distance_capped(w, points, p, cap)
+                if acc > cap:
+                    continue  # too far for rise > best · d
+                d = math.sqrt(acc)
                 if rise > best * d:
                     if d == 0.0:
                         return np.inf
@@ -190,7 +195,7 @@ def kth_radius2(
             continue
         if left[node] < 0:
             for p in range(start[node], end[node]):
-                acc = squared_distance(w, points, p)
+                acc = squared_distance_capped(w, points, p, near_d[k_near - 1])
                 if acc < near_d[k_near - 1]:
                     slot = k_near - 1
                     while slot > 0 and near_d[slot - 1] > acc:
@@ -245,7 +250,7 @@ def _neighbour_gamma(
             continue
         if left[node] < 0:
             for p in range(start[node], end[node]):
-                if squared_distance(w, points, p) <= radius2:
+                if squared_distance_capped(w, points, p, radius2) <= radius2:
                     for c in range(out.shape[0]):
                         out[c] = max(out[c], gammas[p, c])
         else:

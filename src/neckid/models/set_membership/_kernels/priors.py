@@ -45,9 +45,11 @@ from neckid.models.set_membership._kernels.tree import (
     STACK_DEPTH,
     box_distance,
     box_distance2,
+    improving_reach,
     push_children,
     query_one,
-    squared_distance,
+    reach_cap,
+    squared_distance_capped,
 )
 from neckid.utils.types import FloatArray, IntArray
 
@@ -97,13 +99,23 @@ def _steepest_grid(
                 if p == i:
                     continue
                 diff = abs(t - targets[p, c])
-                d = -1.0
+                reach = -1.0
                 for e in range(n_eps):
                     rise = diff - twice_eps[e]
                     if rise <= 0.0:
                         break
-                    if d < 0.0:
-                        d = math.sqrt(squared_distance(w, points, p))
+                    reach = max(reach, rise / best[e] if best[e] > 0.0 else np.inf)
+                if reach < 0.0:
+                    continue  # no ε of the grid leaves a rise
+                cap = reach_cap(reach)
+                acc = squared_distance_capped(w, points, p, cap)
+                if acc > cap:
+                    continue  # too far for rise > best · d at any ε
+                d = math.sqrt(acc)
+                for e in range(n_eps):
+                    rise = diff - twice_eps[e]
+                    if rise <= 0.0:
+                        break
                     if rise > best[e] * d:
                         best[e] = np.inf if d == 0.0 else rise / d
         else:
@@ -201,7 +213,7 @@ def _neighbour_gammas(
             continue
         if left[node] < 0:
             for p in range(start[node], end[node]):
-                if squared_distance(w, points, p) <= radius2:
+                if squared_distance_capped(w, points, p, radius2) <= radius2:
                     for m in range(out.shape[0]):
                         for c in range(out.shape[1]):
                             out[m, c] = max(out[m, c], gammas[p, m, c])
@@ -249,8 +261,19 @@ def _walk_priors(
         child = left[node]
         if child < 0:
             for p in range(start[node], end[node]):
-                d = math.sqrt(squared_distance(w, points, p))
                 v = targets[p, c]
+                reach = -1.0
+                for s in range(n_priors):
+                    m = local[s]
+                    slope = max(floor[s], gammas[p, m, c]) if m >= 0 else floor[s]
+                    reach = max(reach, improving_reach(v, slope, best_lower[s], best_upper[s]))
+                if reach < 0.0:
+                    continue  # it changes no prior's bounds at any distance
+                cap = reach_cap(reach)
+                acc = squared_distance_capped(w, points, p, cap)
+                if acc > cap:
+                    continue  # farther than any distance at which it changes one
+                d = math.sqrt(acc)
                 for s in range(n_priors):
                     m = local[s]
                     slope = max(floor[s], gammas[p, m, c]) if m >= 0 else floor[s]

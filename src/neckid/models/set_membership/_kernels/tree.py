@@ -276,6 +276,59 @@ def squared_distance(w: FloatArray, points: FloatArray, p: int) -> float:
 
 
 @njit(cache=True, inline="always")
+def squared_distance_capped(w: FloatArray, points: FloatArray, p: int, cap: float) -> float:
+    """:func:`squared_distance`, or a partial sum above ``cap`` as soon as one exceeds it.
+
+    The terms are non-negative and added in the same order, so a rounded partial sum never
+    exceeds the rounded full one: a result ``<= cap`` is the full sum bit for bit, and a result
+    ``> cap`` says that the full sum is above ``cap`` too (partial distance search). NaN
+    components never stop the sum (NaN compares false), as in :func:`squared_distance`.
+    """
+    acc = 0.0
+    for k in range(w.shape[0]):
+        diff = w[k] - points[p, k]
+        acc += diff * diff
+        if acc > cap:
+            return acc
+    return acc
+
+
+@njit(cache=True, inline="always")
+def reach_cap(reach: float) -> float:
+    """A squared distance above which a point lies farther than ``reach`` even after rounding.
+
+    ``reach`` is a distance (>= 0, or inf for no cap); the cap is ``reach² (1 + 1e-9)``, or no
+    cap (inf) where the square would underflow. A point whose squared distance exceeds it has
+    ``fl(sqrt(d²)) > reach (1 + 4e-10)``.
+    """
+    if not reach < np.inf or reach < 1e-100:
+        return np.inf
+    return reach * reach * (1.0 + 1e-9)
+
+
+@njit(cache=True, inline="always")
+def improving_reach(v: float, slope: float, lower: float, upper: float) -> float:
+    """The distance within which a point can still change a running bound, or -1 if none.
+
+    A point of target ``v`` at distance ``d`` lowers ``upper`` when ``v + slope·d < upper`` and
+    raises ``lower`` when ``v − slope·d > lower``. Beyond the returned reach (with the margin of
+    :func:`reach_cap`) neither happens in floating point: the gaps ``upper − v`` and
+    ``v − lower`` are widened by ``1e-15 (|upper| + |v| + |lower|)``, more than their rounding.
+    inf (no cap) where a bound is still infinite, the slope is 0 and ``v`` itself improves a
+    bound, or the slope is not a finite positive number.
+    """
+    if not (upper < np.inf and lower > -np.inf and slope < np.inf):
+        return np.inf
+    tol = 1e-15 * (abs(upper) + abs(v) + abs(lower))
+    gap = max(upper - v, v - lower) + tol
+    if gap < 0.0:
+        return -1.0
+    if not slope > 0.0:
+        return np.inf
+    return gap / slope
+
+
+@njit(cache=True, inline="always")
 def box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
     return math.sqrt(box_distance2(w, lo, hi, node))
 
@@ -348,8 +401,15 @@ def query_one(
         if child < 0:
             for p in range(start[node], end[node]):
                 slope = max(gamma, point_gamma[p, col]) if local else gamma
-                gd = slope * math.sqrt(squared_distance(w, points, p))
                 v = targets[p, col]
+                reach = improving_reach(v, slope, best_lower, best_upper)
+                if reach < 0.0:
+                    continue
+                cap = reach_cap(reach)
+                acc = squared_distance_capped(w, points, p, cap)
+                if acc > cap:
+                    continue  # farther than any distance at which it changes a bound
+                gd = slope * math.sqrt(acc)
                 if v + gd < best_upper:
                     best_upper = v + gd
                 if v - gd > best_lower:
