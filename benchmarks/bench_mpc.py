@@ -19,6 +19,8 @@ Run:  .venv/bin/python benchmarks/bench_mpc.py [--demo DIR] [--softneck ../share
    displacement and measured velocity -> raw inclination; lags y 1-2, u 0-1), the MPC on it
    (delay 0, as on the bench) in the lab's loop (``in_loop_on_log``, the identified drive) on
    the six 200 g / 400 g staircases, beside the lab's PI on the same model.
+4. Test 2 with preview, the MPC on the other kinds of model with a linear form (the demo's
+   scheduled and SM models at 20 deg, an ``ss`` and an ``lpv`` fitted on one PI run).
 
 Every run's OSQP solve time per step (median, max; wall and CPU time of the thread) is printed,
 with the solves that failed and those later than the period. The runs use ``on_late="use"``: a
@@ -199,6 +201,36 @@ def plot_staircase(form, tightening: np.ndarray, path: Path) -> None:
     print(f"figure written to {path}")
 
 
+def other_models(models: dict) -> None:
+    """Test 2 with preview, the MPC on each kind of model with a linear form."""
+    from neckid import methods
+    from neckid.design.mpc import design_mpc
+
+    reference = paper_test_references(TS)[PAPER_TESTS[1]]
+    log = run(
+        InclinationController(ts=TS), np.repeat(np.random.default_rng(2).uniform(5, 30, 20), 100), 3
+    )
+    view = log.select(inputs=["motor_position"], outputs=["inclination"])
+    lags = Lags(outputs=[1], inputs=[1, 2])
+    cases = {
+        "arx (the demo's)": (models["linear_arx"], None),
+        "scheduled CFF-RLS at 20 deg (the demo's)": (models["scheduled_cff_rls"], 20.0),
+        "sm linearised at 20 deg (the demo's)": (models["set_membership"], 20.0),
+        "ss (order chosen, one PI run)": (methods()["ss"].make(lags).fit(view), None),
+        "lpv at 20 deg (one PI run)": (methods()["lpv"].make(lags).fit(view), 20.0),
+    }
+    rows = {}
+    for name, (model, inclination) in cases.items():
+        mpc = design_mpc(model, inclination=inclination, drive_time_constant=0.015, on_late="use")
+        rows[name] = {
+            "tracking_rms_deg": tracking_rms(run(mpc, reference), reference),
+            "n_a": mpc.problem.a.size,
+            "n_b": mpc.problem.b.size,
+        }
+    print("\nTest 2 with preview, the MPC on other models' linear forms:\n")
+    print(markdown(pd.DataFrame.from_dict(rows, orient="index")))
+
+
 def closed_loop_logs() -> list:
     """Two closed-loop runs of the neck with the demo's PI over random levels."""
     rng = np.random.default_rng(1)
@@ -316,6 +348,9 @@ def main() -> None:
     parser.add_argument("--demo", type=Path, help="a folder neckid demo wrote")
     parser.add_argument("--softneck", type=Path, help="../shared/data/softneck")
     parser.add_argument("--plot", type=Path, help="write the staircase figure (PNG) there")
+    parser.add_argument(
+        "--models-only", action="store_true", help="only the MPC on other models' linear forms"
+    )
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     folder = args.demo
@@ -328,6 +363,9 @@ def main() -> None:
         p.stem.removeprefix("model_"): load_model(p) for p in sorted(folder.glob("model_*.npz"))
     }
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    other_models(models)
+    if args.models_only:
+        return
     form, solves = simulated(models)
     solves += robust(form, args.plot)
     if args.softneck is not None and (args.softneck / "stair").is_dir():
