@@ -407,6 +407,11 @@ def frf(
             f"{o} <- {n}: {r.estimate}, median coherence {float(_median(r.coherence)):.2f}"
             for o, n, r in responses
         )
+        if reference is None:
+            verdict += (
+                " (direct S_uy / S_uu: in a closed loop biased toward -1/C where the noise drives"
+                " the command; give --reference)"
+            )
         document = {"pairs": [{"output": o, "input": n, **r.to_dict()} for o, n, r in responses]}
         figure = (lambda _: _spectral_figure(responses, datas[0])) if (plot or report) else None
         bla = None
