@@ -345,3 +345,75 @@ def test_the_file_runs_in_the_labs_loop_and_tracks_better_than_the_labs_pi(tmp_p
     mpc_rms = in_loop_on_log(model, log, controller=load_controller(out), check_tolerance=None)
     pi_rms = in_loop_on_log(model, log)  # the lab's PI (the log's own), the same model
     assert mpc_rms.tracking_rms < 0.7 * pi_rms.tracking_rms
+
+
+def _neckish_logs() -> list[IOData]:
+    rng = np.random.default_rng(0)
+    return [
+        closed_loop(_Neckish(s), _Proportional(), np.repeat(rng.uniform(0, 20, 30), 60), TS)
+        for s in (1, 2)
+    ]
+
+
+def test_design_tighten_from_the_command_line(tmp_path: Path) -> None:
+    from neckid.models.set_membership.multistep import MultiStepSetMembership
+
+    logs = _neckish_logs()
+    views = [log.select(inputs=["motor_position"], outputs=["inclination"]) for log in logs]
+    arx = LinearARX(Lags(outputs=[1], inputs=[1])).fit(views).save(tmp_path / "arx.npz")
+    sm = (
+        MultiStepSetMembership(
+            Lags(outputs=[1], inputs=[1]),
+            horizon=9,
+            epsilon_factor=2.0,
+            input_weight=1.0,
+            lipschitz="global",
+        )
+        .fit(views)
+        .save(tmp_path / "sm.npz")
+    )
+    paths = []
+    for i, log in enumerate(logs):
+        log.to_csv(tmp_path / f"run{i}.csv")
+        paths += ["--tighten-log", str(tmp_path / f"run{i}.csv")]
+    out = tmp_path / "robust.json"
+    args = ["design", str(arx), "--mpc", "--horizon", "8", "--output-max", "15.1"]
+    result = runner.invoke(app, [*args, "--tighten", str(sm), *paths, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "(Set Membership k-step bands)" in result.output
+    robust = load_controller(out)
+    assert robust.problem.tightening[0] > 0.5 and robust.problem.info["robust"]["anchors"] > 1000
+    short = runner.invoke(
+        app,
+        [
+            *args[:3],
+            "--output-max",
+            "15.1",
+            "--tighten",
+            str(sm),
+            *paths,
+            "--out",
+            str(tmp_path / "x.json"),
+        ],
+    )  # horizon 25: bands to 9
+    assert short.exit_code == 2 and "fit it with horizon=26" in short.output
+
+
+def test_on_the_simulated_neck_preview_tracks_under_0_7_of_the_demo_pi() -> None:
+    from neckid.design import paper_test_references, tracking_rms
+    from neckid.plant import InclinationController, SoftNeck
+
+    levels = np.repeat(np.random.default_rng(2).uniform(5, 30, 20), 100)
+    run = closed_loop(SoftNeck(seed=3), InclinationController(ts=TS), levels, TS)
+    view = run.select(inputs=["motor_position"], outputs=["inclination"])
+    form = linear_form(
+        LinearARX(Lags(outputs=[1], inputs=[1, 2])).fit(view), drive_time_constant=0.015
+    )
+    for test in ("test 2: 5° staircase", "test 3: 20° step"):
+        reference = paper_test_references()[test]
+        pi = closed_loop(SoftNeck(seed=7), InclinationController(ts=TS), reference, TS)
+        mpc = MPCController(mpc_problem(form), deadline=PATIENT)
+        mpc.set_reference(reference)
+        log = closed_loop(SoftNeck(seed=7), mpc, reference, TS)
+        assert tracking_rms(log, reference) <= 0.7 * tracking_rms(pi, reference)
+        assert np.max(np.abs(log.channel("velocity_command"))) <= 4.0

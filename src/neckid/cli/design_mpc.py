@@ -76,14 +76,16 @@ def refuse_pi_options(given: dict[str, Any]) -> None:
             )
 
 
-def _read_logs(paths: list[Path]) -> list[Any]:
+def _read_logs(paths: list[Path], sm: Any) -> list[Any]:
+    """The closed-loop logs: the SM model's channels and the command, as CSV columns."""
     from neckid.cli.workflow import read_log
 
+    inputs = list(dict.fromkeys([*sm.input_names_, "velocity_command"]))
     logs = []
     for path in paths:
         if not path.is_file():
             raise FileNotFoundError(f"--tighten-log {str(path)!r} does not exist")
-        logs.append(read_log(path))
+        logs.append(read_log(path, inputs=inputs, outputs=list(sm.output_names_)))
     return logs
 
 
@@ -116,7 +118,7 @@ def design_mpc_controller(
         if not options["tighten_logs"]:
             raise ValueError("--tighten needs one or more --tighten-log (closed-loop logs)")
         sm = load_model(options["tighten"])
-        logs = _read_logs(list(options["tighten_logs"]))
+        logs = _read_logs(list(options["tighten_logs"]), sm)
     elif options["tighten_logs"]:
         raise ValueError("--tighten-log goes with --tighten SM_MODEL")
     return design_mpc(

@@ -130,6 +130,9 @@ def controller_predictions(
 def _band(model: Any, log: IOData, steps: int) -> tuple[FloatArray, FloatArray]:
     """The SM model's guaranteed band of ``y(s)`` made at ``s - steps`` (NaN where none)."""
     view = log.select(inputs=list(model.input_names_), outputs=list(model.output_names_))
+    pipeline = getattr(model, "preprocessing_", None)  # the model's own (relative position, ...)
+    if pipeline is not None:
+        view = pipeline.apply(view)
     result = model.predict_ahead(view, steps=steps)
     return np.asarray(result.lower)[:, 0], np.asarray(result.upper)[:, 0]
 
