@@ -23,7 +23,8 @@ from neckid.export.c import NoCExport, c_code, c_exportable, c_model
 
 #: The methods the issue asks to export (every other one is refused in one line).
 REQUIRED = {"arx", "rls", "ss", "lpv", "poly", "pnlss", "scheduled", "scheduled-position", "sm",
-            "sm-linear", "nn", "sm-parallel", "sm-parallel-poly", "sm-multistep"}  # fmt: skip
+            "sm-linear", "nn", "sm-parallel", "sm-parallel-poly", "sm-multistep",
+            "greybox-neck"}  # fmt: skip
 
 LINEAR = {"arx", "rls", "ss", "sm", "sm-linear", "sm-parallel", "sm-parallel-poly", "sm-multistep"}
 

@@ -18,8 +18,8 @@ Examples
 >>> import neckid
 >>> sorted(neckid.methods())
 ['arx', 'greybox-neck', 'greybox-tanks', 'koopman', 'lpv', 'nn', 'pnlss', 'poly', 'rls',
- 'scheduled', 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel', 'sm-parallel-poly',
- 'sm-parallel-sindy', 'ss']
+ 'scheduled', 'scheduled-position', 'sindy', 'sm', 'sm-linear', 'sm-multistep', 'sm-parallel',
+ 'sm-parallel-koopman', 'sm-parallel-poly', 'sm-parallel-sindy', 'ss']
 >>> model = neckid.methods()["sm-linear"].make(neckid.Lags.arx(2, 2))
 >>> type(model).__name__, model.linear_part
 ('SetMembership', True)
@@ -304,6 +304,7 @@ _METHODS: tuple[Method, ...] = (
         only_on="softneck",
         unit_cost=1.0,
         describer="neckid.export.describe:describe_greybox",
+        c_export="neckid.export.c.greybox:c_greybox",
     ),
     Method(
         "greybox-tanks",
@@ -363,6 +364,18 @@ _METHODS: tuple[Method, ...] = (
         unit_cost=2.0,
         describer="neckid.models.koopman.summary:describe_koopman",
         control_form="ss",
+    ),
+    Method(
+        "sm-parallel-koopman",
+        "Set Membership parallel (Koopman)",
+        "neckid.models.set_membership.parallel:ParallelSetMembership",
+        "Set Membership on the free run of a parallel Koopman model (koopman): guaranteed"
+        " one-step bounds around the lifted linear simulator",
+        defaults={"base": "koopman"},
+        complexity=5,
+        builds_on="koopman",
+        unit_cost=3.0,
+        describer="neckid.export.describe:describe_parallel",
     ),
 )
 
