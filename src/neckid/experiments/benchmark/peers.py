@@ -9,7 +9,9 @@ the one-step error. :class:`FrolsPeer` wraps it in the estimator contract the be
 the hold-out selection and the free-run protocol of every neckid method.
 
 The second peer is PySINDy's ``DiscreteSINDy`` (``pysindy-stlsq``,
-:mod:`neckid.experiments.benchmark.peers_sindy`), beside neckid's ``sindy``.
+:mod:`neckid.experiments.benchmark.peers_sindy`), beside neckid's ``sindy``; the third
+pykoopman's EDMDc (``pykoopman-edmdc``, :mod:`neckid.experiments.benchmark.peers_koopman`, in an
+interpreter of its own), beside neckid's ``koopman``.
 
 SysIdentPy and PySINDy are not dependencies of neckid: ``pip install "neckid[peers]"``. Without it the
 benchmark writes one row per test record that says so (:func:`peer_unavailable`).
@@ -57,6 +59,10 @@ def peer_unavailable(name: str) -> str | None:
         from neckid.experiments.benchmark.peers_sindy import pysindy_unavailable
 
         return pysindy_unavailable()
+    if name == "pykoopman-edmdc":
+        from neckid.experiments.benchmark.peers_koopman import pykoopman_unavailable
+
+        return pykoopman_unavailable()
     if importlib.util.find_spec("sysidentpy") is None:
         return 'skipped: SysIdentPy is not installed (pip install "neckid[peers]")'
     try:
@@ -82,6 +88,15 @@ def peer_candidates(name: str, benchmark: str, quick: bool = False) -> list[Cand
             (f"lags={lags!r}, degree=3, STLSQ threshold={t:g}", PySindyPeer(lags, threshold=t))
             for lags in lag_grid(benchmark, quick)
             for t in thresholds
+        ]
+    if name == "pykoopman-edmdc":
+        from neckid.experiments.benchmark.peers_koopman import PYKOOPMAN_CENTERS, PyKoopmanPeer
+
+        centers = PYKOOPMAN_CENTERS[:1] if quick else PYKOOPMAN_CENTERS
+        return [
+            (f"lags={lags!r}, time delays + {n} thin-plate RBFs", PyKoopmanPeer(lags, n_centers=n))
+            for lags in lag_grid(benchmark, quick)
+            for n in centers
         ]
     info = 10 if quick else FROLS_INFO_VALUES
     return [

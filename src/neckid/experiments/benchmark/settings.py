@@ -225,6 +225,7 @@ ONLY_ON: Mapping[str, frozenset[str]] = MappingProxyType(
         **{m.name: BENCHMARK_GROUPS[m.only_on] for m in methods().values() if m.only_on},
         "sysidentpy-frols": PUBLIC_BENCHMARKS,
         "pysindy-stlsq": PUBLIC_BENCHMARKS,
+        "pykoopman-edmdc": PUBLIC_BENCHMARKS,
     }
 )
 
@@ -566,6 +567,50 @@ def _parallel_sindy_grid(g: GridInput) -> list[Candidate]:
     return out
 
 
+def _koopman_grid(g: GridInput) -> list[Candidate]:
+    """The Koopman model: one candidate per lag set (dictionary size and ridge chosen inside)."""
+    make = methods()["koopman"].make
+    out: list[Candidate] = []
+    for lags in g.lag_sets():
+        model = make(lags, quick=g.quick)
+        size = "by the rule" if model.n_observables is None else model.n_observables
+        out.append((f"lags={lags!r}, {model.dictionary} RBFs: {size}", model))
+    return out
+
+
+def _parallel_koopman_grid(g: GridInput) -> list[Candidate]:
+    """SM on a parallel Koopman model: ε × its free-run error, its dictionary the one it chose.
+
+    The Koopman model of each lag set is fitted once on the training data (its dictionary size
+    and ridge by the rule there); the candidates run that setting in parallel
+    (``base=KoopmanEDMD(lags, n_observables=..., ridge=...)``), so no candidate repeats the
+    choice.
+    """
+    method = methods()["sm-parallel-koopman"]
+    regressors = SM_PARALLEL_POLY_REGRESSORS[:1] if g.quick else SM_PARALLEL_POLY_REGRESSORS
+    factors: tuple[float | None, ...] = (None,) if g.quick else SM_PARALLEL_POLY_EPSILON_FACTORS
+    out: list[Candidate] = []
+    for lags in g.lag_sets():
+        koopman = methods()["koopman"].make(lags, quick=g.quick)
+        if not g.quick:
+            try:
+                fitted = g.shared.fitted(koopman, g.train)
+                scale = _free_run_rms(fitted, g.train)
+            except ValueError:
+                continue  # a Koopman model that runs away cannot run in parallel
+            if not np.isfinite(scale):
+                continue
+            koopman.set_params(n_observables=fitted.n_observables_, ridge=fitted.ridge_)
+        else:
+            scale = 0.0
+        for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if g.quick else SM_PARALLEL_POLY_ESTIMATES:
+            options = {**SM_PARALLEL_POLY_OPTIONS, "estimate": estimate, "base": koopman}
+            out += _parallel_candidates(
+                method.make, lags, g.quick, regressors, factors, scale, "", options
+            )
+    return out
+
+
 def _neural_grid(g: GridInput) -> list[Candidate]:
     make = methods()["nn"].make
     params = {} if g.quick else dict(NEURAL_PARAMS)
@@ -644,6 +689,8 @@ CANDIDATE_GRIDS: Mapping[str, Callable[[GridInput], list[Candidate]]] = MappingP
         "lpv": _lpv_grid,
         "sindy": _sindy_grid,
         "sm-parallel-sindy": _parallel_sindy_grid,
+        "koopman": _koopman_grid,
+        "sm-parallel-koopman": _parallel_koopman_grid,
         "nn": _neural_grid,
         "scheduled": _scheduled_grid,
         "greybox-neck": _state_model_grid("greybox-neck"),
@@ -660,7 +707,7 @@ OPT_IN_METHODS: frozenset[str] = frozenset({"lpv"})
 
 #: Other toolkits' models, run beside neckid's on the public data sets with the same lag grid and
 #: selection rule (:mod:`neckid.experiments.benchmark.peers`; ``pip install "neckid[peers]"``).
-PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols", "pysindy-stlsq")
+PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols", "pysindy-stlsq", "pykoopman-edmdc")
 
 #: What a benchmark runs when no methods are named: neckid's own. A peer runs when named
 #: (``--methods ...,sysidentpy-frols``; one that is not installed gives a row that says so).

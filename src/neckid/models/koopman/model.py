@@ -503,11 +503,10 @@ class KoopmanEDMD(Estimator):
 class KoopmanSimulator:
     """Step-by-step free run of a :class:`KoopmanEDMD`, for closed loops.
 
-    ``reset(y0, u0)`` lifts the state from ``max_lag_`` past outputs and inputs (inputs zero when
-    not given); ``reset()`` without outputs starts from ``z = [0; 1]`` (every standardised delay
-    and observable at its training mean), the zero state of :meth:`KoopmanEDMD.state_map`.
-    ``step(u)`` returns ``y(t) = C z + D u`` and moves the state on, with the arithmetic of
-    ``simulate``.
+    ``reset(y0, u0)`` lifts the state from ``max_lag_`` past outputs and inputs (zeros when not
+    given: ``reset()`` starts from the lift of a zero history, the zero state of
+    :meth:`KoopmanEDMD.state_map`). ``step(u)`` returns ``y(t) = C z + D u`` and moves the state
+    on, with the arithmetic of ``simulate``.
     """
 
     def __init__(self, model: KoopmanEDMD) -> None:
@@ -516,19 +515,15 @@ class KoopmanSimulator:
         self.reset()
 
     def reset(self, y0: ArrayLike | None = None, u0: ArrayLike | None = None) -> None:
-        """Start again from past outputs ``y0`` and inputs ``u0`` (one row repeated).
+        """Start again from past outputs ``y0`` and inputs ``u0`` (one row repeated; default 0).
 
         Parameters
         ----------
         y0 : array_like, shape (n_outputs,) or (max_lag_, n_outputs), optional
-            Past outputs (oldest first); without them the state is ``[0; 1]``.
+            Past outputs (oldest first).
         u0 : array_like, shape (n_inputs,) or (max_lag_, n_inputs), optional
-            Past inputs (default zeros).
+            Past inputs.
         """
-        if y0 is None:
-            self.x = np.zeros(self._model.order_)
-            self.x[-1] = 1.0
-            return
         m = max(self._model.max_lag_, 1)
         y_rows = history_rows(y0, m, self.n_outputs, "y0")
         u_rows = history_rows(u0, m, self.n_inputs, "u0")

@@ -1,10 +1,11 @@
 """State functions of the Koopman model, for python-control: the lifted linear system itself.
 
-The state ``x`` is the lifted state without its constant entry (``z = [x; 1]``), so that
-``x = 0`` is where the simulator's ``reset()`` starts: ``output(x, u) = C z + D u`` and
-``update(x, u) = (A z + B u)`` without its last entry, with the matrices of
-:meth:`~neckid.models.koopman.model.KoopmanEDMD.lifted_system`; the I/O system, the
-simulator and ``simulate`` give the same floats.
+The state ``x`` is the lifted state without its constant entry, counted from the lift of a
+zero history ``z₀`` (where the simulator's ``reset()`` starts, and python-control's default
+``X0 = 0``): ``z = [x; 0] + z₀``, ``output(x, u) = C z + D u`` and ``update(x, u)`` the first
+entries of ``A z + B u − z₀``, with the matrices of
+:meth:`~neckid.models.koopman.model.KoopmanEDMD.lifted_system`; the I/O system, the simulator
+and ``simulate`` agree to rounding.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ __all__ = ["KoopmanStateMap"]
 
 
 class KoopmanStateMap(StateMap):
-    """``x``: the lifted state of a fitted KoopmanEDMD (delays, observables) without the constant.
+    """``x``: a fitted KoopmanEDMD's lifted state (delays, observables) from the rest lift ``z₀``.
 
     Parameters
     ----------
@@ -38,14 +39,16 @@ class KoopmanStateMap(StateMap):
         self.states = model.state_names()[:-1]
         self.ts = float(model.ts_)
         self.feedthrough = bool(np.any(self._system.D))
+        self._rest = model.simulator().x.copy()  # z₀: the lift of a zero history
 
     def _output(self, x: FloatArray, u: FloatArray) -> FloatArray:
-        z = np.append(x, 1.0)
+        z = np.append(x, 0.0) + self._rest
         return np.asarray(self._system.C @ z + self._system.D @ u, dtype=np.float64)
 
     def _next(self, x: FloatArray, u: FloatArray, out: FloatArray) -> FloatArray:
-        z = np.append(x, 1.0)
-        return np.asarray((self._system.A @ z + self._system.B @ u)[:-1], dtype=np.float64)
+        z = np.append(x, 0.0) + self._rest
+        ahead = self._system.A @ z + self._system.B @ u - self._rest
+        return np.asarray(ahead[:-1], dtype=np.float64)
 
     def initial_state(self, y0: ArrayLike | None, u0: ArrayLike | None) -> FloatArray:
         """The state the simulator's ``reset(y0, u0)`` starts from (0 without ``y0``).
@@ -64,4 +67,5 @@ class KoopmanStateMap(StateMap):
         m = max(int(self._model.max_lag_), 1)
         y_rows = history_rows(y0, m, len(self.outputs), "y0")
         u_rows = history_rows(u0, m, len(self.inputs), "u0")
-        return np.asarray(self._model.initial_state(y_rows, u_rows)[:-1], dtype=np.float64)
+        lifted = self._model.initial_state(y_rows, u_rows) - self._rest
+        return np.asarray(lifted[:-1], dtype=np.float64)
