@@ -376,9 +376,11 @@ def validate(
         raise ValueError("--bode compares the model's own response; not with --in-loop or --adapt")
     parse_multisine(multisine)  # a bad --multisine refused before any run
     given = [*logs, model_path]
-    for path, option in ((plot, "--plot"), (json_out, "--json"), (bode, "--plot")):
+    for path, option in ((plot, "--plot"), (json_out, "--json")):
         if path is not None:
             check_output_file(path, force=force, inputs=given, option=option)
+    if bode is not None:
+        check_output_file(bode, force=force, inputs=given, option="--bode", suffixes=(".png",))
     if in_loop:
         return validate_in_loop(
             model_path, logs, controller, json_out, spec, plot=plot, force=force, adapt=adaptation
