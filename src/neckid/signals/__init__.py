@@ -1,7 +1,7 @@
 """Excitation signals and the bandwidth of a chirp run.
 
 The generators are in :mod:`~neckid.signals.excitation` (the plans for a best linear approximation in
-:mod:`~neckid.signals.multisine`), the chirp-run analysis in
+:mod:`~neckid.signals.plans`), the chirp-run analysis in
 :mod:`~neckid.signals.bandwidth`. All frequencies are angular, in rad/s; all times in seconds. A signal is a 1-D float64 array,
 one value per time stamp, ready to be a column of an :class:`~neckid.data.iodata.IOData`.
 """
@@ -20,7 +20,7 @@ from neckid.signals.excitation import (
     staircase,
     step,
 )
-from neckid.signals.multisine import MultisinePlan, multisine_plan
+from neckid.signals.plans import MultisinePlan, multisine_plan
 
 __all__ = [
     "BandwidthResult",
