@@ -213,6 +213,10 @@ def test_design_mpc_writes_a_file_that_info_describes(tmp_path: Path) -> None:
     assert info.exit_code == 0, info.output
     described = json.loads(info.output)
     assert described["kind"] == "mpc" and described["prediction_matrices"]["forced"] == [16, 15]
+    pi_file = tmp_path / "pi.json"
+    assert runner.invoke(app, ["design", str(model), "--out", str(pi_file)]).exit_code == 0
+    pi_info = runner.invoke(app, ["info", str(pi_file)])
+    assert pi_info.exit_code == 0 and "pi controller, ts = 0.02 s" in pi_info.output
     refused = runner.invoke(app, [*args, "--fractional", "--out", str(tmp_path / "x.json")])
     assert refused.exit_code == 2
     assert "--fractional designs a PI or fractional controller" in refused.output
