@@ -118,13 +118,13 @@ def c_parallel(model: Any) -> CModel:
         "the base's past outputs), as the model's simulator().",
         "",
         "The base:",
-        *[f"  {line}" for line in base.notes],
+        *[f"  {line}".replace("NAME_", "NAME_base_") for line in base.notes],
         "The map:",
-        *[f"  {line}" for line in sm_map.notes],
+        *[f"  {line}".replace("NAME_", "NAME_map_") for line in sm_map.notes],
     ]
     return CModel(
         title="Parallel Set Membership (neckid ParallelSetMembership)",
-        notes=[line.replace("NAME_", "NAME_base_") if "reset" in line else line for line in notes],
+        notes=notes,
         state=[
             ("NAME_base_state base", "the base model's state"),
             ("NAME_map_state map", "the SM map's state"),
