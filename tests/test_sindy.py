@@ -45,9 +45,13 @@ def test_a_large_threshold_keeps_fewer_terms_and_the_rule_chooses_on_held_out_fi
     assert len(coarse.terms()) < 4
     assert coarse.selection_ == {}  # one threshold: used as given
     chosen = SparseNARX(Lags.arx(1, 1), fit_for="prediction").fit(data)
-    means = chosen.selection_["mean_fit"]
-    picked = chosen.selection_["thresholds"].index(chosen.threshold_)
+    report = chosen.selection_
+    means = report["mean_fit"]
+    pairs = list(zip(report["degrees"], report["thresholds"], strict=True))
+    picked = pairs.index((report["chosen_degree"], chosen.threshold_))
     assert means[picked] >= max(m for m in means if m is not None) - 1.0
+    assert report["chosen_degree"] == 3  # the cubic term matters: degree 1 and 2 fit worse
+    assert max(means[: len(means) // 3]) < means[picked] - 1.0
 
 
 def test_bags_give_intervals_around_the_coefficients_and_inclusion() -> None:

@@ -64,6 +64,10 @@ class Library:
         """Whether the compiled free run can evaluate every function (no user function)."""
         return not bool(np.any(self.kind == 3))
 
+    def degrees(self) -> IntArray:
+        """Total degree of each function (a monomial's; 1 for the one-term functions)."""
+        return np.where(self.kind == 0, self.powers.sum(axis=1), 1).astype(np.int64)
+
     def evaluate(
         self,
         x: FloatArray,

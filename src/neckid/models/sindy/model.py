@@ -219,29 +219,41 @@ class SparseNARX(NarxModel):
         self.allowed_ = independent_columns(normal.gram)
         self.allowed_[0] = True  # the constant stays a candidate
         self._mark_fitted()
-        candidates = self._candidate_thresholds()
+        degrees = self.library_.degrees()
+        thresholds = self._candidate_thresholds()
+        candidates = [(int(self.degree), thresholds[0])]
+        if len(thresholds) > 1:  # every largest degree up to degree, with every threshold
+            candidates = [(d, t) for d in range(1, int(self.degree) + 1) for t in thresholds]
         self.selection_: dict[str, Any] = {}
-        self.threshold_ = candidates[0]
+        chosen = candidates[0]
         if len(candidates) > 1:
-            counts = [int(np.count_nonzero(self._solve(normal, t))) for t in candidates]
+            counts = [int(np.count_nonzero(self._solve(normal, c, degrees))) for c in candidates]
             cache: dict[int, Sums] = {}
 
-            def fit_records(records: Sequence[IOData], threshold: float) -> FloatArray:
-                return self._fit_records(records, threshold, cache)
+            def fit_records(records: Sequence[IOData], candidate: tuple[int, float]) -> FloatArray:
+                return self._fit_records(records, candidate, degrees, cache)
 
-            self.threshold_, self.selection_ = choose_threshold(
+            chosen, self.selection_ = choose_threshold(
                 experiments, candidates, counts, fit_records, self._run, self.max_lag_
             )
-        self.coef_ = self._solve(normal, self.threshold_)
+        self.allowed_ &= degrees <= chosen[0]
+        self.threshold_ = chosen[1]
+        self.coef_ = self._solve(normal, chosen, degrees)
         self._fit_bags(x, y)
         self.fit_report_: dict[str, Any] = {"refined": False, "evaluations": 0}
         if self.fit_for == "simulation":
             self._fit_simulation(experiments)
         return self
 
-    def _solve(self, normal: Normal, threshold: float) -> FloatArray:
-        """STLSQ on ``normal`` at ``threshold``, in raw units."""
-        xi = stlsq(normal, threshold, self.allowed_, ridge=float(self.ridge), max_iter=STLSQ_STEPS)
+    def _solve(
+        self,
+        normal: Normal,
+        candidate: tuple[int, float],
+        degrees: NDArray[np.int64] | None = None,
+    ) -> FloatArray:
+        """STLSQ on ``normal`` at ``(largest degree, threshold)``, in raw units."""
+        allowed = self.allowed_ if degrees is None else self.allowed_ & (degrees <= candidate[0])
+        xi = stlsq(normal, candidate[1], allowed, ridge=float(self.ridge), max_iter=STLSQ_STEPS)
         return np.ascontiguousarray(xi * self.y_scale_[None, :] / self.scale_[:, None])
 
     def _sums(self, x: FloatArray, y: FloatArray, weights: FloatArray | None = None) -> Sums:
@@ -251,7 +263,11 @@ class SparseNARX(NarxModel):
         return Sums.of_rows(columns, x, y, weights)
 
     def _fit_records(
-        self, records: Sequence[IOData], threshold: float, cache: dict[int, Sums]
+        self,
+        records: Sequence[IOData],
+        candidate: tuple[int, float],
+        degrees: NDArray[np.int64],
+        cache: dict[int, Sums],
     ) -> FloatArray:
         """STLSQ on the rows of ``records`` (a selection split's fit part; sums kept per record)."""
         total: Sums | None = None
@@ -263,7 +279,7 @@ class SparseNARX(NarxModel):
             total = cache[id(record)] if total is None else total + cache[id(record)]
         if total is None:
             raise ValueError("a selection split has no record longer than the lags")
-        return self._solve(total.normal(self.scale_, self.y_scale_), threshold)
+        return self._solve(total.normal(self.scale_, self.y_scale_), candidate, degrees)
 
     def _fit_bags(self, x: FloatArray, y: FloatArray) -> None:
         """STLSQ at the chosen threshold on ``ensemble`` bootstrap resamples of the rows."""
@@ -281,7 +297,7 @@ class SparseNARX(NarxModel):
                 weights = np.bincount(rows, minlength=x.shape[0]).astype(np.float64)
                 sums = self._sums(x, y, weights)
                 self.coef_bags_[b] = self._solve(
-                    sums.normal(self.scale_, self.y_scale_), self.threshold_
+                    sums.normal(self.scale_, self.y_scale_), (int(self.degree), self.threshold_)
                 )
                 advance()
         self.coef_interval_ = np.percentile(self.coef_bags_, INTERVAL_PERCENTILES, axis=0)

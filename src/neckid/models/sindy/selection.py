@@ -1,6 +1,6 @@
-"""The STLSQ threshold by the selection rule every neckid selection applies, on training data only.
+"""The STLSQ threshold (and the library's degree) by the selection rule, on training data only.
 
-Each candidate threshold is fitted on the fit part of every split of
+Each candidate, a largest monomial degree and a threshold, is fitted on the fit part of every split of
 :func:`neckid.data.folds.fold_plan` (time blocks of one record, or the other runs), scored by the
 free-run fit [%] of the held-out part, and ranked by :func:`neckid.data.folds.rank_candidates`
 (paired one standard error toward the candidate with fewer terms). A candidate whose free run
@@ -25,8 +25,8 @@ __all__ = ["DEFAULT_THRESHOLDS", "choose_threshold"]
 #: deviation a function carries at its typical size), largest (sparsest) first.
 DEFAULT_THRESHOLDS: tuple[float, ...] = (0.3, 0.1, 0.03, 0.01, 0.003, 0.001, 0.0003)
 
-#: ``fit(records, threshold) -> coef`` and ``run(coef, record) -> simulated outputs``.
-Fitter = Callable[[Sequence[IOData], float], FloatArray]
+#: ``fit(records, (degree, threshold)) -> coef`` and ``run(coef, record) -> simulated outputs``.
+Fitter = Callable[[Sequence[IOData], tuple[int, float]], FloatArray]
 Runner = Callable[[FloatArray, IOData], FloatArray]
 
 
@@ -45,20 +45,20 @@ def _fold_fit(coef: FloatArray, fold: Sequence[IOData], run: Runner, skip: int) 
 
 def choose_threshold(
     experiments: Sequence[IOData],
-    thresholds: Sequence[float],
+    candidates: Sequence[tuple[int, float]],
     n_terms: Sequence[int],
     fit: Fitter,
     run: Runner,
     skip: int,
-) -> tuple[float, dict[str, Any]]:
-    """The chosen threshold and a report of the selection.
+) -> tuple[tuple[int, float], dict[str, Any]]:
+    """The chosen ``(degree, threshold)`` and a report of the selection.
 
     Parameters
     ----------
     experiments : sequence of IOData
         The training records (with the model's conditions as inputs).
-    thresholds : sequence of float
-        The candidates.
+    candidates : sequence of (int, float)
+        Largest monomial degree and threshold of each candidate.
     n_terms : sequence of int
         Functions each candidate keeps on the whole training data (its simplicity).
     fit, run
@@ -67,15 +67,15 @@ def choose_threshold(
         Initial samples of a free run (the model's largest lag).
     """
     plan = fold_plan(list(experiments))
-    scores = np.full((len(thresholds), plan.n_folds), -np.inf)
+    scores = np.full((len(candidates), plan.n_folds), -np.inf)
     column = 0
     for split in plan.splits:
-        for i, threshold in enumerate(thresholds):
-            coef = fit(split.fit_on, float(threshold))
+        for i, candidate in enumerate(candidates):
+            coef = fit(split.fit_on, candidate)
             for f, fold in enumerate(split.folds):
                 scores[i, column + f] = _fold_fit(coef, fold, run, skip)
         column += len(split.folds)
-    keys = [(int(k), -float(t)) for k, t in zip(n_terms, thresholds, strict=True)]
+    keys = [(int(k), d, -float(t)) for k, (d, t) in zip(n_terms, candidates, strict=True)]
     try:
         chosen = rank_candidates(scores, keys).chosen
         how = "paired one standard error toward fewer terms"
@@ -88,12 +88,14 @@ def choose_threshold(
         how = "every candidate ran away on some fold: the most finite folds, then the best mean"
     mean_fit = [float(np.mean(row)) if np.all(np.isfinite(row)) else None for row in scores]
     report = {
-        "thresholds": [float(t) for t in thresholds],
+        "degrees": [int(d) for d, _ in candidates],
+        "thresholds": [float(t) for _, t in candidates],
         "n_terms": [int(k) for k in n_terms],
         "mean_fit": mean_fit,
-        "chosen": float(thresholds[chosen]),
+        "chosen": float(candidates[chosen][1]),
+        "chosen_degree": int(candidates[chosen][0]),
         "scheme": plan.scheme,
         "n_folds": int(plan.n_folds),
         "rule": how,
     }
-    return float(thresholds[chosen]), report
+    return (int(candidates[chosen][0]), float(candidates[chosen][1])), report
