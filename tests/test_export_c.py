@@ -124,10 +124,17 @@ def test_a_step_c_cannot_write_is_refused_unless_forced() -> None:
     assert "NOT APPLIED" in header
 
 
-def test_local_lipschitz_constants_are_refused() -> None:
-    model = methods()["sm"].make(Lags.arx(1, 1), lipschitz="local").fit(_log(200, 0))
-    with pytest.raises(ValueError, match="lipschitz='local' has no C export"):
-        c_model(model)
+@pytest.mark.parametrize("name", ["sm", "sm-multistep"])
+def test_local_lipschitz_constants_match_simulate(name: str, tmp_path: Path) -> None:
+    """Local constants: gamma(w) from the nearest points, each point's own slope (bit-equal here)."""
+    model = methods()[name].make(Lags.arx(2, 2), quick=True, lipschitz="local").fit(_log(400, 0))
+    test = _log(200, 1)
+    out = run(build(model, tmp_path), _rows(model, test))
+    result = model.simulate(test)
+    m = int(model.max_lag_)
+    assert result.lower is not None and result.upper is not None
+    for column, want in enumerate([result.y, result.lower, result.upper]):
+        assert relative_error(out[:, column : column + 1], want[m:]) <= 1e-12
 
 
 def test_reset_from_rest_matches_the_simulator(tmp_path: Path) -> None:
@@ -174,11 +181,15 @@ def test_cli_export_to_c(tmp_path: Path) -> None:
     again = runner.invoke(app, ["export", str(path), "--to", "c"])
     assert again.exit_code != 0 and "exists already; use --force" in again.output
     assert runner.invoke(app, ["export", str(path), "--to", "c", "--force"]).exit_code == 0
-    other = tmp_path / "local.npz"
-    methods()["sm"].make(Lags.arx(1, 1), lipschitz="local").fit(_log(300, 0)).save(other)
+    from neckid.data.preprocess import Resample
+
+    other = tmp_path / "resampled.npz"
+    model = methods()["arx"].make(Lags.arx(1, 1)).fit(_log(300, 0))
+    model.preprocessing_ = Pipeline([Resample(0.02)])
+    model.save(other)
     refused = runner.invoke(app, ["export", str(other), "--to", "c"])
     assert refused.exit_code != 0
-    assert "lipschitz='local' has no C export" in refused.output
-    assert "Traceback" not in refused.output and not (tmp_path / "local_c").exists()
+    assert "cannot be written as C" in refused.output
+    assert "Traceback" not in refused.output and not (tmp_path / "resampled_c").exists()
     wrong = runner.invoke(app, ["export", str(path), "--to", "json", "--name", "x"])
     assert wrong.exit_code != 0 and "--name and --driver go with --to c" in wrong.output

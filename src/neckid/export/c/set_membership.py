@@ -10,8 +10,10 @@ free run's: the linear part summed from the intercept term by term,
 ``f_u = min_k (y_k + gamma ||ws - W_k||) + eps``, ``f_l = max_k (y_k - gamma ||ws - W_k||) - eps``,
 
 ``ws = w .* weights``, the outputs ``linear + [f_l, f_u]`` and the central estimate ``linear +
-(f_l + f_u) / 2`` fed back (Milanese & Novara, Automatica 2004). Local Lipschitz constants
-(``lipschitz="local"``) are not exported: :func:`c_set_membership` refuses them.
+(f_l + f_u) / 2`` fed back (Milanese & Novara, Automatica 2004). With local Lipschitz
+constants (``lipschitz="local"``) point ``k`` bounds with ``max(gamma(w), gamma_k)``,
+``gamma(w)`` the largest ``gamma_k`` within the ``K``-th smallest distance from ``w``, found by
+a scan over the data set (the same squared distances as the Python kernel's kd-tree walk).
 """
 
 from __future__ import annotations
@@ -71,7 +73,14 @@ static void NAME_query(const double *ws, int c, double gamma, double *lower, dou
                     double diff = ws[k] - NAME_points[p][k];
                     acc += diff * diff;
                 }
+#if NAME_LOCAL
+                {  /* the point's own constant where it is larger: max(gamma, gamma_k) */
+                    double own = NAME_point_gamma[p][c];
+                    gd = (own > gamma ? own : gamma) * sqrt(acc);
+                }
+#else
                 gd = gamma * sqrt(acc);
+#endif
                 v = NAME_targets[p][c];
                 if (v + gd < best_upper) best_upper = v + gd;
                 if (v - gd > best_lower) best_lower = v - gd;
@@ -94,6 +103,72 @@ static void NAME_query(const double *ws, int c, double gamma, double *lower, dou
     *upper = best_upper;
 }
 """
+
+_NEIGHBOURS = r"""
+/* gamma(w) per output: the largest constant of the training points within the K-th smallest
+   squared distance (ties included), as the local prior's kernel finds it. */
+static void NAME_neighbour_gamma(const double *ws, double *out)
+{
+    double near[NAME_K];
+    long p;
+    int k, c, slot;
+    for (k = 0; k < NAME_K; ++k) near[k] = HUGE_VAL;
+    for (p = 0; p < NAME_N_POINTS; ++p) {
+        double acc = 0.0;
+        for (k = 0; k < NAME_N_TERMS; ++k) {
+            double diff = ws[k] - NAME_points[p][k];
+            acc += diff * diff;
+        }
+        if (acc < near[NAME_K - 1]) {
+            slot = NAME_K - 1;
+            while (slot > 0 && near[slot - 1] > acc) {
+                near[slot] = near[slot - 1];
+                slot -= 1;
+            }
+            near[slot] = acc;
+        }
+    }
+    if (!(near[NAME_K - 1] < HUGE_VAL)) {
+        for (c = 0; c < NAME_N_MAP_OUTPUTS; ++c) out[c] = HUGE_VAL;
+        return;
+    }
+    for (c = 0; c < NAME_N_MAP_OUTPUTS; ++c) out[c] = 0.0;
+    for (p = 0; p < NAME_N_POINTS; ++p) {
+        double acc = 0.0;
+        for (k = 0; k < NAME_N_TERMS; ++k) {
+            double diff = ws[k] - NAME_points[p][k];
+            acc += diff * diff;
+        }
+        if (acc <= near[NAME_K - 1])
+            for (c = 0; c < NAME_N_MAP_OUTPUTS; ++c)
+                if (NAME_point_gamma[p][c] > out[c]) out[c] = NAME_point_gamma[p][c];
+    }
+}
+"""
+
+_LOCAL_MAP = (
+    "    {\n"
+    "        double ws[NAME_N_TERMS], near_gamma[NAME_N_MAP_OUTPUTS];\n"
+    "        int k, c;\n"
+    "        for (k = 0; k < NAME_N_TERMS; ++k) ws[k] = w[k] * NAME_weights[k];\n"
+    "        NAME_neighbour_gamma(ws, near_gamma);\n"
+    "        for (c = 0; c < NAME_N_MAP_OUTPUTS; ++c) {\n"
+    "            double linear = NAME_intercept[c], low, high, f_lower, f_upper;\n"
+    "            double g = near_gamma[c];\n"
+    "            for (k = 0; k < NAME_N_TERMS; ++k) linear += w[k] * NAME_coef[k][c];\n"
+    "            NAME_query(ws, c, g, &low, &high);\n"
+    "            if (low - high > 2.0 * NAME_epsilon[c] && NAME_gamma[c] > g) {\n"
+    "                g = NAME_gamma[c];  /* crossed by rounding only: the global constant */\n"
+    "                NAME_query(ws, c, g, &low, &high);\n"
+    "            }\n"
+    "            f_lower = low - NAME_epsilon[c];\n"
+    "            f_upper = high + NAME_epsilon[c];\n"
+    "            lower[c] = linear + f_lower;\n"
+    "            upper[c] = linear + f_upper;\n"
+    "            out[c] = linear + 0.5 * (f_lower + f_upper);\n"
+    "        }\n"
+    "    }\n"
+)
 
 _MAP = (
     "    {\n"
@@ -120,17 +195,9 @@ def sm_map_parts(model: Any) -> tuple[str, str, list[str]]:
     The map code reads ``w[]`` and writes ``out[]``, ``lower[]`` and ``upper[]``; a model that
     steps several maps (the multi-step predictors) embeds each under its own prefix.
 
-    Raises
-    ------
-    ValueError
-        For a model with local Lipschitz constants (not exported).
     """
-    if model.point_gamma_ is not None:
-        raise ValueError(
-            "a Set Membership model with lipschitz='local' has no C export (its bounds need the"
-            " nearest training points' constants); identify it with the global constant"
-        )
     core = model.core_
+    local = core.point_gamma is not None
     points, targets, start, end, left, right, lo, hi, ymin, ymax = core.tree.kernel_arrays()
     n_terms = int(points.shape[1])
     constants = "\n".join(
@@ -140,6 +207,8 @@ def sm_map_parts(model: Any) -> tuple[str, str, list[str]]:
             f"#define NAME_N_POINTS {int(points.shape[0])}",
             f"#define NAME_N_NODES {int(start.shape[0])}",
             "#define NAME_STACK_DEPTH 128",
+            f"#define NAME_LOCAL {int(local)}",
+            f"#define NAME_K {max(min(int(core.local_neighbours), int(points.shape[0])), 1)}",
             c_array("NAME_weights", core.weights),
             c_array("NAME_coef", np.asarray(core.coef).reshape(n_terms, -1)),
             c_array("NAME_intercept", core.intercept),
@@ -157,7 +226,12 @@ def sm_map_parts(model: Any) -> tuple[str, str, list[str]]:
             c_array("NAME_hi", hi),
             c_array("NAME_ymin", ymin),
             c_array("NAME_ymax", ymax),
+            "/* each training point's own Lipschitz constant (local prior), tree order */"
+            if local
+            else "",
+            c_array("NAME_point_gamma", core.point_gamma) if local else "",
             _QUERY,
+            _NEIGHBOURS if local else "",
         ]
     )
     structure = "Set Membership + linear part" if model.linear_part else "Set Membership"
@@ -169,17 +243,17 @@ def sm_map_parts(model: Any) -> tuple[str, str, list[str]]:
         "lower = linear + f_l, upper = linear + f_u, y = linear + (f_l + f_u) / 2 (the central",
         "estimate, fed back), linear = intercept + coef' w (zero without a linear part)",
     ]
-    return constants, _MAP, notes
+    if local:
+        notes += [
+            "Local constants: point k bounds with max(gamma(w), gamma_k), gamma(w) the largest",
+            f"gamma_k of the {int(core.local_neighbours)} training points nearest w (ties"
+            " included; the global gamma where rounding crosses the bounds)",
+        ]
+    return constants, _LOCAL_MAP if local else _MAP, notes
 
 
 def c_set_membership(model: Any) -> CModel:
-    """The C export of a fitted :class:`~neckid.SetMembership` (``sm``, ``sm-linear``).
-
-    Raises
-    ------
-    ValueError
-        For a model with local Lipschitz constants (not exported).
-    """
+    """The C export of a fitted :class:`~neckid.SetMembership` (``sm``, ``sm-linear``)."""
     constants, map_code, notes = sm_map_parts(model)
     structure = "Set Membership + linear part" if model.linear_part else "Set Membership"
     title = f"{structure} (neckid SetMembership)"
