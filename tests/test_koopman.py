@@ -115,6 +115,9 @@ def test_selection_chooses_size_and_ridge_on_the_training_logs():
     assert chosen["scheme"].startswith("time-blocks")
     assert (model.n_observables_, model.ridge_) == tuple(chosen["candidates"][_index(chosen)])
     assert "paired one-standard-error rule" in chosen["explanation"]
+    from neckid.models.koopman.summary import describe_koopman
+
+    assert describe_koopman(model)[1]["selection"].isascii()  # a .mat file keeps ASCII only
 
 
 def _index(chosen: dict) -> int:

@@ -43,8 +43,13 @@ def describe_koopman(model: Any) -> tuple[str, dict[str, Any]]:
         "output_std": np.array(model.y_std_, dtype=np.float64),
         "input_mean": np.array(model.u_mean_, dtype=np.float64),
         "input_std": np.array(model.u_std_, dtype=np.float64),
-        "selection": "" if not model.selection_ else str(model.selection_["explanation"]),
+        "selection": _ascii(model.selection_["explanation"]) if model.selection_ else "",
     }
+
+
+def _ascii(text: str) -> str:
+    """``text`` in ASCII (a MATLAB .mat file reads other text cut short): ± as +/-."""
+    return text.replace("±", "+/-").encode("ascii", "replace").decode("ascii")
 
 
 def _term_positions(model: Any) -> Any:
