@@ -107,6 +107,10 @@ def test_frf_of_closed_loop_data_through_the_reference(tmp_path) -> None:
         shares[name] = inside[omega < 1.0].mean()
         assert pair["estimate"].startswith("indirect through r" if extra else "Welch")
     assert shares["indirect"] >= 0.85 and shares["direct"] < 0.5, shares
+    raw = _invoke("frf", path, "--inputs", "u", "--outputs", "y", "--method", "etfe")
+    assert raw.exit_code == 0 and "ETFE" in raw.output
+    bad = _invoke("frf", path, "--inputs", "u", "--outputs", "y", "--method", "spa")
+    assert bad.exit_code == 2 and "--method must be" in bad.output
 
 
 def test_validate_bode_puts_a_right_model_inside_the_band(tmp_path) -> None:

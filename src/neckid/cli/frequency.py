@@ -206,7 +206,7 @@ def _periodic(
 
 
 def _spectral(data: Any, reference: str | None, method: Any, segment: int | None) -> list[Any]:
-    from neckid.frequency import indirect_frf, smoothed_frf
+    from neckid.frequency import etfe, indirect_frf, smoothed_frf
 
     responses = []
     names = [n for n in data.input_names if n != reference]
@@ -214,7 +214,11 @@ def _spectral(data: Any, reference: str | None, method: Any, segment: int | None
     for out in data.output_names:
         for name in names:
             u, y = data.channel(name), data.channel(out)
-            if r is None:
+            if method == "etfe":
+                if r is not None:
+                    raise ValueError("--method etfe has no band and no reference: use welch")
+                response = etfe(u, y, data.ts)
+            elif r is None:
                 response = smoothed_frf(u, y, data.ts, method=method, segment=segment)
             else:
                 response = indirect_frf(
@@ -358,7 +362,10 @@ def frf(
         help="Closed-loop log: the reference channel; G = S_ry / S_ru (indirect).",
     ),
     method: str = typer.Option(
-        "welch", "--method", help="Non-periodic data: welch or blackman-tukey."
+        "welch",
+        "--method",
+        help="Non-periodic data: welch, blackman-tukey (MATLAB's spa) or etfe (Y/U of the whole"
+        " record, no band).",
     ),
     segment: int = typer.Option(
         None, "--segment", help="Welch segment length, samples (default n/8)."
@@ -386,6 +393,8 @@ def frf(
     for path, option in ((plot, "--plot"), (json_out, "--json")):
         if path is not None:
             check_output_file(path, force=force, inputs=logs, option=option)
+    if method not in ("welch", "blackman-tukey", "etfe"):
+        raise ValueError(f"--method must be welch, blackman-tukey or etfe; got {method!r}")
     names_in, names_out = _split(inputs) or [], _split(outputs) or []
     if reference and reference not in names_in:
         names_in = [*names_in, reference]
