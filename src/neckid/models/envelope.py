@@ -27,6 +27,7 @@ the log's inputs before the run starts.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
@@ -57,11 +58,16 @@ def input_reach(
         if name not in ranges:
             continue
         column = np.asarray(data.u[:, j], dtype=np.float64)
-        column = column[np.isfinite(column)]
         if column.size == 0:
             continue
+        smallest, largest = float(column.min()), float(column.max())
+        if not (math.isfinite(smallest) and math.isfinite(largest)):  # NaN or inf: drop them
+            column = column[np.isfinite(column)]
+            if column.size == 0:
+                continue
+            smallest, largest = float(column.min()), float(column.max())
         low, high = ranges[name]
-        r = max(0.0, float(column.max()) - high, low - float(column.min()))
+        r = max(0.0, largest - high, low - smallest)
         reach[name] = (r, float(high - low))
     return reach
 
