@@ -133,6 +133,20 @@ def test_validate_bode_puts_a_right_model_inside_the_band(tmp_path) -> None:
     assert png.exists()
     both = _invoke("validate", model, log, "--bode", png, "--in-loop", "--force")
     assert both.exit_code == 2 and "--bode" in both.output
+    nonlinear = tmp_path / "poly.npz"
+    fitted = _invoke(
+        "identify", log, "--method", "poly", "--inputs", "command", "--outputs", "output",
+        "--lags", "1-2/1-3", "--save", nonlinear,
+    )  # fmt: skip
+    assert fitted.exit_code == 0, fitted.output
+    result = _invoke(
+        "validate", nonlinear, log, "--bode", tmp_path / "p.png", "--multisine", "6,3",
+        "--json", tmp_path / "p.json",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    bode = json.loads((tmp_path / "p.json").read_text())["bode"][0]
+    assert bode["model_estimate"].startswith("robust BLA of its free run"), bode
+    assert bode["share_inside_95"] >= 0.5, bode  # a polynomial of a linear system: near it
 
 
 def test_frequency_demo_reads_the_necks_bandwidth() -> None:
