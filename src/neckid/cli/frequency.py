@@ -133,7 +133,7 @@ def excite(
         f"plan: {realisations} realisations x ({transient} + {periods}) periods x {period}"
         f" samples = {len(frame)} samples ({len(frame) * ts:.1f} s at ts = {ts} s);"
         f" {excited.size} excited lines from {excited.min():.4g} to {excited.max():.4g} rad/s,"
-        f" {2 * 3.141592653589793 / (period * ts):.4g} rad/s apart",
+        f" line spacing {2 * 3.141592653589793 / (period * ts):.4g} rad/s",
         markup=False,
     )
     console.print(f"plan written to {out}, lines' table to {lines_path}", markup=False)
