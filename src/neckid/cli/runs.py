@@ -279,8 +279,10 @@ def benchmark(
         "--methods",
         help=(
             "Comma-separated registry names: arx, ss, pnlss, greybox-neck, poly, sm, sm-linear,"
-            " sm-parallel, sm-parallel-poly, nn, scheduled, lpv, and the peer sysidentpy-frols"
-            " (SysIdentPy's FROLS; pip install 'neckid[peers]'). Default: every neckid method but"
+            " sm-parallel, sm-parallel-poly, nn, scheduled, lpv, koopman, sm-parallel-koopman,"
+            " and the peer sysidentpy-frols (SysIdentPy's FROLS; pip install 'neckid[peers]');"
+            " the peer pykoopman-edmdc runs in the python NECKID_PYKOOPMAN_PYTHON names (pykoopman"
+            " pins NumPy 1.26). Default: every neckid method but"
             " lpv (its grid multiplies the lags by three degrees); lpv and the peer run when named."
         ),
     ),
