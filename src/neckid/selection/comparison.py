@@ -132,8 +132,9 @@ class SafeSelection:
     baseline_fits : dict of str to list of float
         Their fit on each fold.
     fitted : dict of str to estimator
-        Per candidate, the model the stress check fitted on all training runs (none without
-        the check, or when that fit failed).
+        From :func:`compare`: per method's candidate run on the test logs, the model the stress
+        check fitted on all training runs (none without the check, or when that fit failed);
+        empty from :func:`select_safely`.
     """
 
     table: pd.DataFrame
@@ -343,8 +344,13 @@ def _select(
     backend: str | None,
     progress: bool,
     adapt: tuple[float, str] | None,
+    keep_fits: bool = False,
 ) -> SafeSelection:
-    """:func:`select_safely` on logs checked and cut once (:class:`~neckid.data.training.TrainingSet`)."""
+    """:func:`select_safely` on logs checked and cut once (:class:`~neckid.data.training.TrainingSet`).
+
+    ``keep_fits``: keep the stress check's models (:attr:`SafeSelection.fitted`; otherwise each
+    is dropped after its check, as a selection over many candidates cannot hold them all).
+    """
     names = [name for name, _ in options]
     references = baseline_candidates()
     # The regressor's terms, bound to the runs' channels (the tie-break toward fewer terms).
@@ -367,7 +373,9 @@ def _select(
         reason = str(scored.table.at[i, "error"])
         started = time.perf_counter()
         if not reason and stress > 0:
-            reason, fitted[name] = _stress_reason(estimator, logs, stress)
+            reason, model = _stress_reason(estimator, logs, stress)
+            if keep_fits:
+                fitted[name] = model
         times = scored.table.reindex(columns=["fit_time_s", "score_time_s"]).iloc[i]
         spent = time.perf_counter() - started + float(np.nansum(times.to_numpy(np.float64)))
         mean, se, worst = fold_statistics(fits)
@@ -738,13 +746,14 @@ def compare(
     if not math.isfinite(reach):
         raise ValueError(f"stress must be a finite number >= 0; got {stress!r}")
     ranks = {name: COMPLEXITY.get(method_of[name], 99) for name, _ in options}
-    selection = _select(options, logs, ranks, reach, None, n_jobs, None, progress, adapt)
+    selection = _select(options, logs, ranks, reach, None, n_jobs, None, progress, adapt, True)
     table = selection.table
     tests = logs.tests
     reaches = {record.name: logs.outside_range(record) for record in tests}
     models, settings, rows = {}, {}, []
     runs: list[dict[str, ModelResult]] = [{} for _ in tests]
     seconds = _selection_seconds(table, method_of)
+    fitted_names = set(selection.fitted)
     for method in dict.fromkeys(method_of.values()):
         pick = _method_pick(table, method, method_of, selection.chosen)
         name = str(pick["name"])
@@ -763,6 +772,9 @@ def compare(
             if result is not None:
                 by_method[method] = result
         seconds[method]["test"] = time.perf_counter() - started
+    kept = {settings[m]["candidate"]: model for m, model in models.items()}
+    selection.fitted.clear()  # the other candidates' models go
+    selection.fitted.update({n: model for n, model in kept.items() if n in fitted_names})
     recommended = method_of[selection.chosen]
     reasons = [
         *selection.explain(),
