@@ -60,7 +60,11 @@ def test_the_tables_are_read_from_the_registry_and_hold_what_they_held() -> None
         n: groups[g] for n, g in ONLY_ON_BEFORE.items()
     }
     assert {"ss", "pnlss", "greybox-neck", "greybox-tanks"} <= LAG_FREE_METHODS
-    assert dict(BUILDS_ON) == {"sm-parallel-poly": "poly"}
+    assert dict(BUILDS_ON) == {
+        "sm-parallel-poly": "poly",
+        "sm-parallel-sindy": "sindy",
+        "sm-parallel-koopman": "koopman",
+    }
     assert all(not params for params in STATE_MODEL_PARAMS.values())
     assert {"ss", "greybox-neck"} <= set(STATE_MODEL_PARAMS)
 
