@@ -9,7 +9,9 @@ subprocess:
 
 - ``default``: ε at the knee of the γ*(ε) curve, γ = 1.1 γ*(ε) (the default fit);
 - ``given``: the ε and γ the default fit chose, given (``SetMembership(lags, epsilon=ε,
-  gamma=γ)``: the fit checks γ >= γ*(ε) and builds the same model).
+  gamma=γ)``: the fit checks γ >= γ*(ε) and builds the same model);
+- ``noise``: ``bench_sm_scaling.py``'s ``given`` fit: ε = the simulated noise bound 1e-3 and
+  γ = 1.1 γ*(ε) (γ*(ε) computed beforehand, not timed), the comparison of issues 33 and 42.
 
 The two are timed side by side in the same subprocess, alternating, ``--repeat`` times each
 (the median is reported). ``--busy`` starts a second process that keeps one core busy for the
@@ -46,9 +48,11 @@ import tracemalloc
 from pathlib import Path
 
 import numba
-from _systems import neck_like
+import numpy as np
+from _systems import NECK_LIKE_NOISE, neck_like
 
 from neckid import Lags
+from neckid.models.set_membership._kernels.gamma import gamma_star
 from neckid.models.set_membership.narx import SetMembership
 
 LAGS = Lags(outputs=3, inputs=[8])
@@ -96,6 +100,14 @@ def worker(n: int, repeat: int) -> dict:
     epsilon, gamma = model.epsilon_.tolist(), model.gamma_.tolist()
     del model
 
+    x, y = LAGS.build(data)
+    points = np.ascontiguousarray(x / x.std(axis=0))
+    star = float(gamma_star(points, y, np.array([[NECK_LIKE_NOISE]]))[0, 0])
+    del x, y, points
+
+    def noise() -> None:
+        SetMembership(LAGS, epsilon=NECK_LIKE_NOISE, gamma=1.1 * star, progress=False).fit(data)
+
     def default() -> None:
         SetMembership(LAGS, progress=False).fit(data)
 
@@ -105,10 +117,10 @@ def worker(n: int, repeat: int) -> dict:
 
     hwm = hwm_growth(default)
     traced = traced_peak(default)
-    times: dict[str, list[float]] = {"default": [], "given": []}
+    times: dict[str, list[float]] = {"default": [], "given": [], "noise": []}
     loads = [os.getloadavg()[0]]
     for _ in range(repeat):
-        for name, fit in (("default", default), ("given", given)):
+        for name, fit in (("default", default), ("given", given), ("noise", noise)):
             start = time.perf_counter()
             fit()
             times[name].append(time.perf_counter() - start)
@@ -117,6 +129,7 @@ def worker(n: int, repeat: int) -> dict:
         "n": n,
         "default": statistics.median(times["default"]),
         "given": statistics.median(times["given"]),
+        "noise": statistics.median(times["noise"]),
         "hwm": hwm / n,
         "traced": traced / n,
         "epsilon": epsilon[0],
@@ -154,8 +167,8 @@ def main() -> None:
             f" {'yes' if busy else 'no'}; load average {os.getloadavg()[0]:.2f}\n"
         )
         print(
-            "| N | default [s] | given [s] | ratio | HWM growth [B/sample] |"
-            " traced peak [B/sample] | load average |\n|---:|---:|---:|---:|---:|---:|---|"
+            "| N | default [s] | given [s] | ratio | noise [s] | ratio | HWM growth [B/sample] |"
+            " traced peak [B/sample] | load average |\n|---:|---:|---:|---:|---:|---:|---:|---:|---|"
         )
         for n in [int(float(v)) for v in args.sizes.split(",")]:
             command = [sys.executable, __file__, "--worker", str(n), str(args.repeat)]
@@ -165,7 +178,8 @@ def main() -> None:
             r = json.loads(done.stdout.strip().splitlines()[-1])
             print(
                 f"| {n:,} | {r['default']:.2f} | {r['given']:.2f} |"
-                f" {r['default'] / r['given']:.1f}x | {r['hwm']:.0f} | {r['traced']:.0f} |"
+                f" {r['default'] / r['given']:.1f}x | {r['noise']:.2f} |"
+                f" {r['default'] / r['noise']:.1f}x | {r['hwm']:.0f} | {r['traced']:.0f} |"
                 f" {r['load'][0]:.1f}-{r['load'][1]:.1f} |",
                 flush=True,
             )

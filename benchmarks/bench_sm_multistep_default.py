@@ -10,6 +10,11 @@ prints the wall time of the whole fit, of the cross-validation that chooses the 
 (``selection_.seconds``) and of the rest, the fit of every horizon with its chosen setting (what
 a fit with those settings given does), with their ratio, and the load average.
 
+``--profile K`` instead times the parts of one fold of horizon K (the first log held out) in
+CPU seconds of the process, the second of two runs (compiled): the ε floor and weights, the
+kd-tree, every point's steepest slope at the 7 ε factors, the bounds of the 14 priors and of the
+7 global ones at the held-out rows.
+
 ``--save`` writes the chosen settings, ε, γ, the cross-validation table's coverage and width and
 the guaranteed band of every horizon on the six test logs (200 g and 400 g); ``--compare``
 checks them against a file written by ``--save`` (with the code of another commit: the issue's
@@ -63,14 +68,66 @@ def results(model: MultiStepSetMembership, test: list) -> dict[str, np.ndarray]:
     return out
 
 
+def profile_fold(train: list, steps: int) -> None:
+    """CPU seconds of the parts of one fold of one horizon (see the module docstring)."""
+    from neckid.models.set_membership import multistep_selection as ms
+    from neckid.models.set_membership._kernels.priors import prior_bounds
+    from neckid.models.set_membership.horizon_fit import (
+        epsilon_floor,
+        local_constants,
+        prior_grid,
+        rule_epsilon,
+        stack_rows,
+    )
+    from neckid.models.set_membership.scaling import term_weights
+    from neckid.models.set_membership.training import training_tree
+
+    folds = ms._horizon_folds(train, LAGS.resolve(train), steps)
+    rows = [folds.lags.build_one(p) for p in train]
+    x, y = stack_rows(rows[1:])
+    linear = folds.linear[0]
+    assert not isinstance(linear, str)
+    held = rows[0][0]
+    grid = ms.SettingGrid()
+    for run in range(2):
+        for weight in grid.input_weights:
+            clock, times = time.process_time(), {}
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                weights = term_weights("std", weight, x, folds.lags)
+            floor = epsilon_floor(np.ascontiguousarray(x * weights), linear.residual)
+            eps = np.vstack([rule_epsilon(f, linear.scale, floor) for f in grid.epsilon_factors])
+            times["floor"], clock = time.process_time() - clock, time.process_time()
+            tree, _ = training_tree(x.copy(), y, weights, linear.coef, linear.intercept, True)
+            times["tree"], clock = time.process_time() - clock, time.process_time()
+            priors = prior_grid(tree, eps, 1.1)
+            times["slopes"], clock = time.process_time() - clock, time.process_time()
+            gamma = np.nan_to_num(priors.gamma)
+            local = np.stack([local_constants(priors.steepest[e], gamma[e], 1.1) for e in range(7)])
+            index = np.array([-1] * 7 + list(range(7)))
+            both, twice = np.vstack([eps, eps]), np.vstack([priors.gamma, priors.gamma])
+            prior_bounds(tree, held * weights, both, twice, local, index, 10)
+            times["bounds 14"], clock = time.process_time() - clock, time.process_time()
+            prior_bounds(tree, held * weights, eps, priors.gamma, local[:0], index[:7], 10)
+            times["bounds 7 global"] = time.process_time() - clock
+            if run:
+                parts = ", ".join(f"{k} {v:.2f}" for k, v in times.items())
+                print(f"horizon {steps}, {x.shape} rows, input weight {weight}: {parts} CPU s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("folder", type=Path, help="the softneck folder (holds stair/)")
     parser.add_argument("--horizon", type=int, default=40)
+    parser.add_argument("--profile", type=int, metavar="K", help="time one fold of horizon K")
     parser.add_argument("--save", type=Path, help="write the results to this .npz")
     parser.add_argument("--compare", type=Path, help="check the results against this .npz")
     args = parser.parse_args()
     train, test = logs(args.folder)
+    if args.profile:
+        print(f"load average {os.getloadavg()[0]:.1f}")
+        profile_fold(train, args.profile)
+        return
     load = os.getloadavg()[0]
     start = time.perf_counter()
     with warnings.catch_warnings():

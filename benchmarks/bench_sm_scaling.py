@@ -20,7 +20,7 @@ Columns: the fit time; the prior check of the old path (the bounds at all N trai
 side by side, with their ratio; the fit's peak memory (tracemalloc, every NumPy and numba
 allocation) and what the fitted model keeps, in bytes per training sample and as a multiple of
 the raw regressor matrix (N·n·8 bytes); and the fit's peak resident set size above the process
-before the fit (VmHWM after resetting it, Linux). Targets (issue 18): N = 1e6 in < 60 s and
+before the fit (VmHWM after resetting it, from a heap trimmed by ``malloc_trim``, Linux). Targets (issue 18): N = 1e6 in < 60 s and
 < 2 GB, memory <= 2x the raw regressor.
 
 ``--quick`` runs N = 1e4 and 3e4 (< 30 s); the default N = 1e4, 1e5, 1e6 (``--sizes`` picks
@@ -34,6 +34,8 @@ shared 2-core machine timings are noisy.
 from __future__ import annotations
 
 import argparse
+import ctypes
+import gc
 import json
 import os
 import subprocess
@@ -113,6 +115,10 @@ def worker(n: int, mode: str, terms: int) -> dict:
         kwargs = {"epsilon": NECK_LIKE_NOISE, "gamma": MARGIN * float(star)}
         del x, y, points
     raw = n * lags.resolve([data]).n_terms * 8
+    # From a trimmed heap, as bench_sm_default_cost.py measures it (issue 42): otherwise the
+    # allocator's free pages left by the warm-up are reused and the figure depends on them.
+    gc.collect()
+    ctypes.CDLL("libc.so.6").malloc_trim(0)
     rss_before = _status_kib("VmRSS")
     reset = _reset_peak_rss()
     tracemalloc.start()
