@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.polynomial.monomials import monomial_tables
 from neckid.models.sindy._kernels import sparse_free_run
 from neckid.models.sindy.library import Library, build_library
@@ -213,6 +214,7 @@ class SparseNARX(NarxModel):
         margin = float(self.hold_margin) * (x.max(axis=0) - x.min(axis=0))
         self.hold_low_, self.hold_high_ = x.min(axis=0) - margin, x.max(axis=0) + margin
         total = self._sums(x, y)
+        self.sums_ = total
         self.scale_ = total.column_rms()
         self.y_scale_ = total.y_std()
         normal = total.normal(self.scale_, self.y_scale_)
@@ -303,7 +305,7 @@ class SparseNARX(NarxModel):
         self.coef_interval_ = np.percentile(self.coef_bags_, INTERVAL_PERCENTILES, axis=0)
         self.inclusion_ = np.mean(self.coef_bags_ != 0, axis=0)
 
-    def _fit_simulation(self, experiments: list[IOData]) -> None:
+    def _fit_simulation(self, experiments: list[IOData], budget: int | None = None) -> None:
         """Least squares on the free-run error in the kept coefficients; kept only if better."""
         kept = np.flatnonzero(self.coef_.ravel() != 0)
         y_all = np.vstack([d.y for d in experiments])
@@ -328,7 +330,7 @@ class SparseNARX(NarxModel):
         n_rows = sum(d.n_samples - m for d in experiments) * weight.size
         if kept.size == 0 or n_rows < kept.size:
             return
-        budget = int(self.max_iter)
+        budget = int(self.max_iter if budget is None else budget)
         with task("SINDy free-run fit (free runs, at most)", budget) as advance:
             refit = refit_free_run(residuals, start, budget, advance)
         before = residuals(start)
@@ -349,6 +351,33 @@ class SparseNARX(NarxModel):
             "evaluations": int(refit.runs),
         }
         logger.info("SINDy simulation fit: %s", self.fit_report_)
+
+    def partial_fit(self, data: IOData | Sequence[IOData], *, max_iter: int = 20) -> SparseNARX:
+        """Take new experiments into the fit.
+
+        The normal equations take the new rows exactly (:attr:`sums_`) and STLSQ is solved again
+        at the chosen degree and threshold (the scales of the first fit kept): the refit on the
+        old and new data together. With ``fit_for="simulation"`` the free-run fit then continues
+        on the new experiments, for at most ``max_iter`` free runs.
+
+        Raises
+        ------
+        NotFittedError
+            Before ``fit``.
+        ValueError
+            For data on other channels or too short for the lags.
+        """
+        experiments = update_experiments(self, data)
+        x, y = update_rows(self, experiments)
+        self.sums_ = self.sums_ + self._sums(x, y)
+        self.n_samples_ = int(self.sums_.n)
+        self.coef_ = self._solve(
+            self.sums_.normal(self.scale_, self.y_scale_), (int(self.degree), self.threshold_)
+        )
+        if self.fit_for == "simulation":
+            self._fit_simulation(experiments, int(max_iter))
+        extend_training_ranges(self, experiments)
+        return self
 
     # ------------------------------------------------------------------ use
     def _kept(self) -> NDArray[np.int64]:
@@ -451,6 +480,10 @@ class SparseNARX(NarxModel):
             "y_scale": self.y_scale_,
             "coef_bags": self.coef_bags_,
             "hold_low": self.hold_low_,
+            "sums_gram": self.sums_.gram,
+            "sums_rhs": self.sums_.rhs,
+            "sums_y_sum": self.sums_.y_sum,
+            "sums_y_square": self.sums_.y_square,
             "hold_high": self.hold_high_,
             **self.library_.to_arrays(),
         }
@@ -489,6 +522,13 @@ class SparseNARX(NarxModel):
         model.y_scale_ = np.asarray(arrays["y_scale"], dtype=np.float64)
         model.coef_bags_ = np.asarray(arrays["coef_bags"], dtype=np.float64)
         model.hold_low_ = np.asarray(arrays["hold_low"], dtype=np.float64)
+        model.sums_ = Sums(
+            np.asarray(arrays["sums_gram"], dtype=np.float64),
+            np.asarray(arrays["sums_rhs"], dtype=np.float64),
+            np.asarray(arrays["sums_y_sum"], dtype=np.float64),
+            np.asarray(arrays["sums_y_square"], dtype=np.float64),
+            int(meta["n_samples"]),
+        )
         model.hold_high_ = np.asarray(arrays["hold_high"], dtype=np.float64)
         n_kind = np.asarray(arrays["library_kind"]).shape[0]
         model.library_ = Library(

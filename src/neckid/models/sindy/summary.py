@@ -145,6 +145,10 @@ def check_library(model: Any) -> None:
     model._check_shape("scale", model.scale_, (p,))
     model._check_shape("y_scale", model.y_scale_, (n_out,))
     model._check_shape("hold_low", model.hold_low_, (n_terms,))
+    model._check_shape("sums_gram", model.sums_.gram, (p, p))
+    model._check_shape("sums_rhs", model.sums_.rhs, (p, n_out))
+    model._check_shape("sums_y_sum", model.sums_.y_sum, (n_out,))
+    model._check_shape("sums_y_square", model.sums_.y_square, (n_out,))
     model._check_shape("hold_high", model.hold_high_, (n_terms,))
     if not np.all(model.hold_low_ <= model.hold_high_):
         raise ValueError("hold_low must be <= hold_high")
