@@ -1461,6 +1461,11 @@ PAGES = (
 _HEADER = ["| case | where | the user gives | the user sees | outcome |", "|---|---|---|---|---|"]
 
 
+def _cell(text: str) -> str:
+    """Table text as written: ``2**53`` stays two stars, not the start of bold type."""
+    return text.replace("**", "\\*\\*")
+
+
 def _page_of(case: Case) -> str:
     letter = case.id.rstrip("0123456789")
     for name, _, letters, _ in PAGES:
@@ -1499,7 +1504,10 @@ def render() -> dict[Path, str]:
         body = [f"# {title}", "", about, "", "Generated from `tests/test_reliability.py`;",
                 "[Reliability](../reliability.md) says what the outcomes and exit codes mean.", "",
                 *_HEADER]  # fmt: skip
-        body += [f"| {c.id} | {c.surface} | {c.given} | {c.sees} | {c.outcome} |" for c in cases]
+        body += [
+            f"| {c.id} | {c.surface} | {_cell(c.given)} | {_cell(c.sees)} | {c.outcome} |"
+            for c in cases
+        ]
         pages[DOC.parent / "reliability" / f"{name}.md"] = "\n".join(body) + "\n"
     lines += _fuzzing()
     return {DOC: "\n".join(lines) + "\n", **pages}
@@ -1526,7 +1534,7 @@ def _fuzzing() -> list[str]:
         "| files | what is fuzzed | examples |",
         "|---|---|---|",
     ]
-    lines += [f"| {files} | {what} | {n} |" for files, what, n in COVERAGE]
+    lines += [f"| {files} | {_cell(what)} | {n} |" for files, what, n in COVERAGE]
     return lines
 
 
