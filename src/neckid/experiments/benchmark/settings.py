@@ -579,34 +579,30 @@ def _koopman_grid(g: GridInput) -> list[Candidate]:
 
 
 def _parallel_koopman_grid(g: GridInput) -> list[Candidate]:
-    """SM on a parallel Koopman model: ε × its free-run error, its dictionary the one it chose.
+    """SM on a parallel Koopman model: ε × its free-run error (one SM regressor, two estimates).
 
-    The Koopman model of each lag set is fitted once on the training data (its dictionary size
-    and ridge by the rule there); the candidates run that setting in parallel
-    (``base=KoopmanEDMD(lags, n_observables=..., ridge=...)``), so no candidate repeats the
-    choice.
+    Each candidate fits its own Koopman model (``base="koopman"``, its dictionary size and ridge
+    by the rule on the candidate's training part), so one SM regressor only: a candidate costs a
+    Koopman selection.
     """
     method = methods()["sm-parallel-koopman"]
-    regressors = SM_PARALLEL_POLY_REGRESSORS[:1] if g.quick else SM_PARALLEL_POLY_REGRESSORS
+    regressors = SM_PARALLEL_POLY_REGRESSORS[:1]
     factors: tuple[float | None, ...] = (None,) if g.quick else SM_PARALLEL_POLY_EPSILON_FACTORS
     out: list[Candidate] = []
     for lags in g.lag_sets():
-        koopman = methods()["koopman"].make(lags, quick=g.quick)
+        scale = 0.0
         if not g.quick:
             try:
-                fitted = g.shared.fitted(koopman, g.train)
-                scale = _free_run_rms(fitted, g.train)
+                koopman = g.shared.fitted(methods()["koopman"].make(lags), g.train)
+                scale = _free_run_rms(koopman, g.train)
             except ValueError:
                 continue  # a Koopman model that runs away cannot run in parallel
             if not np.isfinite(scale):
                 continue
-            koopman.set_params(n_observables=fitted.n_observables_, ridge=fitted.ridge_)
-        else:
-            scale = 0.0
         for estimate in SM_PARALLEL_POLY_ESTIMATES[:1] if g.quick else SM_PARALLEL_POLY_ESTIMATES:
-            options = {**SM_PARALLEL_POLY_OPTIONS, "estimate": estimate, "base": koopman}
+            options = {**SM_PARALLEL_POLY_OPTIONS, "estimate": estimate}
             out += _parallel_candidates(
-                method.make, lags, g.quick, regressors, factors, scale, "", options
+                method.make, lags, g.quick, regressors, factors, scale, ", base=koopman", options
             )
     return out
 
