@@ -280,7 +280,8 @@ def benchmark(
         help=(
             "Comma-separated registry names: arx, ss, pnlss, greybox-neck, poly, sm, sm-linear,"
             " sm-parallel, sm-parallel-poly, nn, scheduled, lpv, koopman, sm-parallel-koopman,"
-            " and the peer sysidentpy-frols (SysIdentPy's FROLS; pip install 'neckid[peers]');"
+            " sindy, sm-parallel-sindy, and the peers sysidentpy-frols (SysIdentPy's FROLS) and"
+            " pysindy-stlsq (PySINDy's DiscreteSINDy; both: pip install 'neckid[peers]');"
             " the peer pykoopman-edmdc runs in the python NECKID_PYKOOPMAN_PYTHON names (pykoopman"
             " pins NumPy 1.26). Default: every neckid method but"
             " lpv (its grid multiplies the lags by three degrees); lpv and the peer run when named."

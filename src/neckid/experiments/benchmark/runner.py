@@ -463,7 +463,8 @@ def _assemble(
                 bench_timings[method] = _plan_timings(by_method[method])
         hidden = [p for p in plans if p.bench is bench and p.hidden]
         for plan in hidden:
-            bench_timings[f"{plan.method} (for {', '.join(BUILDS_ON)})"] = _plan_timings(plan)
+            users = [m for m in names if BUILDS_ON.get(m) == plan.method]
+            bench_timings[f"{plan.method} (for {', '.join(users)})"] = _plan_timings(plan)
         finished = [r for r in bench_rows if not math.isnan(r["fit_percent"])]
         if PROTOCOLS[name].mean_over_tests and finished:
             summary, margins = _mean_over_tests(bench, finished)
