@@ -86,6 +86,20 @@ def test_validate_and_info_keep_channel_names_whole(logs: dict[str, Path], tmp_p
     assert re.search(rf"│ {OUTPUT} +│ output", with_model), with_model
 
 
+def test_info_shows_brackets_in_channel_names_as_written(tmp_path: Path) -> None:
+    """A channel ``inclination [deg]`` is text, not rich markup: its brackets stay."""
+    u = np.linspace(-1.0, 1.0, 60)
+    y = np.convolve(u, [0.0, 0.5, 0.3])[:60]
+    data = IOData(u, y, ts=0.02, input_names=["cmd [V]"], output_names=["inclination [deg]"])
+    log = tmp_path / "run.csv"
+    data.to_csv(log)
+    model = LinearARX(Lags.arx(1, 1)).fit(data).save(tmp_path / "model.npz")
+    described = _run("info", log)
+    assert "cmd [V]" in described and "inclination [deg]" in described, described
+    about = _run("info", model)
+    assert "training range of inclination [deg]" in about, about
+
+
 def test_a_narrow_console_wraps_names_and_never_cuts_them(logs: dict[str, Path]) -> None:
     """``COLUMNS`` set by the user still wins: the names then wrap in their cells."""
     shown = _run("info", logs[TESTS[0]], env={"COLUMNS": "40"})

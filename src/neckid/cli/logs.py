@@ -27,6 +27,20 @@ from neckid.cli._app import (
 
 @app.command()
 @handled
+def _add_row(table: Table, *cells: Any) -> None:
+    """A row of plain text: a channel ``inclination [deg]`` keeps its brackets (not rich markup)."""
+    from rich.markup import escape
+
+    table.add_row(*(escape(c) if isinstance(c, str) else c for c in cells))
+
+
+def _add_column(table: Table, header: str, **options: Any) -> None:
+    """A column whose header is plain text (see :func:`_add_row`)."""
+    from rich.markup import escape
+
+    table.add_column(escape(header), **options)
+
+
 def bandwidth(
     log: Path = typer.Argument(
         ...,
@@ -213,9 +227,10 @@ def info(
     for column in ("channel", "kind", "unit", "min", "max", "mean", "non-numeric"):
         names = column in ("channel", "kind", "unit")
         # a narrow console wraps a channel's name, never cuts it (it tells the rows apart)
-        table.add_column(column, justify="left" if names else "right", overflow="fold")
+        _add_column(table, column, justify="left" if names else "right", overflow="fold")
     for name, channel in described["channels"].items():
-        table.add_row(
+        _add_row(
+            table,
             f"{name} (column {channel['column']})" if "column" in channel else name,
             channel["kind"],
             channel["unit"] or "-",
@@ -262,17 +277,17 @@ def _info_model(path: Path, as_json: bool) -> None:
         "singular_values",
     ):
         if key in described:
-            table.add_row(
-                key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
+            _add_row(
+                table, key.replace("_s", " [s]") if key == "ts_s" else key, _shown(described[key])
             )
     for name, (low, high) in described["training_ranges"].items():
-        table.add_row(f"training range of {name}", f"{low:.4g} .. {high:.4g}")
-    table.add_row("conditions (inputs)", ", ".join(described["conditions"]) or "none")
+        _add_row(table, f"training range of {name}", f"{low:.4g} .. {high:.4g}")
+    _add_row(table, "conditions (inputs)", ", ".join(described["conditions"]) or "none")
     if "preprocessing" in described:
-        table.add_row("preprocessing", model.preprocessing_.describe())
+        _add_row(table, "preprocessing", model.preprocessing_.describe())
     if "channel_map" in described:
         shown = ", ".join(f"{log}={name}" for log, name in described["channel_map"].items())
-        table.add_row("channel mapping (--map)", shown)
+        _add_row(table, "channel mapping (--map)", shown)
     console.print(table)
     if "schedule" in described:
         _print_schedule(described["schedule"])
@@ -300,30 +315,28 @@ def _print_equation(equation: dict[str, Any]) -> None:
     if bags:
         columns += [f"95 % of {bags} bags", "kept in bags"]
     for column in columns:
-        table.add_column(
-            column, justify="left" if column in ("output", "term", "unit") else "right"
+        _add_column(
+            table, column, justify="left" if column in ("output", "term", "unit") else "right"
         )
     for row in equation["terms"]:
         cells = [row["output"], row["term"], f"{row['coef']:.6g}", row["unit"]]
         if bags:
             low, high = row["interval"]
             cells += [f"{low:.4g} .. {high:.4g}", f"{row['inclusion']:.0%}"]
-        table.add_row(*(escape(c) for c in cells))
+        _add_row(table, *cells)
     console.print(table)
 
 
 def _print_scheduling(scheduling: dict[str, Any]) -> None:
     """The LPV model's scheduling variables and its coefficients as polynomials in them."""
-    from rich.markup import escape
-
     table = Table(title=f"scheduling (degree {scheduling['degree']})", show_header=False)
     for v in scheduling["variables"]:
         low, high = v["range"]
         shown = f"{v['kind']}, term {v['term']}, range {low:.4g} .. {high:.4g}"
-        table.add_row(escape(v["name"]), escape(shown))
-    table.add_row("largest frozen pole", f"{scheduling['max_pole_radius']:.4g} (stable below 1)")
+        _add_row(table, v["name"], shown)
+    _add_row(table, "largest frozen pole", f"{scheduling['max_pole_radius']:.4g} (stable below 1)")
     for line in scheduling["polynomials"]:
-        table.add_row("", escape(line))
+        _add_row(table, "", line)
     console.print(table)
 
 
@@ -341,7 +354,7 @@ def _print_schedule(schedule: dict[str, Any]) -> None:
         ("schedule range", f"{low} .. {high} deg (the lines held at their ends outside)"),
         ("points found by", schedule["segmentation"]),
     ):
-        lines.add_row(key, escape(value))
+        _add_row(lines, key, value)
     console.print(lines)
     points = schedule["points"]
     if not points:
@@ -357,9 +370,10 @@ def _print_schedule(schedule: dict[str, Any]) -> None:
         )
     )
     for column in ("i", "N", "P", "converged", "used", "from", "to", "samples"):
-        table.add_column(column, justify="right")
+        _add_column(table, column, justify="right")
     for p in points:
-        table.add_row(
+        _add_row(
+            table,
             f"{p['inclination_deg']:.4g}",
             f"{p['gain']:.4g}",
             f"{p['pole']:.4g}",
@@ -440,9 +454,10 @@ def _print_as_model_reads_it(read: dict[str, Any]) -> None:
     for column in ("channel", "kind", "unit", "min", "max", "mean"):
         names = column in ("channel", "kind", "unit")
         # a narrow console wraps a channel's name, never cuts it (it tells the rows apart)
-        table.add_column(column, justify="left" if names else "right", overflow="fold")
+        _add_column(table, column, justify="left" if names else "right", overflow="fold")
     for name, channel in read["channels"].items():
-        table.add_row(
+        _add_row(
+            table,
             name,
             channel["kind"],
             channel["unit"] or "-",
