@@ -21,9 +21,9 @@ from numpy.typing import ArrayLike, NDArray
 from neckid.data.iodata import IOData
 from neckid.models._domain_kernels import channels_of
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
-from neckid.models.domain import channel_terms, regressor_terms
 from neckid.models.envelope import impulse_l1
-from neckid.models.linear._arx_kernels import MAX_FIR_TAPS, checked_free_run
+from neckid.models.linear._arx_kernels import checked_free_run
+from neckid.models.linear._arx_plan import filter_coefficients, filter_state, plan_of
 from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.results import RunChecks
@@ -32,6 +32,13 @@ from neckid.utils.checks import Interval
 from neckid.utils.types import FloatArray, IntArray
 
 __all__ = ["LinearARX", "least_squares", "linear_free_run", "linear_sum"]
+
+#: No regressor terms for the compiled checks to count.
+_NO_TERMS: tuple[list[str], IntArray, FloatArray] = (
+    [],
+    np.empty((0, 3), np.int64),
+    np.empty((0, 2)),
+)
 
 
 def least_squares(
@@ -196,45 +203,14 @@ def _single_output_filter(
 ) -> tuple[tuple[IntArray, FloatArray, FloatArray, float], FloatArray, FloatArray]:
     """The single-output ARX map as filters: ``(fir, denominator, state)`` of ``checked_free_run``.
 
-    The FIR of each input (its coefficients by lag, a row of the padded ``numerator``), the
-    all-pole ``denominator`` ``1 − Σ_l a_l z^{-l}`` and the state that
-    :func:`scipy.signal.lfiltic` builds from the last initial outputs in ``y``, its arithmetic
-    without its checks. With more than ``MAX_FIR_TAPS`` taps on an input the FIRs are
-    convolved here (``np.convolve``, as ``lfilter`` does) into the ``forcing``.
+    The FIR of each input and the all-pole ``denominator`` ``1 − Σ_l a_l z^{-l}``
+    (:func:`~neckid.models.linear._arx_plan.filter_coefficients`) and the state that
+    :func:`scipy.signal.lfiltic` builds from the last initial outputs in ``y``
+    (:func:`~neckid.models.linear._arx_plan.filter_state`), its arithmetic without its checks.
     """
-    n, m = y.shape[0], resolved.max_lag
-    value = float(np.asarray(intercept, dtype=np.float64).reshape(()))
-    columns = (resolved.source.tolist(), resolved.channel.tolist(), resolved.lag.tolist())
-    terms = list(zip(*columns, strict=True))
-    weights = coef[:, 0].tolist()
-    taps: dict[int, int] = {}  # input channel -> its FIR's length
-    for source, channel, lag in terms:
-        if source == 1:
-            taps[channel] = max(taps.get(channel, 0), lag + 1)
-    row_of = {channel: row for row, channel in enumerate(sorted(taps))}
-    order = max((lag for source, _, lag in terms if source == 0), default=0)
-    numerator = np.zeros((len(taps), max(taps.values(), default=1)))
-    denominator = np.zeros(order + 1)
-    denominator[0] = 1.0
-    for (source, channel, lag), weight in zip(terms, weights, strict=True):
-        if source == 1:
-            numerator[row_of[channel], lag] += weight  # what np.add.at gave: 0.0 + weight
-        else:
-            denominator[lag] -= weight
-    channels = np.array(sorted(taps), dtype=np.int64)
-    forcing = np.empty(0)
-    if max(taps.values(), default=1) > MAX_FIR_TAPS:
-        forcing = np.full(n - m, value)
-        for row, channel in zip(numerator, channels.tolist(), strict=True):
-            # what lfilter(row, [1.0], u) computes for an FIR filter, without its overhead
-            forcing += np.convolve(row[: taps[channel]], u[:, channel])[m:n]
-        channels, numerator = channels[:0], numerator[:0]
-    past = y[m - order : m, 0][::-1]  # y(m − 1), y(m − 2), ..., y(m − order)
-    # signal.lfiltic([1.0], denominator, past), its arithmetic without its checks
-    state = np.zeros(order)
-    for k in range(order):
-        state[k] -= (denominator[k + 1 :] * past[: order - k]).sum()
-    return (channels, numerator, forcing, value), denominator, state
+    filters = filter_coefficients(resolved, coef, intercept)
+    fir = filters.fir(u, y.shape[0], resolved.max_lag)
+    return fir, filters.denominator, filter_state(filters.denominator, y, resolved.max_lag)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -429,14 +405,16 @@ class LinearARX(NarxModel):
         """
         n, m = data.n_samples, self.max_lag_
         u = np.asarray(data.u, dtype=np.float64)
-        coef = np.asarray(self.coef_, dtype=np.float64).reshape(self.lags_.n_terms, 1)
-        fir, denominator, state = _single_output_filter(self.lags_, coef, self.intercept_, u, y)
-        channel_names, channels, channel_bounds = channel_terms(self, data)
-        term_names, terms, term_bounds = regressor_terms(self)
-        counted = bool(getattr(self, "regressor_ranges_", None)) and data.n_outputs == 1
-        if not counted:  # as Estimator._warn_extrapolation: no box, or no measured outputs
-            term_names, terms, term_bounds = [], terms[:0], term_bounds[:0]
-        envelope = self.divergence_envelope(data=data).get(self.output_names_[0], (-np.inf, np.inf))
+        plan = plan_of(self)  # what the run reads of the model, built once per fitted model
+        filters = plan.filters
+        assert filters is not None  # one output
+        fir = filters.fir(u, n, m)
+        denominator, state = filters.denominator, filter_state(filters.denominator, y, m)
+        channel_names, channels, channel_bounds = plan.channel_terms(self, data)
+        counted = plan.terms is not None and data.n_outputs == 1
+        # as Estimator._warn_extrapolation: no box, or no measured outputs: no terms counted
+        term_names, terms, term_bounds = plan.terms if counted else _NO_TERMS
+        envelope = plan.divergence_envelope(self, data, u)
         time = np.empty(n)
         channel_counts, term_counts, rows, non_finite, runaway = checked_free_run(
             channels_of(u),
@@ -448,7 +426,7 @@ class LinearARX(NarxModel):
             (time, data.t0, data.ts),
             (channels, channel_bounds),
             (terms, term_bounds),
-            np.array(envelope, dtype=np.float64),
+            envelope,
             m,
         )
         by_term = {k: int(c) / (n - m) for k, c in zip(term_names, term_counts, strict=True)}
@@ -463,7 +441,17 @@ class LinearARX(NarxModel):
         )
 
     def _impulse_norms(self) -> FloatArray:
-        """``||h_{o,i}||_1`` of the fitted filter per output and input (``inf``: unstable)."""
+        """``||h_{o,i}||_1`` of the fitted filter per output and input (``inf``: unstable).
+
+        Computed once per fitted model (kept in its plan, :func:`plan_of`).
+        """
+        plan = plan_of(self)
+        if plan.gains is None:
+            plan.gains = self._impulse_response_norms()
+        return plan.gains.copy()
+
+    def _impulse_response_norms(self) -> FloatArray:
+        """:meth:`_impulse_norms` computed from impulse responses of the fitted filter."""
         m = int(self.max_lag_)
         zero = np.zeros(self.n_outputs_)
 
