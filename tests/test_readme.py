@@ -26,6 +26,17 @@ def test_readme_is_short() -> None:
     assert len(README.read_text(encoding="utf-8")) <= 12000
 
 
+def test_readme_synopsis_names_every_command() -> None:
+    """The README's command-line block lists the commands ``neckid --help`` lists, no more."""
+    import typer.main
+
+    from neckid.cli import app
+
+    block = README.read_text(encoding="utf-8").split("## Command line", 1)[1].split("```")[1]
+    listed = set(re.findall(r"^neckid ([a-z][a-z-]*)", block, flags=re.MULTILINE))
+    assert listed == set(typer.main.get_command(app).commands)  # type: ignore[attr-defined]
+
+
 def test_readme_links_exist() -> None:
     text = README.read_text(encoding="utf-8")
     links = re.findall(r"\]\((docs/[^)#]+)", text)

@@ -27,20 +27,6 @@ from neckid.cli._app import (
 
 @app.command()
 @handled
-def _add_row(table: Table, *cells: Any) -> None:
-    """A row of plain text: a channel ``inclination [deg]`` keeps its brackets (not rich markup)."""
-    from rich.markup import escape
-
-    table.add_row(*(escape(c) if isinstance(c, str) else c for c in cells))
-
-
-def _add_column(table: Table, header: str, **options: Any) -> None:
-    """A column whose header is plain text (see :func:`_add_row`)."""
-    from rich.markup import escape
-
-    table.add_column(escape(header), **options)
-
-
 def bandwidth(
     log: Path = typer.Argument(
         ...,
@@ -464,3 +450,17 @@ def _print_as_model_reads_it(read: dict[str, Any]) -> None:
             *(f"{channel[k]:.4g}" for k in ("min", "max", "mean")),
         )
     console.print(table)
+
+
+def _add_row(table: Table, *cells: Any) -> None:
+    """A row of plain text: a channel ``inclination [deg]`` keeps its brackets (not rich markup)."""
+    from rich.markup import escape
+
+    table.add_row(*(escape(c) if isinstance(c, str) else c for c in cells))
+
+
+def _add_column(table: Table, header: str, **options: Any) -> None:
+    """A column whose header is plain text (see :func:`_add_row`)."""
+    from rich.markup import escape
+
+    table.add_column(escape(header), **options)
