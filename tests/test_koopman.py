@@ -192,3 +192,26 @@ def test_an_update_adds_to_the_least_squares():
     np.testing.assert_array_equal(model.gram_rows_, rows + np.array([3 * 299, 3 * 298]))
     eigenvalues = np.sort(np.abs(np.linalg.eigvals(model.A_[:-1, :-1])))
     np.testing.assert_allclose(eigenvalues, [0.0, MU, LAMBDA**2, LAMBDA], atol=1e-7)
+
+
+def test_design_and_mpc_take_the_lifted_linear_system() -> None:
+    """A Koopman model has a linear form (design, MPC): its lifted system without the constant."""
+    from neckid.design.linear_form import linear_form
+    from neckid.design.mpc import mpc_problem
+
+    rng = np.random.default_rng(4)
+    u = np.repeat(rng.uniform(-1.0, 1.0, 200), 10) + 0.5
+    y = np.zeros(2000)
+    for t in range(1, 2000):
+        y[t] = 0.6 * y[t - 1] + 2.8 * u[t - 1] + 1.0  # an offset: the constant state's
+    data = IOData(u, y, ts=0.02, input_names=["velocity_command"], output_names=["inclination"])
+    model = KoopmanEDMD(Lags.arx(1, 1), n_observables=5, ridge=1e-10).fit(data)
+    form = linear_form(model)
+    assert "lifted linear system: 7 states" in form.source
+    for w in (0.3, 3.0, 30.0):  # the plant's response (offset or not), and the loop's delay
+        z = np.exp(1j * w * 0.02)
+        exact = 2.8 / (z - 0.6) / z
+        assert abs(complex(form.response(w)) - exact) < 1e-6 * abs(exact)
+    assert mpc_problem(form, horizon=10).horizon == 10
+    with pytest.raises(ValueError, match="linear everywhere"):
+        linear_form(model, inclination=10.0)

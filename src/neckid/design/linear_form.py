@@ -18,8 +18,9 @@ displacement and the measured velocity). Condition channels (payload) are consta
 out.
 
 Which models have a linear form: :class:`~neckid.LinearARX`, :class:`~neckid.RecursiveARX`
-(its final estimate) and :class:`~neckid.models.linear.subspace.SubspaceStateSpace`
-(:func:`neckid.export.control.to_control`); :class:`~neckid.GainScheduledModel` frozen at an
+(its final estimate), :class:`~neckid.models.linear.subspace.SubspaceStateSpace`
+(:func:`neckid.export.control.to_control`) and :class:`~neckid.models.koopman.KoopmanEDMD` (its
+lifted linear system, without the constant state that carries the offsets); :class:`~neckid.GainScheduledModel` frozen at an
 inclination; a python-control ``TransferFunction`` / ``StateSpace`` of command to inclination;
 and any NARX model (Set Membership, neural, polynomial) *linearised* at an inclination
 (:func:`neckid.design.linearise.linearise`). Anything else is refused with a message.
@@ -181,6 +182,28 @@ def _compose(
     return (num if num.size else np.zeros(1)), total[1]
 
 
+def _koopman_increments(lifted: Any) -> Any:
+    """A Koopman model's lifted system without its constant state: the map from the inputs.
+
+    The last lifted state is the constant 1 (no input reaches it, it reaches only the offsets),
+    so the transfer from the inputs to the outputs is that of the other states, exactly.
+    """
+    import control
+
+    a, b, c, d = (np.asarray(m, dtype=np.float64) for m in (lifted.A, lifted.B, lifted.C, lifted.D))
+    return control.ss2tf(
+        control.StateSpace(
+            a[:-1, :-1],
+            b[:-1],
+            c[:, :-1],
+            d,
+            dt=lifted.dt,
+            inputs=list(lifted.input_labels),
+            outputs=list(lifted.output_labels),
+        )
+    )
+
+
 def _output_index(names: list[str], output: str | None) -> int:
     wanted = output if output is not None else ("inclination" if "inclination" in names else None)
     if wanted is None:
@@ -240,6 +263,7 @@ def linear_form(
     import control
 
     from neckid.export.control import to_control
+    from neckid.models.koopman.model import KoopmanEDMD
     from neckid.models.linear.arx import LinearARX
     from neckid.models.linear.rls import RecursiveARX
     from neckid.models.linear.subspace import SubspaceStateSpace
@@ -280,6 +304,16 @@ def linear_form(
         system = to_control(model, form="tf")
         index = _output_index(list(system.output_labels), output)
         source = name
+    elif isinstance(model, KoopmanEDMD):
+        if inclination is not None:
+            raise ValueError(
+                f"inclination applies to the scheduled and the nonlinear models; a {name}'s"
+                f" lifted system is linear everywhere: leave it out (got {inclination!r})"
+            )
+        lifted = to_control(model, form="ss")
+        system = _koopman_increments(lifted)
+        index = _output_index(list(system.output_labels), output)
+        source = f"{name} (its lifted linear system: {lifted.nstates - 1} states and the constant)"
     else:
         if inclination is None:
             raise NoLinearFormError(
