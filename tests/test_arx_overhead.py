@@ -417,6 +417,31 @@ def test_checks_counted_in_the_run_are_those_of_the_general_path(
         assert fast.extras["outside_domain"] > 0.1
 
 
+def test_blocks_screened_before_counting_count_the_same() -> None:
+    """Values outside their box in a few blocks only, one at a block's edge: the same counts.
+
+    The run screens each block channel by channel and counts term by term only where the
+    screen finds a value outside; a lagged term reads the rows before its block, so a spike in
+    the last row of a block is outside for ``u(t-1)`` and ``u(t-2)`` in the next one.
+    """
+    training = siso(4 * BLOCK + 100, 2)
+    model = LinearARX(Lags.arx(2, 2, 1)).fit(training)  # the log is inside but for the spikes
+    u, y = np.array(training.u), np.array(training.y)
+    # the blocks start at max_lag = 2: row 2 * BLOCK + 1 ends block 1 (block 2's lags read it)
+    u[2 * BLOCK + 1, 1] = 40.0
+    u[BLOCK + 7, 0] = -40.0
+    y[3 * BLOCK + 11] = 1e3  # a measured output beyond its range, in block 3
+    data = log_like(training, u, y)
+    general = copy.deepcopy(model)
+    general.__class__ = GeneralPathARX
+    fast, fast_error, fast_warnings = outcome(model, data, None)
+    slow, slow_error, slow_warnings = outcome(general, data, None)
+    assert_same_result(fast, slow)
+    assert (fast_error, fast_warnings) == (slow_error, slow_warnings)
+    assert 0 < fast.extras["outside_domain"] < 0.01  # not vacuous: a few rows counted
+    assert fast.extras["extrapolation"]["u1"] == 1 / data.n_samples
+
+
 def test_conditions_are_checked_as_inputs() -> None:
     training = with_payload(siso(BLOCK + 500, 2), 0.4)
     model = LinearARX(Lags(outputs=2, inputs=[1, 2], conditions=["payload"])).fit(training)

@@ -154,6 +154,55 @@ def _fill_time(
 
 
 @numba.njit(cache=True, nogil=True)
+def _screens(
+    n_channels: int,
+    source: int,
+    groups: tuple[NDArray[np.int64], NDArray[np.int64]],
+    bounds: tuple[FloatArray, FloatArray],
+) -> FloatArray:  # pragma: no cover - compiled; tested through checked_free_run's counts
+    """Per channel of ``source`` (0 outputs, 1 inputs): ``(used, deepest lag, low, high)``.
+
+    Over the terms of both ``groups`` on the channel (their bounds in ``bounds``): the highest
+    lag and the intersection of their boxes. A block whose rows of the channel, from
+    ``begin − lag`` to ``stop``, are all inside it has no term of the channel outside its own.
+    """
+    screens = np.zeros((n_channels, 4))
+    screens[:, 2], screens[:, 3] = -np.inf, np.inf
+    for g in range(2):
+        terms, box = groups[g], bounds[g]
+        for j in range(terms.shape[0]):
+            if terms[j, 0] == source:
+                row = screens[terms[j, 1]]
+                row[0] = 1.0
+                row[1] = max(row[1], float(terms[j, 2]))
+                row[2] = max(row[2], box[j, 0])
+                row[3] = min(row[3], box[j, 1])
+    return screens
+
+
+@numba.njit(cache=True, nogil=True)
+def _inside(
+    values: FloatArray, screens: FloatArray, begin: int, stop: int
+) -> bool:  # pragma: no cover - compiled; tested through checked_free_run's counts
+    """Whether every screened channel of ``values`` is inside its screen's box over the block.
+
+    NaN is inside (``count_term`` never counts it as outside): the test is ``v < low or v >
+    high``, OR-ed over the rows (a reduction that vectorises).
+    """
+    for c in range(screens.shape[0]):
+        if screens[c, 0] == 0.0:
+            continue
+        low, high = screens[c, 2], screens[c, 3]
+        rows = values[c, begin - int(screens[c, 1]) : stop]
+        outside = False
+        for t in range(rows.shape[0]):
+            outside |= (rows[t] < low) | (rows[t] > high)
+        if outside:
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
 def checked_free_run(
     inputs: FloatArray,
     outputs: FloatArray,
@@ -187,6 +236,9 @@ def checked_free_run(
     channels, box : (terms, bounds)
         Terms counted outside their box (:mod:`neckid.models._domain_kernels`): ``channels``
         over every row, ``box`` over the rows from ``start`` on, with the union of its terms.
+        A block is first screened channel by channel against the intersection of the boxes of
+        its terms (:func:`_screens`); only a block with a value outside it is counted term by
+        term (the same counts: inside the intersection no term is outside its own box).
     envelope : ndarray, shape (2,)
         ``(low, high)`` of the divergence envelope (infinite for none).
     start : int
@@ -207,6 +259,9 @@ def checked_free_run(
     box_rows, non_finite, runaway = 0, -1, -1
     _fill_time(time[0], time[1], time[2], 0, start)
     count_outside(outputs, inputs, terms, bounds, 0, start, channel_counts)
+    groups, boxes = (terms, box[0]), (bounds, box[1])
+    input_screens = _screens(inputs.shape[0], 1, groups, boxes)
+    output_screens = _screens(outputs.shape[0], 0, groups, boxes)
     for begin in range(start, n, BLOCK):
         stop = min(begin + BLOCK, n)
         block = x[: stop - begin]
@@ -215,6 +270,10 @@ def checked_free_run(
         _fill_time(time[0], time[1], time[2], begin, stop)
         if non_finite < 0 or runaway < 0:
             non_finite, runaway = _first_flags(out, begin, stop, envelope, non_finite, runaway)
+        if _inside(inputs, input_screens, begin, stop) and _inside(
+            outputs, output_screens, begin, stop
+        ):
+            continue  # no channel nor term outside its box in this block: nothing to count
         count_outside(outputs, inputs, terms, bounds, begin, stop, channel_counts)
         box_rows += box_block(outputs, inputs, box[0], box[1], begin, stop, box_counts, flags)
     return channel_counts, box_counts, box_rows, non_finite, runaway

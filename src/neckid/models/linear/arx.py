@@ -411,10 +411,11 @@ class LinearARX(NarxModel):
         fir = filters.fir(u, n, m)
         denominator, state = filters.denominator, filter_state(filters.denominator, y, m)
         channel_names, channels, channel_bounds = plan.channel_terms(self, data)
-        counted = plan.terms is not None and data.n_outputs == 1
         # as Estimator._warn_extrapolation: no box, or no measured outputs: no terms counted
-        term_names, terms, term_bounds = plan.terms if counted else _NO_TERMS
-        envelope = plan.divergence_envelope(self, data, u)
+        box = plan.terms if data.n_outputs == 1 else None
+        counted = box is not None
+        term_names, terms, term_bounds = box if box is not None else _NO_TERMS
+        plain = plan.envelope  # widened only if the log's inputs leave their ranges: see below
         time = np.empty(n)
         channel_counts, term_counts, rows, non_finite, runaway = checked_free_run(
             channels_of(u),
@@ -426,9 +427,11 @@ class LinearARX(NarxModel):
             (time, data.t0, data.ts),
             (channels, channel_bounds),
             (terms, term_bounds),
-            envelope,
+            plain,
             m,
         )
+        if runaway >= 0:  # outside the plain envelope: is it outside the log's widened one?
+            runaway = _first_outside(y[:, 0], runaway, plan.divergence_envelope(self, data, u))
         by_term = {k: int(c) / (n - m) for k, c in zip(term_names, term_counts, strict=True)}
         return RunChecks(
             time=time,
@@ -494,6 +497,18 @@ class LinearARX(NarxModel):
             (model.lags_.n_terms, len(model.output_names_)),
         )
         return model
+
+
+def _first_outside(y: FloatArray, start: int, envelope: FloatArray) -> int:
+    """The first row of ``y`` from ``start`` on outside ``envelope`` (-1 for none).
+
+    The run looks for a runaway against the plain envelope, which the widened one contains:
+    the first row outside the widened one is at or after the first outside the plain one.
+    """
+    low, high = envelope.tolist()
+    rows = y[start:]
+    outside = np.flatnonzero((rows < low) | (rows > high))
+    return start + int(outside[0]) if outside.size else -1
 
 
 def linear_sum(x: FloatArray, coef: FloatArray, intercept: FloatArray) -> FloatArray:
