@@ -339,6 +339,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=2.0,
         describer="neckid.models.sindy.summary:describe_sindy",
+        c_export="neckid.export.c.sindy:c_sindy",
     ),
     Method(
         "sm-parallel-sindy",
@@ -351,6 +352,7 @@ _METHODS: tuple[Method, ...] = (
         builds_on="sindy",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+        c_export="neckid.export.c.parallel:c_parallel",
     ),
     Method(
         "koopman",
@@ -364,6 +366,7 @@ _METHODS: tuple[Method, ...] = (
         unit_cost=2.0,
         describer="neckid.models.koopman.summary:describe_koopman",
         control_form="ss",
+        c_export="neckid.export.c.koopman:c_koopman",
     ),
     Method(
         "sm-parallel-koopman",
@@ -376,6 +379,7 @@ _METHODS: tuple[Method, ...] = (
         builds_on="koopman",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+        c_export="neckid.export.c.parallel:c_parallel",
     ),
 )
 
