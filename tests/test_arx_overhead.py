@@ -39,6 +39,7 @@ from neckid.models._domain_kernels import BLOCK, channels_of
 from neckid.models.base import DivergenceError
 from neckid.models.domain import regressor_domain
 from neckid.models.linear._arx_kernels import MAX_FIR_TAPS, all_pole_block, fir_block
+from neckid.models.linear._arx_plan import filter_state
 from neckid.models.linear.arx import _linear_free_run, linear_free_run
 from neckid.models.results import ModelResult
 from neckid.regressors import ResolvedLags
@@ -440,6 +441,32 @@ def test_blocks_screened_before_counting_count_the_same() -> None:
     assert (fast_error, fast_warnings) == (slow_error, slow_warnings)
     assert 0 < fast.extras["outside_domain"] < 0.01  # not vacuous: a few rows counted
     assert fast.extras["extrapolation"]["u1"] == 1 / data.n_samples
+
+
+@pytest.mark.parametrize("order", [0, 1, 2, 3])
+def test_filter_state_is_lfiltics_arithmetic(order: int) -> None:
+    """Up to order 2 in Python floats, the same bits as the NumPy sums (zeros, inf, NaN too)."""
+    rng = np.random.default_rng(order)
+    special = [0.0, -0.0, 1e-300, -1e-300, 1e308, -1e308, np.inf, -np.inf, np.nan, 1.0, -0.3]
+    for trial in range(3000):
+        if trial % 2:
+            d, y = rng.choice(special, order), rng.choice(special, (order, 1))
+        else:
+            d, y = (
+                rng.normal(size=order) * 10.0 ** rng.integers(-8, 8, order),
+                rng.normal(size=(order, 1)),
+            )
+        denominator = np.r_[1.0, d]
+        past = y[:, 0][::-1]
+        expected = np.zeros(order)
+        with np.errstate(all="ignore"):
+            for k in range(order):  # what filter_state computed for every order before issue 42
+                expected[k] -= (denominator[k + 1 :] * past[: order - k]).sum()
+            state = filter_state(denominator, y, order)
+        np.testing.assert_array_equal(bits(state), bits(expected))
+        if trial % 2 == 0 and order:
+            lfiltic = signal.lfiltic([1.0], denominator, past)
+            np.testing.assert_allclose(state, lfiltic, rtol=1e-14, atol=1e-300)
 
 
 def test_conditions_are_checked_as_inputs() -> None:

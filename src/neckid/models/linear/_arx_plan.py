@@ -100,6 +100,13 @@ def filter_state(denominator: FloatArray, y: FloatArray, m: int) -> FloatArray:
     being ``y(m − 1), y(m − 2), ..., y(m − order)``.
     """
     order = denominator.shape[0] - 1
+    if 1 <= order <= 2:  # the same floats in Python's arithmetic, without NumPy's call overhead
+        # NumPy sums two products as d1·p0 + d2·p1 (the sum of one is the product); the sign
+        # of a zero may differ inside the sum, never in 0.0 − sum (tested)
+        d, p = denominator.tolist(), y[m - order : m, 0].tolist()[::-1]
+        if order == 1:
+            return np.array([0.0 - d[1] * p[0]])
+        return np.array([0.0 - (d[1] * p[0] + d[2] * p[1]), 0.0 - d[2] * p[0]])
     past = y[m - order : m, 0][::-1]
     state = np.zeros(order)
     for k in range(order):
