@@ -2,7 +2,8 @@
 
 Beyond the registry-wide test of ``test_export_c.py`` (the quick settings of each method): every
 Koopman dictionary, a two-input model, the start from rest, the sparse NARX's sine and cosine
-terms and its held monomials, and the refusal of user functions. Each is held to 1e-12 of the
+terms and its held monomials, the refusal of user functions, and both exported from a model
+file by the command line with a payload condition as an input. Each is held to 1e-12 of the
 run's scale against ``simulate``. Skipped without a C compiler.
 """
 
@@ -111,3 +112,40 @@ def test_sindy_with_user_functions_is_refused_in_one_line() -> None:
     with pytest.raises(ValueError, match=r"user functions \(tanh\) has no C export") as caught:
         c_model(model)
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize("kind", ["koopman", "sindy"])
+def test_cli_exports_a_model_file_with_a_payload_input(kind: str, tmp_path: Path) -> None:
+    """``neckid export FILE --to c``: the loaded model, its payload condition an input column."""
+    from typer.testing import CliRunner
+
+    from neckid.cli import app
+    from neckid.models.io import load_model
+
+    def logs(seed: int, payloads: list[float]) -> list[IOData]:
+        out = []
+        for k, payload in enumerate(payloads):
+            d = _log(300, seed + k)
+            shifted = IOData(d.u, d.y + payload, ts=d.ts, input_names=["u0"], output_names=["y"])
+            out.append(shifted.with_conditions(payload=payload))
+        return out
+
+    lags = Lags(outputs=[1, 2], inputs={"u0": [1, 2]}, conditions=["payload"])
+    model: KoopmanEDMD | SparseNARX = (
+        KoopmanEDMD(lags, n_observables=5, ridge=1e-6)
+        if kind == "koopman"
+        else SparseNARX(lags, degree=2, thresholds=(0.01,), fit_for="prediction")
+    )
+    path = tmp_path / "neck.npz"
+    model.fit(logs(0, [0.0, 0.5, 1.0])).save(path)
+    result = CliRunner().invoke(app, ["export", str(path), "--to", "c", "--driver"])
+    assert result.exit_code == 0, result.output
+    folder = tmp_path / "neck_c"
+    assert "payload" in (folder / "neck.h").read_text()
+    program = tmp_path / "run"
+    sources = [str(folder / "neck.c"), str(folder / "neck_main.c")]
+    subprocess.run([compiler(), *CFLAGS, *sources, "-lm", "-o", str(program)], check=True)
+    test = logs(10, [0.7])[0]
+    out = run(program, np.column_stack([test.u, np.full(test.n_samples, 0.7), test.y]))
+    loaded = load_model(path)
+    assert relative_error(out, loaded.simulate(test).y[loaded.max_lag_ :]) <= 1e-12
