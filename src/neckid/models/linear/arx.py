@@ -402,6 +402,11 @@ class LinearARX(NarxModel):
         passes of its own: the time stamps, the channels outside their training ranges
         (``extrapolation``), the regressor terms outside the training box (``_domain_shares``),
         the first non-finite output and the first one outside :meth:`divergence_envelope`.
+        What it reads of the model is built once per fitted model
+        (:func:`~neckid.models.linear._arx_plan.plan_of`). The pass looks for a runaway against
+        the envelope for inputs inside their training ranges; only when it finds one is the
+        log's envelope (wider when its inputs leave their ranges) worked out, and the first
+        row outside that one looked for from there: the same row as a pass with it.
         """
         n, m = data.n_samples, self.max_lag_
         u = np.asarray(data.u, dtype=np.float64)
