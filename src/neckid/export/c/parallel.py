@@ -1,11 +1,11 @@
-"""C export of the parallel Set Membership model (``sm-parallel``, ``sm-parallel-poly``).
+"""C export of the parallel Set Membership model (``sm-parallel``, ``-poly``, ``-koopman``, ``-sindy``).
 
-Two exports in one: the base model run in parallel (an ARX, a polynomial NARX, a state-space
-model: its own ``c_export``) and the SM map over ``v = [u, y_base]``, each under its own prefix
-(``NAME_base_``, ``NAME_map_``) with its state inside the model's. A step is
-:class:`~neckid.models.set_membership.parallel.ParallelSetMembershipSimulator`'s: the base steps
-on ``u``, the map steps on ``[u, y_base]`` with its bounds, and the output is the central
-estimate or (``estimate="projection"``) the base's output clipped to the bounds.
+Two exports in one: the base model run in parallel (an ARX, a polynomial or sparse NARX, a
+state-space or Koopman model: its own ``c_export``) and the SM map over ``v = [u, y_base]``,
+each under its own prefix (``NAME_base_``, ``NAME_map_``) with its state inside the model's. A
+step is :class:`~neckid.models.set_membership.parallel.ParallelSetMembershipSimulator`'s: the
+base steps on ``u``, the map steps on ``[u, y_base]`` with its bounds, and the output is the
+central estimate or (``estimate="projection"``) the base's output clipped to the bounds.
 """
 
 from __future__ import annotations
@@ -59,7 +59,8 @@ def c_parallel(model: Any) -> CModel:
     Raises
     ------
     TypeError
-        When the base model has no C export (a grey-box or sparse base).
+        When the base model has no C export (the tanks' grey box, a sparse NARX with user
+        functions: ``ValueError``).
     """
     exporter = exporter_of(model.linear_)
     if exporter is None:
