@@ -11,6 +11,7 @@ in order, then the two added). The observables are never recomputed from the out
 
 from __future__ import annotations
 
+import textwrap
 from typing import Any
 
 import numpy as np
@@ -87,7 +88,7 @@ def _observable_parts(model: Any) -> tuple[list[str], str, str]:
     k = int(model.n_observables_)
     kind = str(model.dictionary)
     if k == 0:
-        return [], "", "no observables (the delays alone)"
+        return [], "", ""
     constants = [
         c_array("NAME_observable_mean", model.observable_mean_),
         c_array("NAME_observable_std", model.observable_std_),
@@ -103,9 +104,9 @@ def _observable_parts(model: Any) -> tuple[list[str], str, str]:
     if kind == "gaussian":
         denominator = 2.0 * float(model.width_) ** 2
         constants.append(f"static const double NAME_two_width_square = {c_double(denominator)};")
-        text = f"{k} Gaussian RBFs exp(-|r - c_k|^2 / (2 w^2)), w = {float(model.width_)!r}"
+        text = f"{k} Gaussian RBFs exp(-|r-c_k|^2/(2w^2)), w = {float(model.width_)!r}"
         return constants, _RBF.replace("@VALUE@", _GAUSSIAN), text
-    text = f"{k} thin-plate RBFs |r - c_k|^2 log |r - c_k|"
+    text = f"{k} thin-plate RBFs |r-c_k|^2 log|r-c_k|"
     return constants, _RBF.replace("@VALUE@", _THIN_PLATE), text
 
 
@@ -144,12 +145,13 @@ def c_koopman(model: Any) -> CModel:
             lift,
         ]
     )
-    names = model.state_names()
+    parts = "the standardised delays p, "
+    parts += f"then {sentence} of the lag terms r, then" if sentence else "no observables, then"
+    names = ", ".join(model.state_names())
     notes = [
         "y(t) = C z(t) + D u(t), z(t+1) = A z(t) + B u(t): the lifted linear system",
-        f"State z, {order} values: the standardised delays p, then {sentence} of the",
-        "lag terms r (standardised), then the constant 1:",
-        "  " + ", ".join(names),
+        *textwrap.wrap(f"State z, {order} values: {parts} the constant 1:", width=92),
+        *textwrap.wrap(names, width=92, initial_indent="  ", subsequent_indent="  "),
         f"NAME_reset lifts z from M = {m} past rows (as initial_state; NULL: zeros, the",
         "simulator's reset()); the observables are not recomputed after that.",
         f"Initial rows: simulate's first max_lag = {m} samples give the state.",

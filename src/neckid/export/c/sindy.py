@@ -11,6 +11,7 @@ has Python code in its equation and no C export.
 
 from __future__ import annotations
 
+import textwrap
 from typing import Any
 
 import numpy as np
@@ -83,19 +84,22 @@ def c_sindy(model: Any) -> CModel:
     )
     names = library.names(list(model.lags_.names))
     outputs = list(model.output_names_)
-    equation = [
-        f"  {outputs[o]}(t) = "
-        + (
-            " ".join(f"{model.coef_[k, o]:+.6g} {names[k]}" for k in kept if model.coef_[k, o] != 0)
-            or "0"
+    equation = []
+    for o, output in enumerate(outputs):
+        terms = [f"{model.coef_[k, o]:+.6g} {names[k]}" for k in kept if model.coef_[k, o] != 0]
+        equation += textwrap.wrap(
+            f"{output}(t) = {' '.join(terms) or '0'}",
+            width=92,
+            initial_indent="  ",
+            subsequent_indent="      ",
+            break_on_hyphens=False,
         )
-        for o in range(len(outputs))
-    ]
     notes = [
         f"y(t) = sum of coef_i theta_i(w(t)) over the {int(kept.size)} kept library functions"
         " (NAME_kept:",
         "their library rows; kind 0 a monomial phi, 1 sin, 2 cos of one term); the monomials",
-        "of degree >= 2 take the terms held in [hold_low, hold_high], the linear ones w itself:",
+        "of degree >= 2 take the terms held in [hold_low, hold_high], the linear ones w itself",
+        "(the coefficients rounded here, exact in the source):",
         *equation,
     ]
     return narx_model(
