@@ -62,6 +62,7 @@ def test_the_registry_lists_every_method() -> None:
         "arx",
         "greybox-neck",
         "greybox-tanks",
+        "koopman",
         "lpv",
         "nn",
         "pnlss",
@@ -69,11 +70,14 @@ def test_the_registry_lists_every_method() -> None:
         "rls",
         "scheduled",
         "scheduled-position",
+        "sindy",
         "sm",
         "sm-linear",
         "sm-multistep",
         "sm-parallel",
+        "sm-parallel-koopman",
         "sm-parallel-poly",
+        "sm-parallel-sindy",
         "ss",
     ]
     for name, method in neckid.methods().items():

@@ -69,6 +69,14 @@ class MultisinePlan:
         periods and ``0 .. P-1`` for the measured ones.
     rms : float
         Root-mean-square value of every input in every realisation (its unit: the command's).
+
+    Examples
+    --------
+    >>> plan = multisine_plan(64, 0.05, (0.5, 20.0), kind="odd", n_realisations=2, seed=1)
+    >>> plan.n_realisations, plan.period, plan.excited_lines[:3].tolist()
+    (2, 64, [1, 3, 5])
+    >>> plan.lines_table()[0]["role"], round(float(plan.omegas[0]), 4)
+    ('excited', 1.9635)
     """
 
     signal: FloatArray

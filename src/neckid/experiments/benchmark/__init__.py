@@ -44,7 +44,8 @@ Examples
 --------
 >>> from neckid.experiments.benchmark import BENCHMARK_METHODS, BENCHMARKS
 >>> BENCHMARK_METHODS
-('arx', 'ss', 'pnlss', 'sm', 'sm-linear', 'sm-parallel', 'sm-parallel-poly', 'poly', 'lpv', 'nn', 'scheduled', 'greybox-neck')
+('arx', 'ss', 'pnlss', 'sm', 'sm-linear', 'sm-parallel', 'sm-parallel-poly', 'poly', 'lpv', 'nn',
+ 'scheduled', 'greybox-neck', 'sindy', 'sm-parallel-sindy', 'koopman', 'sm-parallel-koopman')
 >>> BENCHMARKS
 ('softneck', 'softneck-payload', 'softneck-controller', 'cascaded_tanks', 'silverbox', 'bouc_wen', 'robot_arm')
 """
