@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from neckid import IOData, methods
 from neckid.data.folds import Split
-from neckid.selection.work import progress_label, progress_units
+from neckid.selection.work import progress_label, progress_units, unit_cost
 from neckid.utils.progress import LineReporter, Plan, planned_task, reporting
 
 
@@ -141,8 +141,11 @@ def test_a_selections_units_are_named_and_costed_by_the_registry() -> None:
         "baseline: training mean, fold 1/2 (held out: run1)",
     ]
     costs = {group: cost for _, group, cost in units}
-    assert costs["ss"] == pytest.approx(100 * methods()["ss"].unit_cost)
-    assert costs["Lags(outputs=[1], inputs=[1])"] == pytest.approx(100 * methods()["sm"].unit_cost)
+    # Each candidate's cost is its method's cost function of its own settings (issue 42).
+    assert costs["ss"] == pytest.approx(unit_cost(candidates[1][1], [first]))
+    sm = unit_cost(candidates[0][1], [first])
+    assert costs["Lags(outputs=[1], inputs=[1])"] == pytest.approx(sm)
+    assert costs["baseline: training mean"] < min(sm, costs["ss"])
     assert progress_label(3, splits) == "fitting and scoring 3 candidates on 2 folds"
 
 

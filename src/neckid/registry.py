@@ -73,6 +73,12 @@ class Method:
     unit_cost : float, default 5.0
         Relative cost of one benchmark unit per training sample: the order in which a stage
         hands its units to the workers (longest first). It changes the wall time only.
+    cost : str
+        ``"module:function"`` of the expected cost of one selection unit of this method, from
+        the estimator's own settings and the data's size: ``function(estimator, n_samples,
+        n_terms) -> float`` (:mod:`neckid.selection.costs`), in :attr:`unit_cost` × samples'
+        unit; the time left of a selection's progress (:func:`neckid.selection.work.unit_cost`).
+        Empty: :attr:`unit_cost` × samples.
     benchmark_params : mapping
         Hyper-parameters beside :attr:`defaults` of the benchmark's one candidate of a state
         model (empty for every method today).
@@ -99,6 +105,7 @@ class Method:
     builds_on: str | None = None
     only_on: str | None = None
     unit_cost: float = 5.0
+    cost: str = ""
     benchmark_params: Mapping[str, Any] = field(default_factory=dict)
     describer: str = ""
     control_form: str = "tf"
@@ -145,6 +152,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=0,
         unit_cost=0.01,
         describer="neckid.export.describe:describe_arx",
+        cost="neckid.selection.costs:arx_cost",
         c_export="neckid.export.c.narx:c_arx",
     ),
     Method(
@@ -167,6 +175,7 @@ _METHODS: tuple[Method, ...] = (
         lag_free=True,
         unit_cost=0.3,
         describer="neckid.export.describe:describe_subspace",
+        cost="neckid.selection.costs:subspace_cost",
         c_export="neckid.export.c.state_space:c_subspace",
         control_form="ss",
     ),
@@ -181,6 +190,7 @@ _METHODS: tuple[Method, ...] = (
         lag_free=True,
         unit_cost=20.0,
         describer="neckid.export.describe:describe_pnlss",
+        cost="neckid.selection.costs:pnlss_cost",
         c_export="neckid.export.c.state_space:c_pnlss",
         control_form="ss",
     ),
@@ -192,6 +202,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=1.0,
         describer="neckid.export.describe:describe_set_membership",
+        cost="neckid.selection.costs:set_membership_cost",
         c_export="neckid.export.c.set_membership:c_set_membership",
     ),
     Method(
@@ -203,6 +214,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=2,
         unit_cost=1.0,
         describer="neckid.export.describe:describe_set_membership",
+        cost="neckid.selection.costs:set_membership_cost",
         c_export="neckid.export.c.set_membership:c_set_membership",
     ),
     Method(
@@ -213,6 +225,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=2.0,
         describer="neckid.export.describe:describe_parallel",
+        cost="neckid.selection.costs:parallel_cost",
         c_export="neckid.export.c.parallel:c_parallel",
     ),
     Method(
@@ -228,6 +241,7 @@ _METHODS: tuple[Method, ...] = (
         only_on="public",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+        cost="neckid.selection.costs:parallel_cost",
         c_export="neckid.export.c.parallel:c_parallel",
     ),
     Method(
@@ -240,6 +254,7 @@ _METHODS: tuple[Method, ...] = (
         only_on="public",
         unit_cost=10.0,
         describer="neckid.export.describe:describe_polynomial",
+        cost="neckid.selection.costs:polynomial_cost",
         c_export="neckid.export.c.narx:c_polynomial",
     ),
     Method(
@@ -266,6 +281,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=6,
         unit_cost=8.0,
         describer="neckid.export.describe:describe_neural",
+        cost="neckid.selection.costs:neural_cost",
         c_export="neckid.export.c.neural:c_neural",
     ),
     Method(
@@ -327,6 +343,7 @@ _METHODS: tuple[Method, ...] = (
         quick={"horizon": 3},
         complexity=4,
         describer="neckid.export.describe:describe_multistep",
+        cost="neckid.selection.costs:multistep_cost",
         c_export="neckid.export.c.multistep:c_multistep",
     ),
     Method(
@@ -339,6 +356,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=2.0,
         describer="neckid.models.sindy.summary:describe_sindy",
+        cost="neckid.selection.costs:sindy_cost",
         c_export="neckid.export.c.sindy:c_sindy",
     ),
     Method(
@@ -352,6 +370,7 @@ _METHODS: tuple[Method, ...] = (
         builds_on="sindy",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+        cost="neckid.selection.costs:parallel_cost",
         c_export="neckid.export.c.parallel:c_parallel",
     ),
     Method(
@@ -365,6 +384,7 @@ _METHODS: tuple[Method, ...] = (
         complexity=3,
         unit_cost=2.0,
         describer="neckid.models.koopman.summary:describe_koopman",
+        cost="neckid.selection.costs:koopman_cost",
         control_form="ss",
         c_export="neckid.export.c.koopman:c_koopman",
     ),
@@ -379,6 +399,7 @@ _METHODS: tuple[Method, ...] = (
         builds_on="koopman",
         unit_cost=3.0,
         describer="neckid.export.describe:describe_parallel",
+        cost="neckid.selection.costs:parallel_cost",
         c_export="neckid.export.c.parallel:c_parallel",
     ),
 )

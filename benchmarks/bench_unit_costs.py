@@ -1,0 +1,101 @@
+"""Calibrate the selection's unit costs (issue 42): single fits side by side, seconds vs cost.
+
+Run:  .venv/bin/python benchmarks/bench_unit_costs.py [DATA] [--logs 2] [--only nn,ss]
+
+Each case fits one estimator (a registry method with the settings shown) on the first ``--logs``
+training logs (5: a fold of ``compare``) of the payload split of DATA (``load_softneck_cross_run``, the softneck protocol)
+and free-runs it on the next log, as one unit of a selection does; it prints the seconds, the
+expected cost (:attr:`neckid.registry.Method.cost`, :mod:`neckid.selection.costs`) and the
+seconds per cost unit relative to ``sm``'s: a column of ones is a calibrated table. The load
+average before and after is printed; only the ratios in one run mean anything.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+import warnings
+from typing import Any
+
+from neckid import Lags, methods
+from neckid.experiments.benchmark.datasets import load_softneck_cross_run
+from neckid.selection.work import unit_cost
+
+LAGS = Lags(outputs=[1, 2], inputs=[1, 2])
+
+#: (label, method, settings): each method at its defaults and at settings that change its cost.
+CASES: tuple[tuple[str, str, dict[str, Any]], ...] = (
+    ("sm", "sm", {}),
+    ("arx", "arx", {}),
+    ("sm-parallel", "sm-parallel", {}),
+    ("sm-multistep h=3", "sm-multistep", {"horizon": 3}),
+    ("sm-multistep h=6", "sm-multistep", {"horizon": 6}),
+    ("ss", "ss", {}),
+    ("ss order 2", "ss", {"order": 2}),
+    ("ss order 6", "ss", {"order": 6}),
+    ("ss quick", "ss", {"max_iter": 20}),
+    ("nn", "nn", {}),
+    ("nn 1 network", "nn", {"n_networks": 1}),
+    ("nn quick", "nn", {"hidden_layer_sizes": (8,), "max_iter": 50, "n_networks": 2}),
+    ("poly quick", "poly", {"degree": 2, "max_iter": 10}),
+    ("poly degree 2", "poly", {"degree": 2, "max_iter": 40}),
+    ("pnlss quick", "pnlss", {"degree": 2, "max_iter": 10}),
+    ("koopman", "koopman", {}),
+    ("koopman quick", "koopman", {"n_observables": 10, "ridge": 1e-6}),
+    ("sindy quick", "sindy", {"degree": 2, "max_iter": 20, "thresholds": (0.1, 0.01)}),
+)
+
+
+def _rows(record: Any, start: int, stop: int) -> Any:
+    """Samples ``start:stop`` of a log (a small fit that compiles a method's kernels)."""
+    t0 = record.t0 if hasattr(record, "t0") else 0.0
+    return record.time_slice(t0 + start * record.ts, t0 + stop * record.ts)
+
+
+def _unit(model: Any, train: list[Any], held: Any) -> tuple[float, str]:
+    """Seconds of one selection unit: the fit, then a free run of the held-out log."""
+    start = time.perf_counter()
+    failed = ""
+    try:
+        model.fit(train)
+        model.simulate(held)
+    except Exception as error:  # a diverging free run still cost its time
+        failed = f"  ({type(error).__name__})"
+    return time.perf_counter() - start, failed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("data", nargs="?", default="../shared/data/softneck")
+    parser.add_argument("--logs", type=int, default=5)
+    parser.add_argument("--only", default="")
+    args = parser.parse_args()
+    bench = load_softneck_cross_run(args.data, "softneck-payload")
+    train, held = list(bench.train[: args.logs]), bench.train[args.logs]
+    only = set(filter(None, args.only.split(",")))
+    rows = []
+    warnings.simplefilter("ignore")  # convergence warnings of the quick settings
+    print(f"load average before {os.getloadavg()[0]:.2f}; {sum(r.n_samples for r in train)} rows")
+    for label, name, settings in CASES:
+        if only and name not in only and label not in only:
+            continue
+        method = methods()[name]
+        lags = None if method.lag_free else LAGS
+        _unit(method.make(lags, **settings), [_rows(held, 0, 800)], _rows(held, 800, 1600))
+        model = method.make(lags, **settings)  # the small fit above compiled its kernels
+        cost = unit_cost(model, train)
+        seconds, failed = _unit(model, train, held)
+        rows.append((label, seconds, cost))
+        print(f"  {label:18s} {seconds:8.2f} s  cost {cost:12.0f}{failed}", flush=True)
+    reference = next((s / c for label, s, c in rows if label == "sm"), None)
+    print(f"load average after {os.getloadavg()[0]:.2f}")
+    if reference:
+        for label, seconds, cost in rows:
+            print(
+                f"  {label:18s} seconds per cost relative to sm: {seconds / cost / reference:6.2f}"
+            )
+
+
+if __name__ == "__main__":
+    main()
