@@ -41,15 +41,18 @@ from neckid.experiments.benchmark.settings import (
 from neckid.experiments.benchmark.shared import SharedFits, data_digest, fit_key
 from neckid.experiments.benchmark.stages import FinalRun, Outcome, final_unit, fit_unit, score_unit
 from neckid.registry import methods
+from neckid.selection.work import unit_cost
 from neckid.utils.parallel import run_jobs
 
 __all__ = ["UNIT_COST", "MethodPlan", "choose", "run_plans", "selection_parts"]
 
 logger = logging.getLogger(__name__)
 
-#: Relative cost of one unit per training sample, by method: the order in which a stage hands
-#: its units to the workers (longest first). It changes the wall time only, never the results.
-#: Each method's :attr:`~neckid.registry.Method.unit_cost`; a peer method counts 5.
+#: Relative cost of one unit per training sample, by method: each method's
+#: :attr:`~neckid.registry.Method.unit_cost`; a peer method counts 5. A unit's cost is its
+#: method's cost function at the estimator's settings (:func:`neckid.selection.work.unit_cost`),
+#: which falls back on this; it orders a stage's units (longest first). It changes the wall time
+#: only, never the results.
 UNIT_COST: Mapping[str, float] = MappingProxyType({m.name: m.unit_cost for m in methods().values()})
 
 
@@ -337,7 +340,7 @@ class _Stages:
 
         n = sum(r.n_samples for r in as_experiments(part, "data"))
         call = delayed(fit_unit)(estimator, part, self._known(plan, estimator))
-        return _Unit(plan, call, _cost(plan.method, n), deliver, (key,))
+        return _Unit(plan, call, _cost(plan.method, estimator, part, n), deliver, (key,))
 
     def _score_units(self, plan: MethodPlan) -> list[_Unit]:
         """One unit per candidate; a candidate scored before on the same data is not rescored."""
@@ -371,7 +374,8 @@ class _Stages:
                 folds=SELECTION_FOLDS,
                 known=self._known(plan, estimator),
             )
-            units.append(_Unit(plan, call, _cost(plan.method, n), self._to_all(key), completes))
+            cost = _cost(plan.method, estimator, parts[0], n)
+            units.append(_Unit(plan, call, cost, self._to_all(key), completes))
         return units
 
     def _to_all(self, key: bytes) -> Callable[[Outcome], None]:
@@ -426,7 +430,9 @@ class _Stages:
         call = delayed(final_unit)(
             estimator, plan.bench, self._known(plan, estimator), keep_model=key in self._wanted
         )
-        return _Unit(plan, call, _cost(plan.method, n), deliver, (key,))
+        return _Unit(
+            plan, call, _cost(plan.method, estimator, plan.bench.train, n), deliver, (key,)
+        )
 
 
 def _lags_of(estimator: Any) -> Any:
@@ -434,8 +440,13 @@ def _lags_of(estimator: Any) -> Any:
     return params.get("lags")
 
 
-def _cost(method: str, n_samples: int) -> float:
-    return UNIT_COST.get(method, 5.0) * n_samples
+def _cost(method: str, estimator: Any, data: Any, n_samples: int) -> float:
+    """A unit of ``n_samples``: the method's cost of ``estimator`` on ``data``, per sample of it."""
+    if method not in UNIT_COST:  # a peer method
+        return 5.0 * n_samples
+    records = as_experiments(data, "data")
+    fitted = sum(r.n_samples for r in records)
+    return unit_cost(estimator, records) * n_samples / max(fitted, 1)
 
 
 def run_plans(
