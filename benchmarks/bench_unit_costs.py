@@ -1,6 +1,7 @@
 """Calibrate the selection's unit costs (issue 42): single fits side by side, seconds vs cost.
 
-Run:  .venv/bin/python benchmarks/bench_unit_costs.py [DATA] [--logs 2] [--only nn,ss]
+Run:  .venv/bin/python benchmarks/bench_unit_costs.py [DATA] [--logs 5] [--only nn,ss]
+      .venv/bin/python benchmarks/bench_unit_costs.py [DATA] --compare arx,sm,sm-parallel,ss,nn
 
 Each case fits one estimator (a registry method with the settings shown) on the first ``--logs``
 training logs (5: a fold of ``compare``) of the payload split of DATA (``load_softneck_cross_run``, the softneck protocol)
@@ -8,6 +9,12 @@ and free-runs it on the next log, as one unit of a selection does; it prints the
 expected cost (:attr:`neckid.registry.Method.cost`, :mod:`neckid.selection.costs`) and the
 seconds per cost unit relative to ``sm``'s: a column of ones is a calibrated table. The load
 average before and after is printed; only the ratios in one run mean anything.
+
+``--compare METHODS``: :func:`neckid.compare` on the payload split as ``neckid compare`` runs it
+(the command line's default lags ``1-2/1-2``), every unit of its selection timed by the progress
+(:class:`neckid.utils.progress.Plan`): per candidate its seconds, its cost and its seconds per
+cost relative to ``sm``'s, and the first time left the progress would show after 5 s against
+the real time left.
 """
 
 from __future__ import annotations
@@ -65,12 +72,71 @@ def _unit(model: Any, train: list[Any], held: Any) -> tuple[float, str]:
     return time.perf_counter() - start, failed
 
 
+class _Keeper:
+    """A reporter that keeps the plan of the selection's units (nothing is shown)."""
+
+    def __init__(self) -> None:
+        self.plans: list[Any] = []
+
+    def start(self, label: str, total: float | None) -> _Keeper:
+        return self
+
+    def note(self, detail: str, estimate: Any) -> None:
+        plan = getattr(estimate, "__self__", None)
+        if plan is not None and (not self.plans or self.plans[-1] is not plan):
+            self.plans.append(plan)
+
+    def advance(self, steps: float = 1.0) -> None:
+        pass
+
+    def stop(self) -> None:
+        pass
+
+
+def run_compare(data: str, names: list[str]) -> None:
+    """Every selection unit of a payload-split compare: seconds against cost, per candidate."""
+    from neckid import compare
+    from neckid.utils.progress import reporting
+
+    bench = load_softneck_cross_run(data, "softneck-payload")
+    keeper = _Keeper()
+    print(f"load average before {os.getloadavg()[0]:.2f}")
+    with reporting(keeper):
+        compare(bench.train, list(bench.tests.values()), methods=names, lags=LAGS, progress=True)
+    print(f"load average after {os.getloadavg()[0]:.2f}")
+    plan = keeper.plans[0]
+    times = [b - a for a, b in zip(plan.ends, plan.ends[1:], strict=False)]
+    by_group: dict[str, list[float]] = {}
+    for group, seconds, cost in zip(plan.groups, times, plan.costs, strict=False):
+        by_group.setdefault(group, [0.0, 0.0])
+        by_group[group][0] += seconds
+        by_group[group][1] += cost
+    reference = next((s / c for g, (s, c) in by_group.items() if g == "sm" and c), 1.0)
+    for group, (seconds, cost) in by_group.items():
+        ratio = seconds / cost / reference if cost else float("nan")
+        print(
+            f"  {group[:40]:40s} {seconds:7.2f} s  cost {cost:10.0f}  per cost vs sm {ratio:6.2f}"
+        )
+    start, end = plan.ends[0], plan.ends[-1]
+    for at in (5.0, 15.0):
+        done = sum(1 for t in plan.ends[1:] if t <= start + at)
+        replay = type(plan)(plan.groups, plan.costs, start=start)
+        for t in plan.ends[1 : done + 1]:
+            replay.finish(t)
+        left, _ = replay.left(start + at)
+        print(f"  after {at:.0f} s: time left shown {left}, real {end - start - at:.1f} s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("data", nargs="?", default="../shared/data/softneck")
     parser.add_argument("--logs", type=int, default=5)
     parser.add_argument("--only", default="")
+    parser.add_argument("--compare", default="")
     args = parser.parse_args()
+    if args.compare:
+        run_compare(args.data, args.compare.split(","))
+        return
     bench = load_softneck_cross_run(args.data, "softneck-payload")
     train, held = list(bench.train[: args.logs]), bench.train[args.logs]
     only = set(filter(None, args.only.split(",")))
