@@ -99,8 +99,8 @@ def progress_units(
     >>> splits = [Split((runs[0],), ((runs[1],),)), Split((runs[1],), ((runs[0],),))]
     >>> units = progress_units([("ss", methods()["ss"].make())], splits)
     >>> what, group, cost = units[1]
-    >>> what, group, round(cost)  # ss's cost function at its settings, 100 samples
-    ('ss, fold 2/2 (held out: run1)', 'ss', 70)
+    >>> what, group, cost == unit_cost(methods()["ss"].make(), [runs[0]])
+    ('ss, fold 2/2 (held out: run1)', 'ss', True)
     """
     units = []
     for name, estimator in candidates:
