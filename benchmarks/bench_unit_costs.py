@@ -15,6 +15,12 @@ average before and after is printed; only the ratios in one run mean anything.
 (:class:`neckid.utils.progress.Plan`): per candidate its seconds, its cost and its seconds per
 cost relative to ``sm``'s, and the first time left the progress would show after 5 s against
 the real time left.
+
+Measured (2-core machine, shared): single fits of 15,622 rows at load 2.2 → 2.9: sm 0.45 s, nn
+12.5 s (1 network 1.7 s, quick 0.95 s), ss 0.42 s (order 2: 0.16 s, order 6: 0.49 s),
+sm-multistep horizon 3: 15.1 s, 6: 72.8 s, pnlss quick 12.1 s, koopman 3.1 s (quick 0.04 s).
+``--compare`` at load 3.4 → 3.8: per fold sm 0.39 s, ss 0.80 s, nn 22.9 s; at load 2.3: sm
+0.37 s, ss 0.50 s, nn 11.2 s. The constants of :mod:`neckid.selection.costs` sit between.
 """
 
 from __future__ import annotations
