@@ -201,9 +201,9 @@ class Plan:
     """The time left of units done in order, from their expected costs and their measured times.
 
     A unit (one candidate on one fold) is expected to take the mean time of the units of its
-    group (the candidate's other folds) once one of them is done; before that, its cost (the
-    registry's ``unit_cost`` times the training samples, say) times the seconds per cost of the
-    units done so far: a slow method is counted as slow before it has run. The unit running now
+    group (the candidate's other folds) once one of them is done; before that, its cost (its
+    method's cost at its settings and size, :func:`neckid.selection.work.unit_cost`, say) times
+    the seconds per cost of the units done so far: a slow method is counted as slow before it has run. The unit running now
     counts what is left of its estimate; once it has run longer than that, every unmeasured unit
     of its group counts at least as long as it has run, and the estimate is a lower bound.
 
