@@ -53,9 +53,9 @@ def _terms(estimator: Any, records: Sequence[IOData], method: Method) -> int:
     lags = estimator.get_params(deep=False).get("lags") if not method.lag_free else None
     if lags is None:
         return channels
-    try:
-        return int(lags.resolve(list(records)).n_terms)
-    except (AttributeError, TypeError, ValueError):  # the fit will say what is wrong
+    try:  # with its conditions as inputs, as the model adds them when it fits
+        return int(lags.resolve(lags.conditioned(list(records))).n_terms)
+    except (AttributeError, KeyError, TypeError, ValueError):  # the fit will say what is wrong
         return channels
 
 
