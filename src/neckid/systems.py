@@ -47,6 +47,7 @@ __all__ = [
     "has_lag_zero_input",
     "history_names",
     "history_rows",
+    "input_row",
 ]
 
 
@@ -463,3 +464,18 @@ class HistoryMap(StateMap):
         y_hist = history_rows(y0, self.m, self.n_out, "y0")
         u_hist = history_rows(u0, self.m, self.n_in, "u0")
         return np.concatenate([y_hist.ravel(), u_hist.ravel()])
+
+
+def input_row(u: ArrayLike, width: int) -> FloatArray:
+    """A simulator's input of one sample as a ``(1, width)`` row, checked: one finite value per input.
+
+    Examples
+    --------
+    >>> input_row([0.5, 1.0], 2)
+    array([[0.5, 1. ]])
+    """
+    row = np.asarray(u, dtype=np.float64).reshape(1, -1)
+    if row.shape[1] != width:
+        raise ValueError(f"u must have {width} values (one per input); got {row.shape[1]}")
+    check_finite(row, "u")
+    return row

@@ -45,7 +45,7 @@ from neckid.models.koopman.lift import (
 from neckid.models.koopman.selection import RIDGES, SIZES, Choice, choose
 from neckid.models.online import extend_training_ranges, update_experiments
 from neckid.regressors import Lags, ResolvedLags
-from neckid.systems import history_rows
+from neckid.systems import history_rows, input_row
 from neckid.utils.checks import Interval, Options
 from neckid.utils.types import FloatArray
 
@@ -531,12 +531,5 @@ class KoopmanSimulator:
 
     def step(self, u: ArrayLike) -> FloatArray:
         """Advance one sample with input ``u`` (``(n_inputs,)``); return ``y(t)`` (``(n_outputs,)``)."""
-        from neckid.utils.checks import check_finite
-
-        row = np.asarray(u, dtype=np.float64).reshape(1, -1)
-        if row.shape[1] != self.n_inputs:
-            raise ValueError(
-                f"u must have {self.n_inputs} values (one per input); got {row.shape[1]}"
-            )
-        check_finite(row, "u")
+        row = input_row(u, self.n_inputs)
         return np.asarray(self._model.run(row, self.x)[0], dtype=np.float64)

@@ -47,8 +47,8 @@ from neckid.models.linear.subspace_steps import (
 )
 from neckid.models.online import update_experiments
 from neckid.regressors import Lags
-from neckid.systems import StateMap, history_rows
-from neckid.utils.checks import Interval, Options, check_finite
+from neckid.systems import StateMap, history_rows, input_row
+from neckid.utils.checks import Interval, Options
 from neckid.utils.progress import task
 from neckid.utils.types import FloatArray
 
@@ -599,13 +599,7 @@ class StateSpaceSimulator:
 
     def step(self, u: ArrayLike) -> FloatArray:
         """Advance one sample with input ``u`` (``(n_inputs,)``); return ``y(t)`` (``(n_outputs,)``)."""
-        row = np.asarray(u, dtype=np.float64).reshape(1, -1)
-        if row.shape[1] != self.n_inputs:
-            raise ValueError(
-                f"u must have {self.n_inputs} values (one per input); got {row.shape[1]}"
-            )
-        check_finite(row, "u")
-        return np.asarray(self._advance(row), dtype=np.float64)
+        return np.asarray(self._advance(input_row(u, self.n_inputs)), dtype=np.float64)
 
     def _advance(self, row: FloatArray) -> FloatArray:
         """``y(t)`` of one input row ``(1, n_inputs)``; the state moves on (subclasses: the model)."""
