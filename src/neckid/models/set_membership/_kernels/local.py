@@ -58,12 +58,15 @@ from numpy.typing import NDArray
 
 from neckid.models.set_membership._kernels.tree import (
     SERIAL_QUERIES,
+    SLOPE_PRUNE,
     STACK_DEPTH,
-    box_distance,
     box_distance2,
-    push_children,
+    box_screen2,
+    leaf_screen2,
+    push_screened,
     query_one,
     reach_cap,
+    screen_shrink,
     squared_distance_capped,
 )
 from neckid.utils.types import FloatArray, IntArray
@@ -98,14 +101,15 @@ def _steepest(
     w = points[i]
     t = targets[i, c]
     best = 0.0
+    shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = box_distance(w, lo, hi, 0)
+    dist_stack[0] = math.sqrt(box_screen2(w, lo, hi, 0) * shrink)
     top = 1
     while top > 0:
         top -= 1
         node = node_stack[top]
         gap = max(t - ymin[node, c], ymax[node, c] - t) - twice_eps
-        if gap <= 0.0 or gap <= best * dist_stack[top]:
+        if gap <= 0.0 or gap <= best * dist_stack[top] * SLOPE_PRUNE:
             continue
         child = left[node]
         if child < 0:
@@ -118,14 +122,16 @@ def _steepest(
                 cap = reach_cap(rise / best) if best > 0.0 else np.inf
                 acc = squared_distance_capped(w, points, p, cap)
                 if acc > cap:
-                    continue  # too far for rise > best · d
-                d = math.sqrt(acc)
-                if rise > best * d:
-                    if d == 0.0:
-                        return np.inf
-                    best = rise / d
+                    continue  # too far for rise / d > best
+                if acc == 0.0:
+                    return np.inf
+                slope = rise / math.sqrt(acc)
+                if slope > best:
+                    best = slope
         else:
-            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+            top = push_screened(
+                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, False
+            )
     return best
 
 
@@ -179,14 +185,23 @@ def kth_radius2(
     node_stack: IntArray,
     dist_stack: FloatArray,
     near_d: FloatArray,
+    screen: FloatArray,
 ) -> float:  # pragma: no cover - compiled
-    """The ``k_near``-th smallest squared distance from ``w`` to a training point."""
+    """The ``k_near``-th smallest squared distance from ``w`` to a training point.
+
+    ``screen`` (at least the largest leaf's size, or empty for none) holds a leaf's squared
+    distances summed in any order: a point or node they put beyond the current radius is beyond
+    it exactly (``tree.screen_shrink``), and the others get the exact sum. The k-th smallest value
+    does not depend on the order of the visits.
+    """
     points, _, start, end, left, right, lo, hi, _, _ = tree
     k_near = min(k_near, points.shape[0])
+    screened = screen.shape[0] > 0
+    shrink = screen_shrink(w.shape[0])
     for k in range(k_near):
         near_d[k] = np.inf
     node_stack[0] = 0
-    dist_stack[0] = box_distance2(w, lo, hi, 0)
+    dist_stack[0] = box_screen2(w, lo, hi, 0) * shrink if screened else box_distance2(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
@@ -194,7 +209,12 @@ def kth_radius2(
         if dist_stack[top] > near_d[k_near - 1]:
             continue
         if left[node] < 0:
-            for p in range(start[node], end[node]):
+            first = start[node]
+            if screened:
+                leaf_screen2(w, points, first, end[node], screen)
+            for p in range(first, end[node]):
+                if screened and screen[p - first] * shrink > near_d[k_near - 1]:
+                    continue
                 acc = squared_distance_capped(w, points, p, near_d[k_near - 1])
                 if acc < near_d[k_near - 1]:
                     slot = k_near - 1
@@ -202,6 +222,10 @@ def kth_radius2(
                         near_d[slot] = near_d[slot - 1]
                         slot -= 1
                     near_d[slot] = acc
+        elif screened:
+            top = push_screened(
+                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, True
+            )
         else:
             d_left = box_distance2(w, lo, hi, left[node])
             d_right = box_distance2(w, lo, hi, right[node])
@@ -234,7 +258,7 @@ def _neighbour_gamma(
     """
     points, _, start, end, left, right, lo, hi, _, _ = tree
     # 1. the k_near-th smallest squared distance
-    radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
+    radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d, np.empty(0))
     if not radius2 < np.inf:
         out[:] = np.inf
         return

@@ -42,13 +42,15 @@ from numpy.typing import NDArray
 
 from neckid.models.set_membership._kernels.local import kth_radius2
 from neckid.models.set_membership._kernels.tree import (
+    SLOPE_PRUNE,
     STACK_DEPTH,
-    box_distance,
-    box_distance2,
+    box_screen2,
     improving_reach,
-    push_children,
+    leaf_screen2,
+    push_screened,
     query_one,
     reach_cap,
+    screen_shrink,
     squared_distance_capped,
 )
 from neckid.utils.types import FloatArray, IntArray
@@ -69,15 +71,20 @@ def _steepest_grid(
     node_stack: IntArray,
     dist_stack: FloatArray,
     best: FloatArray,
+    screen: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against point_gamma
-    """``best[e]`` = max_{j≠i} (|t_i − t_j| − 2ε_e)⁺ / d_ij; ``twice_eps`` ascending."""
+    """``best[e]`` = max_{j≠i} fl((|t_i − t_j| − 2ε_e)⁺ / d_ij); ``twice_eps`` ascending.
+
+    The maximum of the rounded ratios, whatever the order of the visits (:data:`SLOPE_PRUNE`).
+    """
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
     w = points[i]
     t = targets[i, c]
     n_eps = twice_eps.shape[0]
     best[:] = 0.0
+    shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = box_distance(w, lo, hi, 0)
+    dist_stack[0] = math.sqrt(box_screen2(w, lo, hi, 0) * shrink)
     top = 1
     while top > 0:
         top -= 1
@@ -88,14 +95,16 @@ def _steepest_grid(
             gap = spread - twice_eps[e]
             if gap <= 0.0:
                 break  # and for every larger ε
-            if not gap <= best[e] * dist_stack[top]:
+            if not gap <= best[e] * dist_stack[top] * SLOPE_PRUNE:
                 wanted = True
                 break
         if not wanted:
             continue
         child = left[node]
         if child < 0:
-            for p in range(start[node], end[node]):
+            first = start[node]
+            leaf_screen2(w, points, first, end[node], screen)
+            for p in range(first, end[node]):
                 if p == i:
                     continue
                 diff = abs(t - targets[p, c])
@@ -108,31 +117,42 @@ def _steepest_grid(
                 if reach < 0.0:
                     continue  # no ε of the grid leaves a rise
                 cap = reach_cap(reach)
+                if screen[p - first] * shrink > cap:
+                    continue  # farther than the cap, exactly too
                 acc = squared_distance_capped(w, points, p, cap)
                 if acc > cap:
-                    continue  # too far for rise > best · d at any ε
+                    continue  # too far for rise / d > best at any ε
                 d = math.sqrt(acc)
                 for e in range(n_eps):
                     rise = diff - twice_eps[e]
                     if rise <= 0.0:
                         break
-                    if rise > best[e] * d:
-                        best[e] = np.inf if d == 0.0 else rise / d
+                    slope = np.inf if d == 0.0 else rise / d
+                    if slope > best[e]:
+                        best[e] = slope
         else:
-            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+            top = push_screened(
+                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, False
+            )
 
 
 @njit(cache=True, parallel=True)
 def _point_gamma_grid_kernel(
-    first: int, stop: int, twice_eps: FloatArray, tree: tuple[NDArray, ...], out: FloatArray
+    first: int,
+    stop: int,
+    twice_eps: FloatArray,
+    tree: tuple[NDArray, ...],
+    max_leaf: int,
+    out: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against point_gamma
     n_eps, _, n_out = out.shape
     for i in prange(first, stop):
         node_stack = np.empty(STACK_DEPTH, np.int64)
         dist_stack = np.empty(STACK_DEPTH)
         best = np.empty(n_eps)
+        screen = np.empty(max_leaf)
         for c in range(n_out):
-            _steepest_grid(i, c, twice_eps[:, c], tree, node_stack, dist_stack, best)
+            _steepest_grid(i, c, twice_eps[:, c], tree, node_stack, dist_stack, best, screen)
             for e in range(n_eps):
                 out[e, i, c] = best[e]
 
@@ -177,11 +197,11 @@ def point_gamma_grid(
     out = np.empty((epsilons.shape[0], n_points, tree.targets.shape[1]))
     arrays = tree.kernel_arrays()
     if callback is None:
-        _point_gamma_grid_kernel(0, n_points, twice, arrays, out)
+        _point_gamma_grid_kernel(0, n_points, twice, arrays, tree.max_leaf, out)
         return out
     edges = np.linspace(0, n_points, PROGRESS_BLOCKS + 1).astype(np.int64)
     for first, stop in itertools.pairwise(edges):
-        _point_gamma_grid_kernel(int(first), int(stop), twice, arrays, out)
+        _point_gamma_grid_kernel(int(first), int(stop), twice, arrays, tree.max_leaf, out)
         callback(int(stop), n_points)
     return out
 
@@ -196,6 +216,7 @@ def _neighbour_gammas(
     node_stack: IntArray,
     dist_stack: FloatArray,
     out: FloatArray,
+    screen: FloatArray,
 ) -> None:  # pragma: no cover - compiled; the second half of local._neighbour_gamma
     """``out[l, c]``: the largest ``gammas[p, l, c]`` within the squared radius, ties included."""
     points, _, start, end, left, right, lo, hi, _, _ = tree
@@ -203,8 +224,9 @@ def _neighbour_gammas(
         out[:, :] = np.inf
         return
     out[:, :] = 0.0
+    shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = box_distance2(w, lo, hi, 0)
+    dist_stack[0] = box_screen2(w, lo, hi, 0) * shrink
     top = 1
     while top > 0:
         top -= 1
@@ -212,16 +234,19 @@ def _neighbour_gammas(
         if dist_stack[top] > radius2:
             continue
         if left[node] < 0:
-            for p in range(start[node], end[node]):
+            first = start[node]
+            leaf_screen2(w, points, first, end[node], screen)
+            for p in range(first, end[node]):
+                if screen[p - first] * shrink > radius2:
+                    continue  # beyond the radius, exactly too
                 if squared_distance_capped(w, points, p, radius2) <= radius2:
                     for m in range(out.shape[0]):
                         for c in range(out.shape[1]):
                             out[m, c] = max(out[m, c], gammas[p, m, c])
         else:
-            for child in (left[node], right[node]):
-                node_stack[top] = child
-                dist_stack[top] = box_distance2(w, lo, hi, child)
-                top += 1
+            top = push_screened(
+                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, True
+            )
 
 
 @njit(cache=True)
@@ -236,14 +261,16 @@ def _walk_priors(
     dist_stack: FloatArray,
     best_lower: FloatArray,
     best_upper: FloatArray,
+    screen: FloatArray,
 ) -> None:  # pragma: no cover - compiled; query_one for every prior at once
     """``query_one`` of every prior ``s`` (slope ``max(floor[s], γ_j)`` or ``floor[s]``) at once."""
     points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
     n_priors = floor.shape[0]
     best_upper[:] = np.inf
     best_lower[:] = -np.inf
+    shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = box_distance(w, lo, hi, 0)
+    dist_stack[0] = math.sqrt(box_screen2(w, lo, hi, 0) * shrink)
     top = 1
     while top > 0:
         top -= 1
@@ -260,7 +287,9 @@ def _walk_priors(
             continue
         child = left[node]
         if child < 0:
-            for p in range(start[node], end[node]):
+            first = start[node]
+            leaf_screen2(w, points, first, end[node], screen)
+            for p in range(first, end[node]):
                 v = targets[p, c]
                 reach = -1.0
                 for s in range(n_priors):
@@ -270,6 +299,8 @@ def _walk_priors(
                 if reach < 0.0:
                     continue  # it changes no prior's bounds at any distance
                 cap = reach_cap(reach)
+                if screen[p - first] * shrink > cap:
+                    continue  # farther than the cap, exactly too
                 acc = squared_distance_capped(w, points, p, cap)
                 if acc > cap:
                     continue  # farther than any distance at which it changes one
@@ -283,7 +314,9 @@ def _walk_priors(
                     if v - gd > best_lower[s]:
                         best_lower[s] = v - gd
         else:
-            top = push_children(w, lo, hi, left, right, node, node_stack, dist_stack, top)
+            top = push_screened(
+                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, False
+            )
 
 
 @njit(cache=True, parallel=True)
@@ -295,6 +328,7 @@ def _prior_bounds_kernel(
     local: IntArray,
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
+    max_leaf: int,
     lower: FloatArray,
     upper: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against tree.bounds and local_bounds
@@ -310,14 +344,25 @@ def _prior_bounds_kernel(
         floor = np.empty(n_priors)
         best_lower = np.empty(n_priors)
         best_upper = np.empty(n_priors)
+        screen = np.empty(max_leaf)
         if any_local:
-            radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
-            _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, near_g)
+            radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d, screen)
+            _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, near_g, screen)
         for c in range(n_out):
             for s in range(n_priors):
                 floor[s] = near_g[local[s], c] if local[s] >= 0 else gamma[s, c]
             _walk_priors(
-                w, c, floor, local, gammas, tree, node_stack, dist_stack, best_lower, best_upper
+                w,
+                c,
+                floor,
+                local,
+                gammas,
+                tree,
+                node_stack,
+                dist_stack,
+                best_lower,
+                best_upper,
+                screen,
             )
             for s in range(n_priors):
                 low, high = best_lower[s], best_upper[s]
@@ -398,6 +443,7 @@ def prior_bounds(
         np.ascontiguousarray(local, dtype=np.int64),
         gammas,
         tree.kernel_arrays(),
+        tree.max_leaf,
         lower,
         upper,
     )
