@@ -1,4 +1,4 @@
-"""Partial distance search in the Set Membership tree walks (issue 42): same floats as brute force.
+"""Partial distance search and screens in the Set Membership tree walks (issue 42): brute force's floats.
 
 Every walk now stops summing a point's squared distance once it exceeds the distance at which the
 point could still change a running bound (``squared_distance_capped``, ``improving_reach``,
@@ -6,6 +6,11 @@ point could still change a running bound (``squared_distance_capped``, ``improvi
 component order (``np.cumsum``, as the kernels add them) over every point, so the bounds, the
 steepest slopes and the local constants must be equal bit for bit. Quantised points and targets
 make many exact ties, where a cap without its margin would drop a point that matters.
+
+The walks also prune with distances summed in any order (``box_screen2``, ``leaf_screen2``,
+vectorised) shrunk by ``screen_shrink``; a shrink too small would drop a point that matters and
+show here. The steepest slopes are the maximum of the rounded ratios whatever the visiting order
+(``SLOPE_PRUNE``), as the reference takes it.
 """
 
 from __future__ import annotations
@@ -37,7 +42,13 @@ def _squared(points: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.cumsum(diff * diff, axis=1)[:, -1]
 
 
-CASES = [(0, 400, 3, 0.5), (1, 300, 24, 0.5), (2, 300, 40, 0.25), (3, 300, 12, 1e-3)]
+CASES = [
+    (0, 400, 3, 0.5),
+    (1, 300, 24, 0.5),
+    (2, 300, 40, 0.25),
+    (3, 300, 12, 1e-3),
+    (4, 250, 84, 0.5),  # the terms of horizon 40 of the soft-neck payload split
+]
 
 
 @pytest.mark.parametrize(("seed", "n", "dims", "quantum"), CASES)
@@ -101,3 +112,65 @@ def test_single_prior_bounds_equal_brute_force(
             gd = gamma[c] * d
             assert upper[q, c] == np.min(tree.targets[:, c] + gd) + epsilon[c]
             assert lower[q, c] == np.max(tree.targets[:, c] - gd) - epsilon[c]
+
+
+def test_identical_points_share_one_big_leaf() -> None:
+    """Leaves of identical points, larger than ``leaf_size``: every walk's screen holds them."""
+    points, targets, queries = _data(9, 200, 30, 0.5)
+    points[50:200] = points[50]
+    targets[50:200, 0] = np.round(np.linspace(-1, 1, 150), 1)
+    tree = SMTree(points.copy(), targets.copy(), leaf_size=8)
+    assert tree.max_leaf > 8
+    gamma = np.array([[1.5, 0.7]])
+    constants = np.round(np.random.default_rng(3).uniform(0.2, 2.0, size=(1, 200, 2)), 1)
+    lower, upper = prior_bounds(
+        tree,
+        queries,
+        np.array([[0.1, 0.2]] * 2),
+        np.vstack([gamma, gamma]),
+        constants,
+        np.array([-1, 0]),
+        5,
+    )
+    slopes = point_gamma_grid(tree, np.array([[0.5, 0.5]]))
+    for q, w in enumerate(queries):
+        d2 = _squared(tree.points, w)
+        d = np.sqrt(d2)
+        near = constants[0][d2 <= np.sort(d2)[4]].max(axis=0)
+        for c in range(2):
+            assert upper[q, 0, c] == np.min(tree.targets[:, c] + gamma[0, c] * d) + [0.1, 0.2][c]
+            assert lower[q, 0, c] == np.max(tree.targets[:, c] - gamma[0, c] * d) - [0.1, 0.2][c]
+            slope = np.maximum(near[c], constants[0][:, c])
+            high = np.min(tree.targets[:, c] + slope * d)
+            low = np.max(tree.targets[:, c] - slope * d)
+            if not (low - high > 2.0 * [0.1, 0.2][c] and gamma[0, c] > near[c]):
+                assert upper[q, 1, c] == high + [0.1, 0.2][c]
+    inside = int(np.flatnonzero(tree.perm == 60)[0])
+    d = _distances(tree.points, tree.points[inside])
+    rise = np.abs(tree.targets[inside, 0] - tree.targets[:, 0]) - 1.0
+    keep = (rise > 0) & (np.arange(200) != inside)
+    with np.errstate(divide="ignore"):
+        ratios = np.where(d[keep] == 0.0, np.inf, rise[keep] / d[keep])
+    assert slopes[0, inside, 0] == (ratios.max() if ratios.size else 0.0)
+
+
+def test_local_constants_with_more_ties_than_the_walk_records() -> None:
+    """1,500 identical points tie at the k-th distance: past NEAR_RECORD the second walk runs."""
+    from neckid.models.set_membership._kernels.priors import NEAR_RECORD
+
+    rng = np.random.default_rng(5)
+    points = np.vstack([np.zeros((1500, 4)), rng.normal(size=(100, 4)) + 5.0])
+    tree = SMTree(points, rng.normal(size=(1600, 2)))
+    constants = np.round(rng.uniform(0.2, 2.0, size=(1, 1600, 2)), 1)  # tree order
+    queries = np.array([[-1.0, 0.5, 0.0, 2.0], [0.0, 0.0, 0.0, 0.0]])
+    assert NEAR_RECORD < 1500
+    epsilon, gamma = np.array([[0.1, 0.1]]), np.array([[9.0, 9.0]])
+    _, upper = prior_bounds(tree, queries, epsilon, gamma, constants, np.array([0]), 3)
+    tied = np.all(tree.points == 0.0, axis=1)
+    for q, w in enumerate(queries):
+        d2 = _squared(tree.points, w)
+        near = constants[0][d2 <= np.sort(d2)[2]].max(axis=0)
+        assert near[0] == constants[0][tied, 0].max()  # every tied point counted
+        for c in range(2):
+            slope = np.maximum(near[c], constants[0][:, c])
+            assert upper[q, 0, c] == np.min(tree.targets[:, c] + slope * np.sqrt(d2)) + 0.1

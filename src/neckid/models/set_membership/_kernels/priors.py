@@ -40,7 +40,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models.set_membership._kernels.local import kth_radius2
+from neckid.models.set_membership._kernels.neighbours import blas_near_constants, prefers_blas
 from neckid.models.set_membership._kernels.tree import (
     SLOPE_PRUNE,
     STACK_DEPTH,
@@ -319,6 +319,86 @@ def _walk_priors(
             )
 
 
+#: Points a query's nearest-neighbour walk records (those within the running k-th distance
+#: when visited); beyond it the constants are found by a second walk (:func:`_neighbour_gammas`).
+NEAR_RECORD = 1024
+
+
+@njit(cache=True)
+def _near_constants(
+    w: FloatArray,
+    k_near: int,
+    gammas: FloatArray,
+    tree: tuple[NDArray, ...],
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    near_d: FloatArray,
+    screen: FloatArray,
+    record_p: IntArray,
+    record_d: FloatArray,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled; kth_radius2 then _neighbour_gammas, in one walk
+    """``out[l, c]``: the largest ``gammas[p, l, c]`` within the ``k_near``-th distance, ties in.
+
+    One walk of ``kth_radius2``'s that also records every point within the running k-th distance
+    when it is visited: the running distance only shrinks, so every point within the final one is
+    recorded (its node is opened, its screen and its exact sum are within the running distance).
+    If more than :data:`NEAR_RECORD` are, the second walk of :func:`_neighbour_gammas` is made.
+    """
+    points, _, start, end, left, right, lo, hi, _, _ = tree
+    k_near = min(k_near, points.shape[0])
+    shrink = screen_shrink(w.shape[0])
+    for k in range(k_near):
+        near_d[k] = np.inf
+    n_rec = 0
+    node_stack[0] = 0
+    dist_stack[0] = box_screen2(w, lo, hi, 0) * shrink
+    top = 1
+    while top > 0:
+        top -= 1
+        node = node_stack[top]
+        if dist_stack[top] > near_d[k_near - 1]:
+            continue
+        if left[node] < 0:
+            first = start[node]
+            leaf_screen2(w, points, first, end[node], screen)
+            for p in range(first, end[node]):
+                radius = near_d[k_near - 1]
+                if screen[p - first] * shrink > radius:
+                    continue
+                acc = squared_distance_capped(w, points, p, radius)
+                if not acc <= radius:
+                    continue
+                if n_rec < record_p.shape[0]:
+                    record_p[n_rec] = p
+                    record_d[n_rec] = acc
+                n_rec += 1
+                if acc < radius:
+                    slot = k_near - 1
+                    while slot > 0 and near_d[slot - 1] > acc:
+                        near_d[slot] = near_d[slot - 1]
+                        slot -= 1
+                    near_d[slot] = acc
+        else:
+            top = push_screened(
+                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, True
+            )
+    radius2 = near_d[k_near - 1]
+    if n_rec > record_p.shape[0]:
+        _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, out, screen)
+        return
+    if not radius2 < np.inf:
+        out[:, :] = np.inf
+        return
+    out[:, :] = 0.0
+    for j in range(n_rec):
+        if record_d[j] <= radius2:
+            p = record_p[j]
+            for m in range(out.shape[0]):
+                for c in range(out.shape[1]):
+                    out[m, c] = max(out[m, c], gammas[p, m, c])
+
+
 @njit(cache=True, parallel=True)
 def _prior_bounds_kernel(
     queries: FloatArray,
@@ -329,6 +409,7 @@ def _prior_bounds_kernel(
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
     max_leaf: int,
+    near_given: FloatArray,
     lower: FloatArray,
     upper: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against tree.bounds and local_bounds
@@ -345,9 +426,25 @@ def _prior_bounds_kernel(
         best_lower = np.empty(n_priors)
         best_upper = np.empty(n_priors)
         screen = np.empty(max_leaf)
-        if any_local:
-            radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d, screen)
-            _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, near_g, screen)
+        recording = any_local and near_given.shape[0] == 0
+        record_p = np.empty(NEAR_RECORD if recording else 0, np.int64)
+        record_d = np.empty(NEAR_RECORD if recording else 0)
+        if near_given.shape[0] > 0:
+            near_g[:, :] = near_given[i]
+        elif any_local:
+            _near_constants(
+                w,
+                k_near,
+                gammas,
+                tree,
+                node_stack,
+                dist_stack,
+                near_d,
+                screen,
+                record_p,
+                record_d,
+                near_g,
+            )
         for c in range(n_out):
             for s in range(n_priors):
                 floor[s] = near_g[local[s], c] if local[s] >= 0 else gamma[s, c]
@@ -435,6 +532,10 @@ def prior_bounds(
         .reshape(-1, tree.points.shape[0], n_out)
         .transpose(1, 0, 2)
     )
+    # Many terms: the local priors' constants from neighbours screened by one BLAS product.
+    near = np.empty((0, gammas.shape[1], n_out))
+    if gammas.shape[1] > 0 and prefers_blas(tree, queries):
+        near = blas_near_constants(tree, queries, gammas, int(neighbours))
     _prior_bounds_kernel(
         queries,
         int(neighbours),
@@ -444,6 +545,7 @@ def prior_bounds(
         gammas,
         tree.kernel_arrays(),
         tree.max_leaf,
+        near,
         lower,
         upper,
     )
