@@ -40,7 +40,6 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models.set_membership._kernels.neighbours import blas_near_constants, prefers_blas
 from neckid.models.set_membership._kernels.tree import (
     SLOPE_PRUNE,
     STACK_DEPTH,
@@ -409,7 +408,6 @@ def _prior_bounds_kernel(
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
     max_leaf: int,
-    near_given: FloatArray,
     lower: FloatArray,
     upper: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against tree.bounds and local_bounds
@@ -426,12 +424,9 @@ def _prior_bounds_kernel(
         best_lower = np.empty(n_priors)
         best_upper = np.empty(n_priors)
         screen = np.empty(max_leaf)
-        recording = any_local and near_given.shape[0] == 0
-        record_p = np.empty(NEAR_RECORD if recording else 0, np.int64)
-        record_d = np.empty(NEAR_RECORD if recording else 0)
-        if near_given.shape[0] > 0:
-            near_g[:, :] = near_given[i]
-        elif any_local:
+        record_p = np.empty(NEAR_RECORD if any_local else 0, np.int64)
+        record_d = np.empty(NEAR_RECORD if any_local else 0)
+        if any_local:
             _near_constants(
                 w,
                 k_near,
@@ -532,10 +527,6 @@ def prior_bounds(
         .reshape(-1, tree.points.shape[0], n_out)
         .transpose(1, 0, 2)
     )
-    # Many terms: the local priors' constants from neighbours screened by one BLAS product.
-    near = np.empty((0, gammas.shape[1], n_out))
-    if gammas.shape[1] > 0 and prefers_blas(tree, queries):
-        near = blas_near_constants(tree, queries, gammas, int(neighbours))
     _prior_bounds_kernel(
         queries,
         int(neighbours),
@@ -545,7 +536,6 @@ def prior_bounds(
         gammas,
         tree.kernel_arrays(),
         tree.max_leaf,
-        near,
         lower,
         upper,
     )
