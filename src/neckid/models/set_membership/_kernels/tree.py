@@ -21,6 +21,9 @@ Kernels
   are *bit for bit* those of a linear scan with the same formula. With ``overwrite_points`` it
   reorders the caller's matrix in place (:func:`_permute_rows`, one spare row) instead of
   keeping a reordered copy: the estimator's one copy of its training points.
+- the screens (``box_screen2``, ``leaf_screen2``, ``screen_shrink``): squared distances summed
+  in any order, which vectorise, shrunk into a lower bound of the exact sum; walks whose result
+  does not depend on the visiting order prune with them.
 - the compiled free-run loop (:mod:`.free_run`) (regressor from the simulated history, linear
   part, both bounds, central value fed back).
 - γ*(ε) (:func:`~neckid.models.set_membership._kernels.gamma.gamma_star`): = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε,
