@@ -381,6 +381,26 @@ def leaf_screen2(
 
 
 @njit(cache=True, inline="always")
+def _push_pair(
+    child: int,
+    other: int,
+    d_left: float,
+    d_right: float,
+    node_stack: IntArray,
+    dist_stack: FloatArray,
+    top: int,
+) -> int:
+    """Push two sibling nodes with their distances, the nearer one on top (left on a tie)."""
+    if d_left <= d_right:
+        node_stack[top], dist_stack[top] = other, d_right
+        node_stack[top + 1], dist_stack[top + 1] = child, d_left
+    else:
+        node_stack[top], dist_stack[top] = child, d_left
+        node_stack[top + 1], dist_stack[top + 1] = other, d_right
+    return top + 2
+
+
+@njit(cache=True, inline="always")
 def push_screened(
     w: FloatArray,
     lo: FloatArray,
@@ -402,13 +422,7 @@ def push_screened(
     if not squared:
         d_left = math.sqrt(d_left)
         d_right = math.sqrt(d_right)
-    if d_left <= d_right:
-        node_stack[top], dist_stack[top] = other, d_right
-        node_stack[top + 1], dist_stack[top + 1] = child, d_left
-    else:
-        node_stack[top], dist_stack[top] = child, d_left
-        node_stack[top + 1], dist_stack[top + 1] = other, d_right
-    return top + 2
+    return _push_pair(child, other, d_left, d_right, node_stack, dist_stack, top)
 
 
 @njit(cache=True, inline="always")
@@ -428,13 +442,7 @@ def push_children(
     other = right[node]
     d_left = box_distance(w, lo, hi, child)
     d_right = box_distance(w, lo, hi, other)
-    if d_left <= d_right:
-        node_stack[top], dist_stack[top] = other, d_right
-        node_stack[top + 1], dist_stack[top + 1] = child, d_left
-    else:
-        node_stack[top], dist_stack[top] = child, d_left
-        node_stack[top + 1], dist_stack[top + 1] = other, d_right
-    return top + 2
+    return _push_pair(child, other, d_left, d_right, node_stack, dist_stack, top)
 
 
 @njit(cache=True)
