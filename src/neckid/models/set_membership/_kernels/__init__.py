@@ -6,6 +6,8 @@
   (:mod:`.gamma_search`, pruned further by the per-region slope bound of :mod:`.slope`) or over
   all pairs;
 - :mod:`.local`: local Lipschitz constants and the bounds that use them;
+- :mod:`.screens`: squared distances summed in any order (vectorised), a lower bound of the
+  exact ones, with which the order-free walks prune;
 - :mod:`.priors`: the point constants and bounds of several priors in one walk of the tree
   (the cross-validation of the multi-step model).
 

@@ -56,17 +56,19 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models.set_membership._kernels.tree import (
-    SERIAL_QUERIES,
+from neckid.models.set_membership._kernels.screens import (
     SLOPE_PRUNE,
-    STACK_DEPTH,
-    box_distance2,
     box_screen2,
     leaf_screen2,
     push_screened,
+    screen_shrink,
+)
+from neckid.models.set_membership._kernels.tree import (
+    SERIAL_QUERIES,
+    STACK_DEPTH,
+    box_distance2,
     query_one,
     reach_cap,
-    screen_shrink,
     squared_distance_capped,
 )
 from neckid.utils.types import FloatArray, IntArray
@@ -191,7 +193,7 @@ def kth_radius2(
 
     ``screen`` (at least the largest leaf's size, or empty for none) holds a leaf's squared
     distances summed in any order: a point or node they put beyond the current radius is beyond
-    it exactly (``tree.screen_shrink``), and the others get the exact sum. The k-th smallest value
+    it exactly (``screens.screen_shrink``), and the others get the exact sum. The k-th smallest value
     does not depend on the order of the visits.
     """
     points, _, start, end, left, right, lo, hi, _, _ = tree

@@ -22,10 +22,10 @@ that changes that prior's running maximum or minimum (the argument of the single
 which holds at any later moment of the walk since the running values only tighten), and each
 value is computed by the same floating-point operations. Every result is a minimum, a maximum
 or a k-th smallest value of exactly computed terms (a steepest slope is the largest rounded
-ratio, :data:`~.tree.SLOPE_PRUNE`), so it does not depend on the order of the visits.
+ratio, :data:`~.screens.SLOPE_PRUNE`), so it does not depend on the order of the visits.
 
 The walks prune with distances summed in any order (``box_screen2`` and ``leaf_screen2`` of
-:mod:`.tree`, which vectorise) times ``screen_shrink``, a lower bound of the exact sum; only a
+:mod:`.screens`, which vectorise) times ``screen_shrink``, a lower bound of the exact sum; only a
 point the screen leaves within reach gets the exact sum in component order. At horizon 40 of
 the soft-neck payload split (84 terms) this made one fold's slopes 1.6× and its bounds 1.5×
 faster (``docs/benchmarks/sm_speed.md``). ``tests/test_sm_partial_distance.py`` checks every
@@ -48,16 +48,18 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models.set_membership._kernels.tree import (
+from neckid.models.set_membership._kernels.screens import (
     SLOPE_PRUNE,
-    STACK_DEPTH,
     box_screen2,
-    improving_reach,
     leaf_screen2,
     push_screened,
+    screen_shrink,
+)
+from neckid.models.set_membership._kernels.tree import (
+    STACK_DEPTH,
+    improving_reach,
     query_one,
     reach_cap,
-    screen_shrink,
     squared_distance_capped,
 )
 from neckid.utils.types import FloatArray, IntArray

@@ -21,9 +21,8 @@ Kernels
   are *bit for bit* those of a linear scan with the same formula. With ``overwrite_points`` it
   reorders the caller's matrix in place (:func:`_permute_rows`, one spare row) instead of
   keeping a reordered copy: the estimator's one copy of its training points.
-- the screens (``box_screen2``, ``leaf_screen2``, ``screen_shrink``): squared distances summed
-  in any order, which vectorise, shrunk into a lower bound of the exact sum; walks whose result
-  does not depend on the visiting order prune with them.
+- the screens of the walks whose result does not depend on the visiting order are in
+  :mod:`.screens`.
 - the compiled free-run loop (:mod:`.free_run`) (regressor from the simulated history, linear
   part, both bounds, central value fed back).
 - γ*(ε) (:func:`~neckid.models.set_membership._kernels.gamma.gamma_star`): = max_{i≠j} (|ỹ_i − ỹ_j| − 2ε)⁺ / ‖w̃_i − w̃_j‖ for a whole grid of ε,
@@ -44,6 +43,7 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from neckid.models.set_membership._kernels.screens import _push_pair
 from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
@@ -334,95 +334,6 @@ def improving_reach(v: float, slope: float, lower: float, upper: float) -> float
 @njit(cache=True, inline="always")
 def box_distance(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
     return math.sqrt(box_distance2(w, lo, hi, node))
-
-
-# ---------------------------------------------------------------------------------- screens
-# The walks whose result does not depend on the order of the visits (a minimum, a maximum, a
-# k-th smallest value over the points) prune with distances summed in any order, which vectorise:
-# a sum of n non-negative terms computed in any order (fused multiply-adds included) is within
-# a relative γ_n = n u / (1 − n u) of the exact sum, as is the sum in component order that the
-# exact distance takes (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed., 2002,
-# §4.2). A screen multiplied by ``screen_shrink(n)`` is therefore a lower bound of the exact
-# squared distance of every point the box holds, and of the point's own; a point or node the
-# screen puts beyond a cap is beyond it exactly, and everything else is decided by the exact sums.
-#: A node is skipped by a steepest-slope walk only when its bound is below the best slope times
-#: this: the rounding of ``best · dist`` then cannot hide a point whose ``fl(rise / d)`` beats
-#: ``best``, so the walk's result is ``max_j fl(rise_j / d_j)`` whatever the order of its visits.
-SLOPE_PRUNE = 1.0 - 1e-12
-
-
-@njit(cache=True)
-def screen_shrink(n_dims: int) -> float:
-    """The factor that makes a squared distance summed in any order a lower bound of the exact one."""
-    return 1.0 - 4.0 * (n_dims + 2) * 2.0**-53
-
-
-@njit(cache=True, fastmath={"reassoc", "nsz", "contract"})
-def box_screen2(w: FloatArray, lo: FloatArray, hi: FloatArray, node: int) -> float:
-    """:func:`box_distance2` summed in any order (multiply by :func:`screen_shrink`)."""
-    acc = 0.0
-    for k in range(w.shape[0]):
-        gap = max(lo[node, k] - w[k], w[k] - hi[node, k], 0.0)
-        acc += gap * gap
-    return acc
-
-
-@njit(cache=True, fastmath={"reassoc", "nsz", "contract"})
-def leaf_screen2(
-    w: FloatArray, points: FloatArray, first: int, stop: int, out: FloatArray
-) -> None:  # pragma: no cover - compiled
-    """``out[p − first]``: :func:`squared_distance` to ``points[p]``, summed in any order."""
-    for p in range(first, stop):
-        acc = 0.0
-        for k in range(w.shape[0]):
-            diff = w[k] - points[p, k]
-            acc += diff * diff
-        out[p - first] = acc
-
-
-@njit(cache=True, inline="always")
-def _push_pair(
-    child: int,
-    other: int,
-    d_left: float,
-    d_right: float,
-    node_stack: IntArray,
-    dist_stack: FloatArray,
-    top: int,
-) -> int:
-    """Push two sibling nodes with their distances, the nearer one on top (left on a tie)."""
-    if d_left <= d_right:
-        node_stack[top], dist_stack[top] = other, d_right
-        node_stack[top + 1], dist_stack[top + 1] = child, d_left
-    else:
-        node_stack[top], dist_stack[top] = child, d_left
-        node_stack[top + 1], dist_stack[top + 1] = other, d_right
-    return top + 2
-
-
-@njit(cache=True, inline="always")
-def push_screened(
-    w: FloatArray,
-    lo: FloatArray,
-    hi: FloatArray,
-    left: IntArray,
-    right: IntArray,
-    node: int,
-    node_stack: IntArray,
-    dist_stack: FloatArray,
-    top: int,
-    shrink: float,
-    squared: bool,
-) -> int:
-    """:func:`push_children` with screened box distances (lower bounds; squared if asked)."""
-    child = left[node]
-    other = right[node]
-    d_left = box_screen2(w, lo, hi, child) * shrink
-    d_right = box_screen2(w, lo, hi, other) * shrink
-    if not squared:
-        d_left = math.sqrt(d_left)
-        d_right = math.sqrt(d_right)
-    return _push_pair(child, other, d_left, d_right, node_stack, dist_stack, top)
 
 
 @njit(cache=True, inline="always")
