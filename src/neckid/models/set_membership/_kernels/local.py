@@ -59,7 +59,6 @@ from numpy.typing import NDArray
 from neckid.models.set_membership._kernels.screens import (
     SLOPE_PRUNE,
     box_screen2,
-    leaf_screen2,
     push_screened,
     screen_shrink,
 )
@@ -187,23 +186,14 @@ def kth_radius2(
     node_stack: IntArray,
     dist_stack: FloatArray,
     near_d: FloatArray,
-    screen: FloatArray,
 ) -> float:  # pragma: no cover - compiled
-    """The ``k_near``-th smallest squared distance from ``w`` to a training point.
-
-    ``screen`` (at least the largest leaf's size, or empty for none) holds a leaf's squared
-    distances summed in any order: a point or node they put beyond the current radius is beyond
-    it exactly (``screens.screen_shrink``), and the others get the exact sum. The k-th smallest value
-    does not depend on the order of the visits.
-    """
+    """The ``k_near``-th smallest squared distance from ``w`` to a training point."""
     points, _, start, end, left, right, lo, hi, _, _ = tree
     k_near = min(k_near, points.shape[0])
-    screened = screen.shape[0] > 0
-    shrink = screen_shrink(w.shape[0])
     for k in range(k_near):
         near_d[k] = np.inf
     node_stack[0] = 0
-    dist_stack[0] = box_screen2(w, lo, hi, 0) * shrink if screened else box_distance2(w, lo, hi, 0)
+    dist_stack[0] = box_distance2(w, lo, hi, 0)
     top = 1
     while top > 0:
         top -= 1
@@ -211,12 +201,7 @@ def kth_radius2(
         if dist_stack[top] > near_d[k_near - 1]:
             continue
         if left[node] < 0:
-            first = start[node]
-            if screened:
-                leaf_screen2(w, points, first, end[node], screen)
-            for p in range(first, end[node]):
-                if screened and screen[p - first] * shrink > near_d[k_near - 1]:
-                    continue
+            for p in range(start[node], end[node]):
                 acc = squared_distance_capped(w, points, p, near_d[k_near - 1])
                 if acc < near_d[k_near - 1]:
                     slot = k_near - 1
@@ -224,10 +209,6 @@ def kth_radius2(
                         near_d[slot] = near_d[slot - 1]
                         slot -= 1
                     near_d[slot] = acc
-        elif screened:
-            top = push_screened(
-                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, True
-            )
         else:
             d_left = box_distance2(w, lo, hi, left[node])
             d_right = box_distance2(w, lo, hi, right[node])
@@ -260,7 +241,7 @@ def _neighbour_gamma(
     """
     points, _, start, end, left, right, lo, hi, _, _ = tree
     # 1. the k_near-th smallest squared distance
-    radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d, np.empty(0))
+    radius2 = kth_radius2(w, k_near, tree, node_stack, dist_stack, near_d)
     if not radius2 < np.inf:
         out[:] = np.inf
         return
