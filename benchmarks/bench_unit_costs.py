@@ -20,7 +20,12 @@ Measured (2-core machine, shared): single fits of 15,622 rows at load 2.2 → 2.
 12.5 s (1 network 1.7 s, quick 0.95 s), ss 0.42 s (order 2: 0.16 s, order 6: 0.49 s),
 sm-multistep horizon 3: 15.1 s, 6: 72.8 s, pnlss quick 12.1 s, koopman 3.1 s (quick 0.04 s).
 ``--compare`` at load 3.4 → 3.8: per fold sm 0.39 s, ss 0.80 s, nn 22.9 s; at load 2.3: sm
-0.37 s, ss 0.50 s, nn 11.2 s. The constants of :mod:`neckid.selection.costs` sit between.
+0.37 s, ss 0.50 s, nn 11.2 s. After the compiled trainer of the networks and the faster SM
+walks (load 1.2-1.6): single fits sm 0.09 s, nn 2.05 s (1 network 0.59 s), ss 0.32 s; ``--compare``
+sm 0.51 s, ss 2.69 s, nn 10.84 s in all, which set ``_NEURAL`` and ``_SUBSPACE_*`` anew (per
+cost against sm 0.52 and 3.37 before, 0.94 and 0.87 after; first time left 45.8 s shown
+against 10.8 s real before, 12.2 s against 10.6 s after). The constants of
+:mod:`neckid.selection.costs` sit between.
 """
 
 from __future__ import annotations

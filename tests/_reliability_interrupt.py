@@ -1,7 +1,7 @@
 """Reliability cases for runs that are stopped (issue 39): every long run stops when asked.
 
-Ctrl-C, SIGTERM and SIGHUP during a fit whose library swallows the interrupt (scikit-learn's
-MLP), during a compiled kernel's compilation (numba), over an existing model, and with a signal
+Ctrl-C, SIGTERM and SIGHUP during a neural network's training (the signal arrives inside an
+epoch, as it does from a terminal), during a compiled kernel's compilation (numba), over an existing model, and with a signal
 the parent ignored. Each runs the command line in this process (its handler is installed as in
 the ``neckid`` script) and sends the signal from inside the work; :mod:`test_interrupt` does the
 same from outside, in a subprocess, for every registered method. :mod:`test_reliability` lists
@@ -39,25 +39,25 @@ def _log(folder: Path, name: str = "run.csv", n: int = 600, seed: int = 0) -> Pa
 
 
 @contextmanager
-def _signal_at_epoch(signum: int, epoch: int = 3) -> Iterator[list[int]]:
-    """``signum`` sent to this process inside scikit-learn's epoch loop, at ``epoch``.
+def _signal_at_epoch(signum: int, epoch_at: int = 3) -> Iterator[list[int]]:
+    """``signum`` sent to this process inside the trainer's epoch ``epoch_at``.
 
     Yields the list of epochs run (one entry each): a fit that goes on after the signal shows
-    more than ``epoch`` + 1 of them.
+    more than ``epoch_at`` + 1 of them.
     """
-    from sklearn.neural_network import MLPRegressor
+    import neckid.models.neural._training as training
 
     epochs: list[int] = []
-    update = MLPRegressor._update_no_improvement_count
+    epoch = training.adam_epoch
 
-    def counted(self: Any, *args: Any) -> None:
+    def counted(*args: Any) -> None:
         epochs.append(1)
-        if len(epochs) == epoch:
-            os.kill(os.getpid(), signum)  # the handler runs at the next bytecode, in sklearn
-        update(self, *args)
+        if len(epochs) == epoch_at:
+            os.kill(os.getpid(), signum)  # the handler runs at the next bytecode
+        epoch(*args)
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(MLPRegressor, "_update_no_improvement_count", counted)
+        patch.setattr(training, "adam_epoch", counted)
         yield epochs
 
 
@@ -187,7 +187,7 @@ def _with_ctrl_c(check: Callable[[Path], None]) -> Callable[[Path], None]:
 
 
 CASES = [
-    Case("S1", "CLI", "Ctrl-C or SIGTERM during a neural NARX fit (`--method nn`; scikit-learn's trainer catches Ctrl-C and trains on)", "interrupted (Ctrl-C) / (SIGTERM) within one epoch, exit 130 / 143; no next network, no model written", "clear", _with_ctrl_c(_network_interrupted)),
+    Case("S1", "CLI", "Ctrl-C or SIGTERM during a neural NARX fit (`--method nn`; the signal arrives inside an epoch)", "interrupted (Ctrl-C) / (SIGTERM) within one epoch, exit 130 / 143; no next network, no model written", "clear", _with_ctrl_c(_network_interrupted)),
     Case("S2", "CLI", "Ctrl-C during a `compare` (or `select`, `benchmark`) whose methods include `nn`", "interrupted (Ctrl-C), exit 130: the comparison stops, no JSON written", "clear", _with_ctrl_c(_comparison_interrupted)),
     Case("S3", "CLI", "SIGTERM or Ctrl-C while numba compiles a kernel (the first run after an install) or runs one (`ss`)", "the compilation or the kernel call runs to its end, then interrupted (SIGTERM), exit 143; never a SystemError, never swallowed, no model written", "clear", _with_ctrl_c(_compiling_interrupted)),
     Case("S4", "CLI", "`identify --force` over an existing model, interrupted during the fit", "interrupted, exit 130; the old model byte for byte as it was, no temporary left", "clear", _with_ctrl_c(_forced_model_kept)),

@@ -9,9 +9,10 @@ handler raises ``KeyboardInterrupt`` wherever that is. Three places make that wr
   a result with an exception set``.
 - **llvmlite's ctypes callbacks** (its object cache, during the first compilation after an
   install): ctypes prints an exception raised there and drops it, so the run goes on.
-- **a library that catches KeyboardInterrupt and goes on**: scikit-learn's ``MLPRegressor``
-  ends its training loop, warns "Training interrupted by user." and returns a half-trained
-  network.
+- **a library that catches KeyboardInterrupt and goes on**: scikit-learn's ``MLPRegressor``,
+  for one, ends its training loop, warns "Training interrupted by user." and returns a
+  half-trained network (neckid's networks are trained by its own loop, which checks between
+  epochs).
 
 :func:`stop_signals` (the command line holds it around every command) installs one handler for
 SIGINT, SIGTERM and SIGHUP. The handler records the signal, then

@@ -1,8 +1,8 @@
 """NeuralNARX: a multilayer-perceptron NARX model, the seed paper's comparison network.
 
 The network maps the standardised regressor ``w(t)`` (see :class:`~neckid.Lags`) to the
-standardised output ``y(t)``. scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` trains
-it on one-step-ahead targets; prediction and model files use a plain NumPy forward pass over the
+standardised output ``y(t)``. It is trained on one-step-ahead targets as scikit-learn's
+:class:`~sklearn.neural_network.MLPRegressor` trains it (see below); prediction and model files use a plain NumPy forward pass over the
 learned weight matrices, so a loaded model needs no scikit-learn object, and the free run is one
 compiled loop over those matrices (:mod:`neckid.models.neural._kernels`, about 3 µs per sample
 for five 2x25 networks, against about 16 µs for the NumPy loop kept beside it as reference).
@@ -12,36 +12,37 @@ whose outputs are averaged: one network's result depends on its seed by several 
 free-run fit on the soft-neck logs; the average of a few depends on it much less. Their weights are
 stacked along a first axis, so one batched product per layer serves every network.
 
-scikit-learn's trainer catches ``KeyboardInterrupt`` inside its epoch loop, warns "Training
-interrupted by user." and returns the half-trained network; every training call here turns that
-warning back into the interrupt and then checks for a stop signal
+The networks are trained as scikit-learn's ``MLPRegressor(solver="adam")`` trains them, draw for
+draw and formula by formula (:mod:`neckid.models.neural._training`), by a compiled loop that
+runs one epoch of every network per call, the networks in parallel: about four times faster
+than ``MLPRegressor.fit`` on the soft-neck logs, with the same epochs and weights equal to
+rounding (the tests train both). Between epochs it checks for a stop signal
 (:func:`neckid.utils.interrupt.check`), so Ctrl-C or SIGTERM stops the whole fit within one
-epoch and no half-trained ensemble is ever made (:func:`_interrupts_kept`). The networks are
-still trained by ``MLPRegressor.fit`` itself, not one ``partial_fit`` epoch at a time under a loop
-of ours: ``fit`` alone applies the tolerance, ``n_iter_no_change``, early stopping and the
-restoring of the best weights, so the networks (and every model file) stay what they were.
+epoch and no half-trained ensemble is ever made.
 """
 
 from __future__ import annotations
 
 import itertools
 import logging
-import warnings
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.metrics import fit_percent
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.neural._training import (
+    AdamState,
+    TrainingSettings,
+    more_epochs,
+    train_ensemble,
+)
 from neckid.regressors import Lags, ResolvedLags
 from neckid.utils.checks import Interval, Options
-from neckid.utils.interrupt import check as check_interrupted
 from neckid.utils.memory import check_allocation
 from neckid.utils.progress import task
 from neckid.utils.types import FloatArray
@@ -56,32 +57,6 @@ _ACTIVATIONS = ("tanh", "relu", "logistic", "identity")
 
 #: Fewest samples of a held-out tail beyond its initial conditions for free-run selection.
 _MIN_TAIL_SAMPLES = 20
-
-#: What scikit-learn's MLP trainer warns when it has caught (and dropped) a KeyboardInterrupt.
-_SWALLOWED = "Training interrupted by user"
-
-
-@contextmanager
-def _interrupts_kept() -> Iterator[None]:
-    """Train scikit-learn networks inside; a Ctrl-C that scikit-learn caught comes out again.
-
-    ``MLPRegressor.fit`` and ``partial_fit`` catch ``KeyboardInterrupt`` in their epoch loop,
-    warn :data:`_SWALLOWED` and return the half-trained network. Here that warning is raised
-    as an error in its ``except`` clause, and the interrupt it was handling (the command line's
-    :class:`~neckid.utils.interrupt.Interrupted`, which knows its signal, or Python's own
-    ``KeyboardInterrupt``) is raised again in its place; the block then ends with
-    :func:`neckid.utils.interrupt.check`, for a stop that arrived in any other way.
-    """
-    with warnings.catch_warnings():
-        warnings.filterwarnings("error", message=_SWALLOWED, category=UserWarning)
-        try:
-            yield
-        except UserWarning as exc:
-            if not str(exc).startswith(_SWALLOWED):
-                raise
-            stop = exc.__context__
-            raise (stop if isinstance(stop, KeyboardInterrupt) else KeyboardInterrupt()) from None
-    check_interrupted()
 
 
 def _activate(z: FloatArray, activation: str) -> FloatArray:
@@ -187,7 +162,7 @@ def member_seeds(
     Returns
     -------
     list
-        ``n_networks`` seeds, for ``MLPRegressor(random_state=...)``.
+        ``n_networks`` seeds, one per network (``random_state`` of its trainer).
 
     Examples
     --------
@@ -209,8 +184,10 @@ class NeuralNARX(NarxModel):
 
     The seed paper's comparison network has two hidden layers of 25 neurons. Regressors and outputs
     are standardised with means and standard deviations learned in ``fit``; the network is trained
-    on one-step-ahead targets by scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` (Adam),
-    with early stopping on a random validation split of the regressor rows.
+    on one-step-ahead targets by mini-batch Adam, as scikit-learn's
+    :class:`~sklearn.neural_network.MLPRegressor` trains it (same draws from ``random_state``, same
+    epochs, weights equal to rounding; a compiled loop, the networks in parallel), with early
+    stopping on a random validation split of the regressor rows.
 
     Parameters
     ----------
@@ -273,8 +250,6 @@ class NeuralNARX(NarxModel):
     simulation_fits_ : ndarray, shape (n_networks + simulation_tuning,)
         Free-run fit (%) of every candidate network alone on the held-out ends, in training order
         (only when ``simulation_tuning > 0``).
-    networks_ : list of MLPRegressor
-        The trained scikit-learn networks (not restored by ``load``; the arrays above are enough).
     lags_ : ResolvedLags
     n_inputs_, n_outputs_, n_samples_ : int
     ts_ : float
@@ -333,8 +308,8 @@ class NeuralNARX(NarxModel):
 
     coefs_: list[FloatArray]
     intercepts_: list[FloatArray]
-    networks_: list[MLPRegressor]
     n_iter_: NDArray[np.int64]
+    _adam: AdamState  # the trainer's state, for partial_fit (not in model files)
 
     def __init__(
         self,
@@ -430,7 +405,7 @@ class NeuralNARX(NarxModel):
         keep = np.sort(np.argsort(-scores, kind="stable")[:n_networks])
         self.coefs_ = [w[keep] for w in self.coefs_]
         self.intercepts_ = [b[keep] for b in self.intercepts_]
-        self.networks_ = [self.networks_[m] for m in keep]
+        self._adam = self._adam.take(keep)
         self.n_iter_ = self.n_iter_[keep]
         self.simulation_fits_ = scores
         self._mark_fitted()
@@ -461,44 +436,26 @@ class NeuralNARX(NarxModel):
         self.y_scale_ = y_scale
         xs = (x - self.x_mean_) / self.x_scale_
         ys = (y - self.y_mean_) / self.y_scale_
-        target = ys[:, 0] if ys.shape[1] == 1 else ys
         sizes = [x.shape[1], *layers, ys.shape[1]]
         weights = sum(a * b + b for a, b in itertools.pairwise(sizes))
         check_allocation(
-            8.0 * weights * 4 * len(seeds),  # weights, gradients and Adam's two moments
+            # weights, best weights and Adam's two moments; the rows' three orders
+            8.0 * (4 * weights + 3 * n_rows) * len(seeds),
             f"{len(seeds)} networks of layers {list(layers)} on {x.shape[1]} regressor terms"
-            f" ({weights:,} weights each)",
+            f" ({weights:,} weights each) and {n_rows:,} rows",
             "use smaller hidden layers (hidden_layer_sizes) or fewer networks",
         )
-        networks = []
-        with (
-            task(f"training {len(seeds)} networks", total=len(seeds)) as advance,
-            _interrupts_kept(),
-        ):
-            for seed in seeds:
-                networks.append(self._train_one(xs, target, layers, seed))
-                check_interrupted()  # scikit-learn may have swallowed it: no next network
-                advance()
-        self.networks_ = networks
-        n_layers = len(networks[0].coefs_)
-        self.coefs_ = [
-            np.stack([np.asarray(n.coefs_[k], dtype=np.float64) for n in networks])
-            for k in range(n_layers)
-        ]
-        self.intercepts_ = [
-            np.stack([np.asarray(n.intercepts_[k], dtype=np.float64) for n in networks])
-            for k in range(n_layers)
-        ]
-        self.n_iter_ = np.array([n.n_iter_ for n in networks], dtype=np.int64)
+        with task(f"training {len(seeds)} networks", total=len(seeds)) as advance:
+            trained = train_ensemble(xs, ys, layers, seeds, self._settings(), advance)
+        self.coefs_ = trained.coefs
+        self.intercepts_ = trained.intercepts
+        self.n_iter_ = trained.n_iter
+        self._adam = trained.state
 
-    def _train_one(
-        self, xs: FloatArray, target: FloatArray, layers: tuple[int, ...], seed: Any
-    ) -> MLPRegressor:
-        """One network trained on the standardised rows."""
-        network = MLPRegressor(
-            hidden_layer_sizes=layers,
-            activation=self.activation,
-            solver="adam",
+    def _settings(self) -> TrainingSettings:
+        """The trainer's hyper-parameters."""
+        return TrainingSettings(
+            activation=str(self.activation),
             alpha=float(self.alpha),
             learning_rate_init=float(self.learning_rate_init),
             max_iter=int(self.max_iter),
@@ -506,9 +463,7 @@ class NeuralNARX(NarxModel):
             n_iter_no_change=int(self.n_iter_no_change),
             early_stopping=bool(self.early_stopping),
             validation_fraction=float(self.validation_fraction),
-            random_state=seed,
         )
-        return network.fit(xs, target)
 
     def _free_run_score(
         self, tails: Sequence[IOData], networks: Sequence[int] | None = None
@@ -727,8 +682,8 @@ class NeuralNARX(NarxModel):
     def partial_fit(self, data: IOData | Sequence[IOData], *, epochs: int = 10) -> NeuralNARX:
         """Train every network of the ensemble for a few more epochs on new experiments.
 
-        Each network (``networks_``) continues with scikit-learn's ``MLPRegressor.partial_fit``
-        (Adam, its optimiser state carried on from ``fit``) for ``epochs`` passes over the new
+        Each network continues as scikit-learn's ``MLPRegressor.partial_fit`` would (Adam, its
+        moments and random stream carried on from ``fit``) for ``epochs`` passes over the new
         regressor rows, standardised with the training means and scales (kept: the first layer
         is trained for them). Without early stopping: the new data are too few to hold some out.
 
@@ -762,33 +717,19 @@ class NeuralNARX(NarxModel):
 
         epochs = check_number(epochs, "epochs", low=1, integer=True)
         experiments = update_experiments(self, data)
-        networks = getattr(self, "networks_", None)
-        if not networks:
+        state = getattr(self, "_adam", None)
+        if state is None:
             raise ValueError(
                 "this NeuralNARX was loaded from a file, which holds the networks' weights but"
-                " not their trainers (scikit-learn MLPRegressor objects with the optimiser"
-                " state); refit it to update it"
+                " not their trainer's state (Adam's moments and random streams); refit it to"
+                " update it"
             )
         x, y = update_rows(self, experiments)
         xs = (x - self.x_mean_) / self.x_scale_
         ys = (y - self.y_mean_) / self.y_scale_
-        target = ys[:, 0] if ys.shape[1] == 1 else ys
-        with _interrupts_kept():
-            for network in networks:
-                network.set_params(early_stopping=False)
-                if network.best_loss_ is None:  # after early stopping, the loss was not tracked
-                    network.best_loss_ = np.inf
-                for _ in range(int(epochs)):
-                    network.partial_fit(xs, target)
-                    check_interrupted()
-        self.coefs_ = [
-            np.stack([np.asarray(n.coefs_[k], dtype=np.float64) for n in networks])
-            for k in range(len(self.coefs_))
-        ]
-        self.intercepts_ = [
-            np.stack([np.asarray(n.intercepts_[k], dtype=np.float64) for n in networks])
-            for k in range(len(self.intercepts_))
-        ]
+        self.coefs_, self.intercepts_ = more_epochs(
+            self.coefs_, self.intercepts_, state, xs, ys, int(epochs), self._settings()
+        )
         self.n_iter_ = np.asarray(self.n_iter_, dtype=np.int64) + int(epochs)
         self.n_samples_ += int(x.shape[0])
         extend_training_ranges(self, experiments)
