@@ -114,6 +114,20 @@ def _sum(a: FloatArray, n: int) -> float:  # pragma: no cover - compiled
     return total
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _weighted_rows(
+    out: FloatArray, rows: FloatArray, weights: FloatArray, n: int
+) -> None:  # pragma: no cover - compiled
+    """``out[:n] = Σ_c weights[c] rows[c, :n]``, one row at a time (the loop over ``n`` vectorises)."""
+    for r in range(n):
+        out[r] = 0.0
+    for c in range(weights.shape[0]):
+        weight = weights[c]
+        row = rows[c]
+        for r in range(n):
+            out[r] += row[r] * weight
+
+
 @njit(cache=True, error_model="numpy")
 def _forward(
     x: FloatArray,
@@ -142,13 +156,7 @@ def _forward(
         hidden = k < n_layers - 1
         for j in range(n_out):
             out = values[k + 1, j]
-            for r in range(n):
-                out[r] = 0.0
-            for i in range(n_in):
-                a = values[k, i]
-                weight = w[i, j]
-                for r in range(n):
-                    out[r] += a[r] * weight
+            _weighted_rows(out, values[k, :n_in], w[:, j], n)
             bias = b[j]
             # one loop per activation: each runs in SIMD lanes
             if hidden and activation == 1:
@@ -216,13 +224,7 @@ def _batch_gradient(
         # δ_{k-1} = (δ_k W_kᵀ) · g'(a_k), with g' written in the layer's output a_k
         for i in range(n_in):
             back = deltas[k - 1, i]
-            for r in range(n):
-                back[r] = 0.0
-            for j in range(n_out):
-                weight = w[i, j]
-                d = deltas[k, j]
-                for r in range(n):
-                    back[r] += d[r] * weight
+            _weighted_rows(back, deltas[k, :n_out], w[i], n)
             a = values[k, i]
             if activation == 1:
                 for r in range(n):

@@ -188,6 +188,7 @@ def _epoch(
     params: FloatArray,
     state: AdamState,
     sizes: IntArray,
+    offsets: IntArray,
     settings: TrainingSettings,
     losses: FloatArray,
 ) -> None:
@@ -202,7 +203,7 @@ def _epoch(
         state.second,
         state.steps,
         sizes,
-        layout(sizes),
+        offsets,
         ACTIVATION_CODES[settings.activation],
         float(settings.alpha),
         float(settings.learning_rate_init),
@@ -251,7 +252,7 @@ def train_ensemble(
             sample[m] = sample[m][shuffled]
             order[m] = train[m][sample[m]]
         active = np.array(training, dtype=np.int64)
-        _epoch(x, y, order, active, params, state, sizes, settings, losses)
+        _epoch(x, y, order, active, params, state, sizes, offsets, settings, losses)
         if settings.early_stopping:
             code = ACTIVATION_CODES[settings.activation]
             validation_r2(x, y, held, active, params, sizes, offsets, code, scores)
@@ -311,6 +312,6 @@ def more_epochs(
             shuffled = np.arange(n_rows)
             check_random_state(state.seeds[m]).shuffle(shuffled)
             order[m] = shuffled
-        _epoch(x, y, order, active, params, state, sizes, settings, losses)
+        _epoch(x, y, order, active, params, state, sizes, offsets, settings, losses)
         check_interrupted()
     return _unstack(params, sizes, offsets)
