@@ -122,8 +122,9 @@ app(sys.argv[2:], prog_name="neckid")
 QUICK = frozenset({"arx", "rls", "scheduled", "scheduled-position", "sm-linear", "sm-parallel"})
 
 #: Extra ``identify`` arguments that make a method's fit long, as CPU seconds measured on
-#: this log (the others' defaults are long enough: ss 4 s, pnlss 11 s, nn 25 s, greybox-neck
-#: 9 s, greybox-tanks and sm-multistep over a minute).
+#: this log (the others' defaults are long enough: ss 4 s, pnlss 11 s, nn 8 s (its own
+#: trainer; 25 s with scikit-learn's), greybox-neck 9 s, greybox-tanks and sm-multistep over a
+#: minute).
 LONG: dict[str, tuple[str, ...]] = {
     "ss": ("--set", "order=5", "--set", "max_iter=1000"),  # 31 s (4 s with max_iter=100)
     "sm": ("--set", "lipschitz=local"),  # 5 s
