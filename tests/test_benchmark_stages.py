@@ -132,12 +132,43 @@ def test_each_polynomial_is_fitted_once_per_lags_and_data(tanks, small_tanks_gri
     assert len(fits) == len(set(fits)) == len(SMALL_TANKS_GRID) + 1
 
 
+@pytest.mark.parametrize(
+    ("method", "base"), [("sm-parallel-sindy", "sindy"), ("sm-parallel-koopman", "koopman")]
+)
+def test_sm_on_a_sparse_or_koopman_base_fits_the_base_once_per_lags_and_data(
+    tanks, monkeypatch, method, base
+):
+    # Every candidate of SM on the sparse NARX or the Koopman model refits its base, whose own
+    # selection runs inside the fit: the base's fit of each lag set on each part is done once.
+    fits: list[tuple[str, int]] = []
+    cls = type(methods()[base].make(Lags.arx(1, 1, 1)))
+    original = cls._fit
+
+    def counted(self, data):
+        records = data if isinstance(data, list | tuple) else [data]
+        fits.append((repr(self.lags), sum(r.n_samples for r in records)))
+        return original(self, data)
+
+    monkeypatch.setattr(cls, "_fit", counted)
+    with use_caches(polynomial_fits=None):  # no process-wide cache: the run's sharing only
+        report = run_benchmark(tanks, methods=[method], errors="raise", n_jobs=1)
+    assert len(fits) == len(set(fits)) > 0
+    assert report.table["method"].eq(method).any()
+
+
 def test_shared_fits_are_declared_for_the_grids_that_read_them(tanks):
     train = load_benchmark("cascaded_tanks", tanks).train
     grid_input = settings.GridInput("cascaded_tanks", train)
     declared = shared_fits("sm-parallel-poly", grid_input)
     assert [type(e).__name__ for e, _ in declared] == ["PolynomialNARX"] * 3
     assert all(on_parts for _, on_parts in declared)
+    for method, base in [
+        ("sm-parallel-sindy", "SparseNARX"),
+        ("sm-parallel-koopman", "KoopmanEDMD"),
+    ]:
+        declared = shared_fits(method, grid_input)
+        assert [type(e).__name__ for e, _ in declared] == [base] * len(declared) != []
+        assert all(on_parts for _, on_parts in declared)
     [(ss, on_parts)] = shared_fits("pnlss", grid_input)
     assert type(ss).__name__ == "SubspaceStateSpace" and not on_parts
     assert shared_fits("arx", grid_input) == []
@@ -311,3 +342,41 @@ def test_timings_say_where_the_time_went_and_are_written(tanks, tmp_path):
     written = json.loads((out / "benchmark.json").read_text())
     assert written["timings"]["benchmarks"]["cascaded_tanks"]["methods"].keys() == {"arx", "sm"}
     assert "timings" not in report.details  # details stay the same wherever the run ran
+
+
+@pytest.mark.parametrize(
+    ("method", "base"), [("sm-parallel-sindy", "sindy"), ("sm-parallel-koopman", "koopman")]
+)
+def test_a_base_with_conditions_is_taken_from_the_base_methods_scores(monkeypatch, method, base):
+    # SM hands its base the logs with the conditions appended as inputs; the base's own
+    # candidate was fitted on the logs as they came. Both are one fit, and the score is the
+    # one a unit without the known states gives.
+    rng = np.random.default_rng(0)
+    runs = []
+    for i in range(4):
+        u = rng.normal(size=300)
+        y = np.zeros(300)
+        for t in range(2, 300):
+            y[t] = 0.6 * y[t - 1] - 0.1 * y[t - 2] ** 2 + 0.5 * np.tanh(u[t - 1]) + 0.1 * i
+        runs.append(IOData(u, y, ts=0.1, name=f"run{i}", conditions={"payload": 0.2 * i}))
+    lags = Lags(outputs=[1, 2], inputs=[0, 1], conditions=["payload"])
+    cls = type(methods()[base].make(lags))
+    fits: list[int] = []
+    original = cls._fit
+
+    def counted(self, data):
+        fits.append(1)
+        return original(self, data)
+
+    monkeypatch.setattr(cls, "_fit", counted)
+    options = {"fraction": SELECTION_FRACTION, "folds": None}
+    first = score_unit("base", methods()[base].make(lags), runs, None, **options)
+    assert first.error is None and len(fits) == len(first.polynomial_fits) == len(runs)
+    sm = methods()[method].make(lags, epsilon=0.1, progress=False)
+    with use_caches(polynomial_fits=None):
+        shared = score_unit("sm", sm, runs, None, **options, known=first.polynomial_fits)
+        assert shared.error is None and len(fits) == len(runs)
+        alone = score_unit("sm", sm, runs, None, **options)
+    assert len(fits) == 2 * len(runs)
+    timeless = [{k: v for k, v in o.value.items() if k != "fit_time_s"} for o in (shared, alone)]
+    assert timeless[0] == timeless[1]

@@ -7,7 +7,10 @@ Two computations are worth remembering across fits of the same data:
   on one regressor walks the pairs once per new ε.
 - :data:`POLYNOMIAL_FITS`: fitted :class:`~neckid.models.polynomial.PolynomialNARX` states
   (digest of its parameters and training data -> the fitted attributes). The candidates of
-  ``ParallelSetMembership(parallel_degree=3)`` refit the same polynomial.
+  ``ParallelSetMembership(parallel_degree=3)`` refit the same polynomial. The sparse NARX and
+  the Koopman model keep their states there too (:func:`remembered_fit`, keyed by class as
+  well): the candidates of ``ParallelSetMembership(base="sindy")`` or ``base="koopman"`` refit
+  the same base model, its own selection included.
 
 Both values are exact: a cached value is the value a new computation would give, so a cache
 changes only the time a fit takes. Each cache is a :class:`ResultCache` (bounded, least recently
@@ -29,16 +32,22 @@ True
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import threading
 from collections import OrderedDict
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from neckid.data.iodata import IOData
+
+_Model = TypeVar("_Model")
 
 __all__ = [
     "GAMMA_CURVES",
@@ -47,6 +56,7 @@ __all__ = [
     "ResultCache",
     "active_cache",
     "array_digest",
+    "remembered_fit",
     "use_caches",
 ]
 
@@ -161,3 +171,57 @@ def array_digest(*arrays: ArrayLike) -> bytes:
         h.update(np.asarray(values.shape, dtype=np.int64).tobytes())
         h.update(values.data)
     return h.digest()
+
+
+def _state_key(model: Any, data: IOData | Sequence[IOData]) -> bytes:
+    """A digest of the model's class and parameters and the training data (values, names, conditions)."""
+    from neckid.data.iodata import as_experiments
+
+    h = hashlib.blake2b(digest_size=16)
+    h.update(f"{type(model).__module__}.{type(model).__qualname__}".encode())
+    h.update(repr(sorted(model.get_params(deep=False).items())).encode())
+    for record in as_experiments(data, "data"):
+        h.update(repr((record.ts, record.input_names, record.output_names)).encode())
+        h.update(repr(sorted(record.conditions.items())).encode())
+        h.update(array_digest(record.u, record.y))
+    return h.digest()
+
+
+def remembered_fit(
+    model: _Model, data: IOData | Sequence[IOData], fit: Callable[[], Any]
+) -> _Model:
+    """``fit()`` on ``model``, or the fitted state the active ``polynomial_fits`` cache holds.
+
+    The state is ``model.__dict__`` after ``fit()`` (a deep copy each way), keyed by the class,
+    the parameters and the data as the fit reads them (with the model's conditions appended as
+    inputs), so a cached state is the one a new fit gives. ``fit`` must
+    depend on nothing else (no callables among the parameters: their text is an address).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from neckid import IOData, Lags, LinearARX
+    >>> data = IOData(np.arange(20.0), np.arange(20.0) ** 0.5, ts=1.0)
+    >>> with use_caches(polynomial_fits=ResultCache()):
+    ...     first = LinearARX(Lags.arx(1, 1))
+    ...     _ = remembered_fit(first, data, lambda: first.fit(data))
+    ...     second = LinearARX(Lags.arx(1, 1))
+    ...     _ = remembered_fit(second, data, lambda: 1 / 0)  # not called: the state is cached
+    >>> bool(np.array_equal(first.coef_, second.coef_))
+    True
+    """
+    cache = active_cache("polynomial_fits")
+    if cache is None:
+        fit()
+        return model
+    # Keyed on the data as the fit reads them (conditions appended as inputs, which is
+    # idempotent): a Set Membership model hands its base the logs with them appended already.
+    with_conditions = getattr(model, "_with_conditions", None)
+    key = _state_key(model, data if with_conditions is None else with_conditions(data, True))
+    cached = cache.get(key)
+    if cached is not None:
+        model.__dict__.update(copy.deepcopy(cached))
+        return model
+    fit()
+    cache.put(key, copy.deepcopy(model.__dict__))
+    return model

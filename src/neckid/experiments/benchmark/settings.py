@@ -710,6 +710,10 @@ PEER_METHODS: tuple[str, ...] = ("sysidentpy-frols", "pysindy-stlsq", "pykoopman
 DEFAULT_METHODS: tuple[str, ...] = tuple(m for m in BENCHMARK_METHODS if m not in OPT_IN_METHODS)
 
 
+#: The base model SM runs in parallel with, of the methods whose candidates share its fits.
+_PARALLEL_BASES = {"sm-parallel-sindy": "sindy", "sm-parallel-koopman": "koopman"}
+
+
 def shared_fits(method: str, g: GridInput) -> list[tuple[Any, bool]]:
     """Fits the grid or the candidates of ``method`` share, to be done once per run before them.
 
@@ -718,11 +722,15 @@ def shared_fits(method: str, g: GridInput) -> list[tuple[Any, bool]]:
     list of (estimator, bool)
         An unfitted estimator, and whether it is also fitted on every selection fit part (the
         candidates refit it there) besides the whole training data (which the grid reads):
-        for ``sm-parallel-poly`` the polynomial of every lag set, for ``pnlss`` the ``ss``
-        model whose order it starts from.
+        for ``sm-parallel-poly`` the polynomial of every lag set, for ``sm-parallel-sindy`` and
+        ``sm-parallel-koopman`` their base model of every lag set (its own selection inside),
+        for ``pnlss`` the ``ss`` model whose order it starts from.
     """
     if method == "sm-parallel-poly" and not g.quick:
         return [(_polynomial(lags), True) for lags in g.lag_sets()]
+    if method in _PARALLEL_BASES and not g.quick:
+        make = methods()[_PARALLEL_BASES[method]].make
+        return [(make(lags), True) for lags in g.lag_sets()]
     if method == "pnlss":
         return [(_ss_for_pnlss(g), False)]
     return []

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
+from neckid.models.cache import remembered_fit
 from neckid.models.domain import regressor_box
 from neckid.models.koopman.dictionary import DICTIONARIES, Observables, fit_observables
 from neckid.models.koopman.lift import (
@@ -163,12 +164,18 @@ class KoopmanEDMD(Estimator):
         """Fit on one experiment or a list of them (the state never straddles two).
 
         The least squares are small dense problems: they run on one BLAS thread (a thread pool
-        costs more than it saves on them, many times more on a busy machine).
+        costs more than it saves on them, many times more on a busy machine). The fitted state
+        is remembered per parameters and training data in the active ``polynomial_fits`` cache
+        (:func:`neckid.models.cache.remembered_fit`): the candidates of
+        ``ParallelSetMembership(base="koopman")`` refit the same model, its selection included.
         """
         from threadpoolctl import threadpool_limits
 
-        with threadpool_limits(limits=1):
-            return self._fit(data)
+        def fit() -> None:
+            with threadpool_limits(limits=1):
+                self._fit(data)
+
+        return remembered_fit(self, data, fit)
 
     def _fit(self, data: IOData | Sequence[IOData]) -> KoopmanEDMD:
         self._validate_params()

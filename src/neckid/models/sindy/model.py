@@ -40,6 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
+from neckid.models.cache import remembered_fit
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
 from neckid.models.polynomial.monomials import monomial_tables
 from neckid.models.sindy._kernels import sparse_free_run
@@ -204,7 +205,17 @@ class SparseNARX(NarxModel):
         return tuple(functions)
 
     def fit(self, data: IOData | Sequence[IOData]) -> SparseNARX:
-        """STLSQ at the chosen threshold, the bags, then (``"simulation"``) the free-run fit."""
+        """STLSQ at the chosen threshold, the bags, then (``"simulation"``) the free-run fit.
+
+        Without ``functions``, the fitted state is remembered per parameters and training data
+        in the active ``polynomial_fits`` cache (:func:`neckid.models.cache.remembered_fit`):
+        the candidates of ``ParallelSetMembership(base="sindy")`` refit the same model.
+        """
+        if self.functions:
+            return self._fit(data)
+        return remembered_fit(self, data, lambda: self._fit(data))
+
+    def _fit(self, data: IOData | Sequence[IOData]) -> SparseNARX:
         x, y = self._prepare_fit(data)
         experiments = as_experiments(self._with_conditions(data, fitting=True))
         frequencies = [float(v) for v in np.asarray(self.trigonometric, dtype=np.float64).ravel()]
