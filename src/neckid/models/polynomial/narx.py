@@ -32,8 +32,6 @@ Lecture Notes in Mathematics 630, 105-116, 1978.
 
 from __future__ import annotations
 
-import copy
-import hashlib
 import logging
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
@@ -44,7 +42,7 @@ from scipy.optimize import least_squares as _levenberg_marquardt
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
-from neckid.models.cache import active_cache, array_digest
+from neckid.models.cache import remembered_fit
 from neckid.models.linear.arx import least_squares, linear_sum
 from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
@@ -67,17 +65,6 @@ RANK_TOLERANCE = 1e-7
 #: A simulated output further than this many output spans from the training range is clipped
 #: while fitting (a diverging trial step shows as a large, finite error).
 CLIP_SPANS = 10.0
-
-
-def _fit_key(model: PolynomialNARX, data: IOData | Sequence[IOData]) -> bytes:
-    """A digest of the model's parameters and the training data's values, names and conditions."""
-    h = hashlib.blake2b(digest_size=16)
-    h.update(repr(sorted(model.get_params().items())).encode())
-    for record in as_experiments(data, "data"):
-        h.update(repr((record.ts, record.input_names, record.output_names)).encode())
-        h.update(repr(sorted(record.conditions.items())).encode())
-        h.update(array_digest(record.u, record.y))
-    return h.digest()
 
 
 class PolynomialNARX(NarxModel):
@@ -186,22 +173,15 @@ class PolynomialNARX(NarxModel):
         the active ``polynomial_fits`` cache (:mod:`neckid.models.cache`), so a selection that refits the same polynomial on the same
         data (the candidates of ``ParallelSetMembership(parallel_degree=3)``) gets a copy of it.
         """
-        cache = active_cache("polynomial_fits")
-        key = _fit_key(self, data)
-        cached = cache.get(key) if cache is not None else None
-        if cached is not None:
-            self.__dict__.update(copy.deepcopy(cached))
-            logger.debug("PolynomialNARX fit taken from the cache of earlier fits")
-            return self
+        return remembered_fit(self, data, lambda: self._fit(data))
+
+    def _fit(self, data: IOData | Sequence[IOData]) -> None:
         x, y = self._prepare_fit(data)
         self._fit_regression(x, y)
         self._mark_fitted()
         if self.fit_for == "simulation":
             experiments = as_experiments(self._with_conditions(data, fitting=True))
             self._fit_simulation(experiments, int(self.max_iter), self._linear_start(x, y))
-        if cache is not None:
-            cache.put(key, copy.deepcopy(self.__dict__))
-        return self
 
     def _fit_regression(self, x: FloatArray, y: FloatArray) -> None:
         n_terms = x.shape[1]
