@@ -221,7 +221,8 @@ class FreeRunProblem:
         size = self._size
         jac = np.zeros((self.n_rows, self.layout.p, size))
         self.run(self.full(theta), jac)
-        return np.ascontiguousarray(jac.reshape(self.n_rows * self.layout.p, size)[:, self.free])
+        flat = jac.reshape(self.n_rows * self.layout.p, size)
+        return flat if self.free.size == size else flat[:, self.free]
 
     @property
     def _size(self) -> int:

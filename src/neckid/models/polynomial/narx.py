@@ -38,11 +38,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares as _levenberg_marquardt
+from scipy.optimize import least_squares as _trust_region
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.cache import remembered_fit
+from neckid.models.levenberg import levenberg_marquardt
 from neckid.models.linear.arx import least_squares, linear_sum
 from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
@@ -262,16 +263,21 @@ class PolynomialNARX(NarxModel):
                     linear_cost,
                     linear_errors,
                 )
-        method = "lm" if problem.n_rows * problem.n_out >= free.size else "trf"
         with task("polynomial NARX free-run fit (evaluations, at most)", budget) as advance:
-            solution = _levenberg_marquardt(
-                counting(problem.residuals, advance),
-                start,
-                jac=problem.jacobian,
-                method=method,
-                x_scale="jac",
-                max_nfev=budget,
-            )
+            residuals = counting(problem.residuals, advance)
+            if problem.n_rows * problem.n_out >= free.size:
+                solution = levenberg_marquardt(
+                    residuals, start, problem.jacobian, max_nfev=budget, f0=errors
+                )
+            else:  # fewer errors than coefficients: scipy's trust region handles it
+                solution = _trust_region(
+                    residuals,
+                    start,
+                    jac=problem.jacobian,
+                    method="trf",
+                    x_scale="jac",
+                    max_nfev=budget,
+                )
         improved = 2 * solution.cost <= cost  # least_squares' cost is half the sum of squares
         theta = solution.x if improved else start
         self.coef_ = problem.full(theta)
@@ -522,7 +528,8 @@ class _FreeRunProblem:
         jac = np.zeros((self.n_rows, self.n_out, self.coef_size))
         self.run(theta, jac)
         jac *= self.weight[None, :, None]
-        return np.ascontiguousarray(jac.reshape(self.n_rows * self.n_out, -1)[:, self.free])
+        flat = jac.reshape(self.n_rows * self.n_out, -1)
+        return flat if self.free.size == self.coef_size else flat[:, self.free]
 
 
 def _independent_monomials(
