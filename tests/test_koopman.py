@@ -215,3 +215,33 @@ def test_design_and_mpc_take_the_lifted_linear_system() -> None:
     assert mpc_problem(form, horizon=10).horizon == 10
     with pytest.raises(ValueError, match="linear everywhere"):
         linear_form(model, inclination=10.0)
+
+
+def test_the_compiled_free_run_gives_the_numpy_one_and_runs_away_the_same_way():
+    from neckid.models.koopman.lift import LiftedSystem, free_run, free_run_reference
+
+    rng = np.random.default_rng(4)
+    n_z, n_in, n_out = 27, 3, 2
+    stable = LiftedSystem(
+        0.9 * np.linalg.qr(rng.standard_normal((n_z, n_z)))[0],
+        rng.standard_normal((n_z, n_in)),
+        rng.standard_normal((n_out, n_z)),
+        rng.standard_normal((n_out, n_in)),
+    )
+    unstable = LiftedSystem(1.5 * stable.A, stable.B, stable.C, stable.D)
+    u = rng.standard_normal((3000, n_in))
+    for system in (stable, unstable):
+        z_fast, z_numpy = rng.standard_normal(n_z), None
+        z_numpy = z_fast.copy()
+        fast = free_run(system, z_fast, u)
+        with np.errstate(all="ignore"):
+            numpy = free_run_reference(system, z_numpy, u)
+        moderate = np.all(np.abs(numpy) < 1e200, axis=1)  # rounding differs only in its last bits
+        np.testing.assert_allclose(fast[moderate], numpy[moderate], rtol=1e-9, atol=1e-12)
+        assert np.isfinite(fast[-1]).all() == np.isfinite(numpy[-1]).all() == (system is stable)
+    # stepping one row at a time gives the floats of the whole run
+    z_whole, z_rows = np.ones(n_z), np.ones(n_z)
+    whole = free_run(stable, z_whole, u[:50])
+    rows = np.vstack([free_run(stable, z_rows, u[t : t + 1]) for t in range(50)])
+    np.testing.assert_array_equal(rows, whole)
+    np.testing.assert_array_equal(z_rows, z_whole)

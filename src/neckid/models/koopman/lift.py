@@ -30,12 +30,22 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from neckid.models.koopman.dictionary import Observables
 from neckid.regressors import ResolvedLags
 from neckid.utils.types import FloatArray, IntArray
 
-__all__ = ["Gram", "Layout", "LiftedSystem", "clip_spectrum", "free_run", "gram", "solve"]
+__all__ = [
+    "Gram",
+    "Layout",
+    "LiftedSystem",
+    "clip_spectrum",
+    "free_run",
+    "free_run_reference",
+    "gram",
+    "solve",
+]
 
 
 @dataclass(frozen=True)
@@ -278,9 +288,28 @@ def clip_spectrum(
 def free_run(system: LiftedSystem, z: FloatArray, u: FloatArray) -> FloatArray:
     """Outputs ``y(t)`` of inputs ``u`` (rows: time) from state ``z`` (updated in place).
 
-    One sample at a time, with the same products whatever the length of ``u``: a simulator
-    stepping one input row gives the floats of a whole run.
+    One sample at a time in a compiled loop (:func:`_free_run_kernel`), with the same products
+    whatever the length of ``u``: a simulator stepping one input row gives the floats of a whole
+    run. Each product sums its terms in one fixed order, so the floats do not depend on the CPU.
     """
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    out = np.empty((u.shape[0], system.C.shape[0]))
+    state = np.array(z, dtype=np.float64)
+    _free_run_kernel(
+        np.ascontiguousarray(system.A.T),
+        np.ascontiguousarray(system.B.T),
+        np.ascontiguousarray(system.C.T),
+        np.ascontiguousarray(system.D.T),
+        state,
+        u,
+        out,
+    )
+    z[:] = state
+    return out
+
+
+def free_run_reference(system: LiftedSystem, z: FloatArray, u: FloatArray) -> FloatArray:
+    """:func:`free_run` in plain NumPy (matrix products by BLAS; the tests compare the two)."""
     a, b, c, d = system.A, system.B, system.C, system.D
     out = np.empty((u.shape[0], c.shape[0]))
     state = np.array(z, dtype=np.float64)
@@ -290,3 +319,41 @@ def free_run(system: LiftedSystem, z: FloatArray, u: FloatArray) -> FloatArray:
             state = a @ state + b @ u[t]
     z[:] = state
     return out
+
+
+@njit(cache=True)
+def _free_run_kernel(
+    a_t: FloatArray,
+    b_t: FloatArray,
+    c_t: FloatArray,
+    d_t: FloatArray,
+    state: FloatArray,
+    u: FloatArray,
+    out: FloatArray,
+) -> None:  # pragma: no cover - compiled
+    """``out[t] = C z + D u[t]``, ``z ← A z + B u[t]``; the matrices transposed (columns as rows).
+
+    Every product adds one column at a time (``Σ_j A[:, j] z_j``): the rows are independent, so
+    the loop over them vectorises while each sum keeps its order.
+    """
+    n_z, n_out, n_in = state.shape[0], c_t.shape[1], u.shape[1]
+    following = np.empty(n_z)
+    for t in range(u.shape[0]):
+        for i in range(n_out):
+            out[t, i] = 0.0
+        for i in range(n_z):
+            following[i] = 0.0
+        for j in range(n_z):
+            zj = state[j]
+            for i in range(n_out):
+                out[t, i] += c_t[j, i] * zj
+            for i in range(n_z):
+                following[i] += a_t[j, i] * zj
+        for j in range(n_in):
+            uj = u[t, j]
+            for i in range(n_out):
+                out[t, i] += d_t[j, i] * uj
+            for i in range(n_z):
+                following[i] += b_t[j, i] * uj
+        for i in range(n_z):
+            state[i] = following[i]
