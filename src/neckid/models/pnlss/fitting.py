@@ -4,7 +4,7 @@ r"""The free-run least-squares problem of a polynomial state-space model, and it
 scaled to ``[-1, 1]`` of their training range, outputs to zero mean and unit standard
 deviation), the initial state of each (fixed: estimated once from its first samples) and the
 layout of the parameter vector ``θ = [A, B, E, C, D, c, F]``; it gives the residuals and their
-exact Jacobian (:mod:`._kernels`) to ``scipy.optimize.least_squares``.
+exact Jacobian (:mod:`._kernels`) to :func:`neckid.models.levenberg.levenberg_marquardt`.
 
 :func:`linear_start` turns a fitted :class:`~neckid.models.linear.SubspaceStateSpace` into the
 start ``E = F = 0`` in those units, the states shifted to remove the input offset and scaled to

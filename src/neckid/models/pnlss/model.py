@@ -11,8 +11,8 @@ their training range, outputs to zero mean and unit standard deviation, each sta
 1]`` of its range over the start's training free run. Outside that box widened by
 ``hold_margin`` the monomials hold their value (the linear terms go on), as in the polynomial
 NARX. The start is the linear ``ss`` model (:class:`~neckid.models.linear.SubspaceStateSpace`,
-not refined: the free-run fit refines every linear matrix itself; ``E = F = 0``); ``scipy.optimize.least_squares`` then minimises the free-run error with the
-exact Jacobian of the forward sensitivity recursion (:mod:`._kernels`). A trial step whose free
+not refined: the free-run fit refines every linear matrix itself; ``E = F = 0``); Levenberg–Marquardt (:mod:`neckid.models.levenberg`) then minimises the
+free-run error with the exact Jacobian of the forward sensitivity recursion (:mod:`._kernels`). A trial step whose free
 run on the training data leaves the divergence envelope is stopped there with a large error,
 so it is rejected; the fitted model never runs away on its training data.
 
