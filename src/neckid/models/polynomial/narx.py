@@ -266,6 +266,7 @@ class PolynomialNARX(NarxModel):
         with task("polynomial NARX free-run fit (evaluations, at most)", budget) as advance:
             residuals = counting(problem.residuals, advance)
             if problem.n_rows * problem.n_out >= free.size:
+                advance()  # the start's free run (above) is the first of the evaluations
                 solution = levenberg_marquardt(
                     residuals, start, problem.jacobian, max_nfev=budget, f0=errors
                 )
