@@ -2,7 +2,10 @@
 
 Every evaluation, those of the Jacobian included, is one free run and counts against the budget;
 when it is spent the best coefficients seen so far are returned (Levenberg–Marquardt never ends
-worse than its start, and neither does this).
+worse than its start, and neither does this). Levenberg–Marquardt is
+:func:`neckid.models.levenberg.levenberg_marquardt`, which takes the start's errors as given and
+builds one Jacobian per iteration (scipy's ``least_squares`` built two more per fit: the start's
+for its checks, the end's for its report, each ``n + 1`` free runs of the budget here).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from neckid.models.levenberg import levenberg_marquardt
 from neckid.utils.types import FloatArray
 
 __all__ = ["Refit", "refit_free_run"]
@@ -72,7 +76,9 @@ def refit_free_run(
             jac[:, i] = (fun(moved) - base) / step
         return jac
 
-    method = "lm" if first.size >= start.size else "trf"
     with contextlib.suppress(_BudgetSpent):  # the best so far is the result
-        least_squares(fun, start, jac=jacobian, method=method, x_scale="jac", max_nfev=budget)
+        if first.size >= start.size:
+            levenberg_marquardt(fun, start, jacobian, max_nfev=budget, f0=first)
+        else:  # fewer errors than coefficients: scipy's trust region handles it
+            least_squares(fun, start, jac=jacobian, method="trf", x_scale="jac", max_nfev=budget)
     return best
