@@ -142,3 +142,33 @@ def test_a_jacobian_of_the_wrong_shape_is_refused() -> None:
     fun, jac, x0 = _two_exponentials()
     with pytest.raises(ValueError, match=r"the Jacobian has shape \(200, 3\); expected \(200, 4\)"):
         levenberg_marquardt(fun, x0, lambda p: jac(p)[:, :3], max_nfev=5)
+
+
+def test_fewer_residuals_than_variables_go_to_the_trust_region_with_the_start_given() -> None:
+    from neckid.models.levenberg import fit_least_squares
+
+    a = np.random.default_rng(5).standard_normal((3, 6))
+    b = np.array([1.0, -1.0, 2.0])
+    calls: list[np.ndarray] = []
+
+    def fun(p: np.ndarray) -> np.ndarray:
+        calls.append(p.copy())
+        return a @ p - b
+
+    x0 = np.zeros(6)
+    result = fit_least_squares(fun, x0, lambda p: a, max_nfev=50, f0=a @ x0 - b)
+    reference = least_squares(
+        lambda p: a @ p - b, x0, jac=lambda p: a, method="trf", x_scale="jac", max_nfev=50
+    )
+    np.testing.assert_allclose(result.x, reference.x, atol=1e-12)
+    assert result.nfev == reference.nfev == len(calls) + 1
+    assert result.status == SCIPY_STATUS[reference.status]
+    assert result.cost == pytest.approx(reference.cost, rel=1e-6, abs=1e-15) and result.cost < 1e-15
+
+
+def test_enough_residuals_go_to_levenberg_marquardt() -> None:
+    from neckid.models.levenberg import fit_least_squares
+
+    fun, jac, x0 = _two_exponentials()
+    given = fit_least_squares(fun, x0, jac, max_nfev=30, f0=fun(x0))
+    np.testing.assert_array_equal(given.x, levenberg_marquardt(fun, x0, jac, max_nfev=30).x)

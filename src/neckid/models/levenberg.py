@@ -37,7 +37,7 @@ from numba import njit
 
 from neckid.utils.types import FloatArray, IntArray
 
-__all__ = ["LeastSquaresResult", "levenberg_marquardt"]
+__all__ = ["LeastSquaresResult", "fit_least_squares", "levenberg_marquardt"]
 
 #: MINPACK's initial step bound: ``factor`` times the scaled norm of the start.
 STEP_FACTOR = 100.0
@@ -52,6 +52,8 @@ MESSAGES = {
     7: "xtol is too small: no further improvement of the iterate is possible.",
     8: "gtol is too small: the residuals are orthogonal to the Jacobian's columns to machine precision.",
 }
+#: MINPACK's ``info`` for scipy's ``status`` (scipy's 1 is the gradient test, 2 ``ftol``, ...).
+FROM_SCIPY_STATUS = {0: 5, 1: 4, 2: 1, 3: 2, 4: 3}
 _EPS = float(np.finfo(np.float64).eps)
 _DWARF = float(np.finfo(np.float64).tiny)
 
@@ -190,6 +192,48 @@ def levenberg_marquardt(
     )
 
 
+def fit_least_squares(
+    fun: Callable[[FloatArray], FloatArray],
+    x0: FloatArray,
+    jac: Callable[[FloatArray], FloatArray],
+    *,
+    max_nfev: int,
+    f0: FloatArray,
+) -> LeastSquaresResult:
+    """Minimise ``½ ‖fun(x)‖²`` from ``x0`` whose residuals ``f0`` the caller has.
+
+    :func:`levenberg_marquardt` when there are at least as many residuals as variables; otherwise
+    scipy's trust-region reflective method (``least_squares(method="trf", x_scale="jac")``),
+    handed ``f0`` for the start instead of evaluating it again. Either way the start counts as one
+    of the ``max_nfev`` evaluations, and ``status`` is MINPACK's (:data:`MESSAGES`).
+    """
+    if f0.size >= x0.size:
+        return levenberg_marquardt(fun, x0, jac, max_nfev=max_nfev, f0=f0)
+    from scipy.optimize import least_squares
+
+    pending = [f0]
+
+    def start_known(x: FloatArray) -> FloatArray:
+        if pending and np.array_equal(x, x0):
+            return pending.pop()
+        pending.clear()
+        return fun(x)
+
+    solution = least_squares(
+        start_known, x0, jac=jac, method="trf", x_scale="jac", max_nfev=max_nfev
+    )
+    status = FROM_SCIPY_STATUS[int(solution.status)]
+    return LeastSquaresResult(
+        x=solution.x,
+        fun=solution.fun,
+        cost=float(solution.cost),
+        nfev=int(solution.nfev),
+        njev=int(solution.njev or 0),
+        status=status,
+        message=str(solution.message),
+    )
+
+
 @dataclass
 class _State:
     """The accepted iterate: ``x``, its residuals and their norm, ``D x``'s norm, the LM parameter."""
@@ -204,7 +248,10 @@ class _State:
 def _factor(
     jacobian: FloatArray, f: FloatArray, m: int, n: int
 ) -> tuple[FloatArray, IntArray, FloatArray, FloatArray]:
-    """``J P = Q R``: ``R`` (n × n), the permutation, ``(Qᵀ f)[:n]``, ``J``'s column norms."""
+    """``J P = Q R``: ``R`` (n × n, zero below its diagonal), the permutation, ``(Qᵀ f)[:n]``, ``J``'s column norms.
+
+    ``R`` stays as it is: :func:`_lm_step` hands ``lmpar`` a copy to write below the diagonal.
+    """
     if jacobian.shape != (m, n):
         raise ValueError(f"the Jacobian has shape {jacobian.shape}; expected {(m, n)}")
     stacked = np.empty((m, n + 1), order="F")
@@ -225,7 +272,7 @@ def _gradient_norm(
     """The largest cosine between the residuals and a column of ``J`` (MINPACK's ``gnorm``)."""
     if fnorm == 0.0:
         return 0.0
-    sums = np.triu(r).T @ (qtf / fnorm)
+    sums = r.T @ (qtf / fnorm)
     norms = acnorm[ipvt]
     nonzero = norms != 0.0
     return float(np.max(np.abs(sums[nonzero] / norms[nonzero]), initial=0.0))
@@ -252,7 +299,7 @@ def _update_bound(
     """Actual and predicted reductions, their ratio, and the new step bound (``state.par`` too)."""
     fnorm = state.fnorm
     actred = 1.0 - (fnorm1 / fnorm) ** 2 if 0.1 * fnorm1 < fnorm else -1.0
-    temp1 = float(np.linalg.norm(np.triu(r) @ step[ipvt])) / fnorm
+    temp1 = float(np.linalg.norm(r @ step[ipvt])) / fnorm
     temp2 = np.sqrt(state.par) * pnorm / fnorm
     prered = temp1**2 + temp2**2 / 0.5
     dirder = -(temp1**2 + temp2**2)

@@ -31,12 +31,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import DIVERGENCE_SPANS, Estimator, ModelResult, check_is_fitted
 from neckid.models.facts import StateOrder
-from neckid.models.levenberg import levenberg_marquardt
+from neckid.models.levenberg import fit_least_squares
 from neckid.models.linear.subspace import StateSpaceSimulator, SubspaceStateSpace
 from neckid.models.linear.subspace_steps import estimate_state
 from neckid.models.online import extend_training_ranges, update_experiments
@@ -273,20 +272,9 @@ class PolynomialStateSpace(Estimator):
                 " unstable there: fit anew (fit) instead of continuing from it"
             )
         cost = float(np.sum(errors**2))
-        n_residuals = errors.size
-        if n_residuals >= start.size:
-            solution = levenberg_marquardt(
-                problem.residuals, start, problem.jacobian, max_nfev=budget, f0=errors
-            )
-        else:  # fewer errors than parameters: scipy's trust region handles it
-            solution = least_squares(
-                problem.residuals,
-                start,
-                jac=problem.jacobian,
-                method="trf",
-                x_scale="jac",
-                max_nfev=budget,
-            )
+        solution = fit_least_squares(
+            problem.residuals, start, problem.jacobian, max_nfev=budget, f0=errors
+        )
         rejected = problem.diverged
         final = problem.run(problem.full(solution.x))
         improved = bool(

@@ -38,12 +38,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares as _trust_region
 
 from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import ModelResult, NarxModel, check_is_fitted
 from neckid.models.cache import remembered_fit
-from neckid.models.levenberg import levenberg_marquardt
+from neckid.models.levenberg import fit_least_squares
 from neckid.models.linear.arx import least_squares, linear_sum
 from neckid.models.linear.ls_statistics import LeastSquaresStatistics
 from neckid.models.online import extend_training_ranges, update_experiments, update_rows
@@ -264,21 +263,14 @@ class PolynomialNARX(NarxModel):
                     linear_errors,
                 )
         with task("polynomial NARX free-run fit (evaluations, at most)", budget) as advance:
-            residuals = counting(problem.residuals, advance)
-            if problem.n_rows * problem.n_out >= free.size:
-                advance()  # the start's free run (above) is the first of the evaluations
-                solution = levenberg_marquardt(
-                    residuals, start, problem.jacobian, max_nfev=budget, f0=errors
-                )
-            else:  # fewer errors than coefficients: scipy's trust region handles it
-                solution = _trust_region(
-                    residuals,
-                    start,
-                    jac=problem.jacobian,
-                    method="trf",
-                    x_scale="jac",
-                    max_nfev=budget,
-                )
+            advance()  # the start's free run (above) is the first of the evaluations
+            solution = fit_least_squares(
+                counting(problem.residuals, advance),
+                start,
+                problem.jacobian,
+                max_nfev=budget,
+                f0=errors,
+            )
         improved = 2 * solution.cost <= cost  # least_squares' cost is half the sum of squares
         theta = solution.x if improved else start
         self.coef_ = problem.full(theta)

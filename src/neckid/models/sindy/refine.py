@@ -3,7 +3,7 @@
 Every evaluation, those of the Jacobian included, is one free run and counts against the budget;
 when it is spent the best coefficients seen so far are returned (Levenberg–Marquardt never ends
 worse than its start, and neither does this). Levenberg–Marquardt is
-:func:`neckid.models.levenberg.levenberg_marquardt`, which takes the start's errors as given and
+:func:`neckid.models.levenberg.fit_least_squares`, which takes the start's errors as given and
 builds one Jacobian per iteration (scipy's ``least_squares`` built two more per fit: the start's
 for its checks, the end's for its report, each ``n + 1`` free runs of the budget here).
 """
@@ -15,9 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from neckid.models.levenberg import levenberg_marquardt
+from neckid.models.levenberg import fit_least_squares
 from neckid.utils.types import FloatArray
 
 __all__ = ["Refit", "refit_free_run"]
@@ -77,8 +76,5 @@ def refit_free_run(
         return jac
 
     with contextlib.suppress(_BudgetSpent):  # the best so far is the result
-        if first.size >= start.size:
-            levenberg_marquardt(fun, start, jacobian, max_nfev=budget, f0=first)
-        else:  # fewer errors than coefficients: scipy's trust region handles it
-            least_squares(fun, start, jac=jacobian, method="trf", x_scale="jac", max_nfev=budget)
+        fit_least_squares(fun, start, jacobian, max_nfev=budget, f0=first)
     return best
