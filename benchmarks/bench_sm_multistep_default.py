@@ -37,6 +37,7 @@ from neckid.experiments.benchmark import softneck_protocol
 from neckid.models.set_membership.multistep import MultiStepSetMembership
 
 LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
+FRAME = os.environ.get("NECKID_BENCH_FRAME", "1") == "1"
 
 
 def logs(folder: Path) -> tuple[list, list]:
@@ -98,7 +99,9 @@ def profile_fold(train: list, steps: int) -> None:
             floor = epsilon_floor(np.ascontiguousarray(x * weights), linear.residual)
             eps = np.vstack([rule_epsilon(f, linear.scale, floor) for f in grid.epsilon_factors])
             times["floor"], clock = time.process_time() - clock, time.process_time()
-            tree, _ = training_tree(x.copy(), y, weights, linear.coef, linear.intercept, True)
+            tree, _ = training_tree(
+                x.copy(), y, weights, linear.coef, linear.intercept, True, frame=FRAME
+            )
             times["tree"], clock = time.process_time() - clock, time.process_time()
             priors = prior_grid(tree, eps, 1.1)
             times["slopes"], clock = time.process_time() - clock, time.process_time()

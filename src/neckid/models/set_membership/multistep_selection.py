@@ -367,7 +367,13 @@ def _fold_bands(
         floor = epsilon_floor(np.ascontiguousarray(x * weights), target)
         epsilon = np.vstack([rule_epsilon(f, linear.scale, floor) for f in grid.epsilon_factors])
         tree, _ = training_tree(
-            x.copy(), y, weights, linear.coef, linear.intercept, bool(options.linear_part)
+            x.copy(),
+            y,
+            weights,
+            linear.coef,
+            linear.intercept,
+            bool(options.linear_part),
+            frame=True,
         )
         priors = prior_grid(tree, epsilon, margin)
         gamma, steepest = priors.gamma, priors.steepest

@@ -137,6 +137,8 @@ def training_tree(
     coef: FloatArray,
     intercept: FloatArray,
     keep_outputs: bool,
+    *,
+    frame: bool = False,
 ) -> tuple[SMTree, FloatArray | None]:
     """Scale ``x`` in place and build the kd-tree on it: the model's one copy of the points.
 
@@ -151,6 +153,9 @@ def training_tree(
         raw rows as :func:`unscale` recovers them, so that a model file gives the same targets).
     keep_outputs : bool
         Also return ``y`` in tree order (needed when the targets are not ``y``: linear part).
+    frame : bool, default False
+        Split the tree in the points' principal frame (``SMTree(frame=True)``): the same
+        results, fewer visits of the screened walks over many lagged terms.
 
     Returns
     -------
@@ -160,7 +165,7 @@ def training_tree(
     """
     x *= weights
     residual = _residual(x, y, weights, coef, intercept)  # a new array, reordered in place
-    tree = SMTree(x, residual, overwrite_points=True, overwrite_targets=True)
+    tree = SMTree(x, residual, overwrite_points=True, overwrite_targets=True, frame=frame)
     return tree, (np.ascontiguousarray(y[tree.perm]) if keep_outputs else None)
 
 

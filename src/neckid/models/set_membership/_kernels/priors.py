@@ -51,8 +51,10 @@ from numpy.typing import NDArray
 from neckid.models.set_membership._kernels.screens import (
     SLOPE_PRUNE,
     box_screen2,
+    frame_lower2,
+    frame_query,
     leaf_screen2,
-    push_screened,
+    push_framed,
     screen_shrink,
 )
 from neckid.models.set_membership._kernels.tree import (
@@ -77,6 +79,9 @@ def _steepest_grid(
     c: int,
     twice_eps: FloatArray,
     tree: tuple[NDArray, ...],
+    frame: tuple[NDArray, ...],
+    qz: FloatArray,
+    slack: float,
     node_stack: IntArray,
     dist_stack: FloatArray,
     best: FloatArray,
@@ -86,14 +91,15 @@ def _steepest_grid(
 
     The maximum of the rounded ratios, whatever the order of the visits (:data:`SLOPE_PRUNE`).
     """
-    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    points, targets, start, end, left, right, _, _, ymin, ymax = tree
+    zpoints, zlo, zhi, _, _, _ = frame
     w = points[i]
     t = targets[i, c]
     n_eps = twice_eps.shape[0]
     best[:] = 0.0
     shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = math.sqrt(box_screen2(w, lo, hi, 0) * shrink)
+    dist_stack[0] = math.sqrt(frame_lower2(box_screen2(qz, zlo, zhi, 0), shrink, slack))
     top = 1
     while top > 0:
         top -= 1
@@ -112,7 +118,7 @@ def _steepest_grid(
         child = left[node]
         if child < 0:
             first = start[node]
-            leaf_screen2(w, points, first, end[node], screen)
+            leaf_screen2(qz, zpoints, first, end[node], screen)
             for p in range(first, end[node]):
                 if p == i:
                     continue
@@ -126,7 +132,7 @@ def _steepest_grid(
                 if reach < 0.0:
                     continue  # no ε of the grid leaves a rise
                 cap = reach_cap(reach)
-                if screen[p - first] * shrink > cap:
+                if frame_lower2(screen[p - first], shrink, slack) > cap:
                     continue  # farther than the cap, exactly too
                 acc = squared_distance_capped(w, points, p, cap)
                 if acc > cap:
@@ -140,8 +146,8 @@ def _steepest_grid(
                     if slope > best[e]:
                         best[e] = slope
         else:
-            top = push_screened(
-                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, False
+            top = push_framed(
+                qz, frame, left, right, node, node_stack, dist_stack, top, shrink, slack, False
             )
 
 
@@ -151,17 +157,33 @@ def _point_gamma_grid_kernel(
     stop: int,
     twice_eps: FloatArray,
     tree: tuple[NDArray, ...],
+    frame: tuple[NDArray, ...],
     max_leaf: int,
     out: FloatArray,
 ) -> None:  # pragma: no cover - compiled; tested against point_gamma
     n_eps, _, n_out = out.shape
+    points = tree[0]
     for i in prange(first, stop):
         node_stack = np.empty(STACK_DEPTH, np.int64)
         dist_stack = np.empty(STACK_DEPTH)
         best = np.empty(n_eps)
         screen = np.empty(max_leaf)
+        qz = np.empty(frame[0].shape[1])
+        slack = frame_query(points[i], frame, qz)
         for c in range(n_out):
-            _steepest_grid(i, c, twice_eps[:, c], tree, node_stack, dist_stack, best, screen)
+            _steepest_grid(
+                i,
+                c,
+                twice_eps[:, c],
+                tree,
+                frame,
+                qz,
+                slack,
+                node_stack,
+                dist_stack,
+                best,
+                screen,
+            )
             for e in range(n_eps):
                 out[e, i, c] = best[e]
 
@@ -204,13 +226,13 @@ def point_gamma_grid(
     twice = np.ascontiguousarray(2.0 * epsilons)
     n_points = tree.points.shape[0]
     out = np.empty((epsilons.shape[0], n_points, tree.targets.shape[1]))
-    arrays = tree.kernel_arrays()
+    arrays, frame = tree.kernel_arrays(), tree.frame_arrays()
     if callback is None:
-        _point_gamma_grid_kernel(0, n_points, twice, arrays, tree.max_leaf, out)
+        _point_gamma_grid_kernel(0, n_points, twice, arrays, frame, tree.max_leaf, out)
         return out
     edges = np.linspace(0, n_points, PROGRESS_BLOCKS + 1).astype(np.int64)
     for first, stop in itertools.pairwise(edges):
-        _point_gamma_grid_kernel(int(first), int(stop), twice, arrays, tree.max_leaf, out)
+        _point_gamma_grid_kernel(int(first), int(stop), twice, arrays, frame, tree.max_leaf, out)
         callback(int(stop), n_points)
     return out
 
@@ -222,20 +244,24 @@ def _neighbour_gammas(
     radius2: float,
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
+    frame: tuple[NDArray, ...],
+    qz: FloatArray,
+    slack: float,
     node_stack: IntArray,
     dist_stack: FloatArray,
     out: FloatArray,
     screen: FloatArray,
 ) -> None:  # pragma: no cover - compiled; the second half of local._neighbour_gamma
     """``out[l, c]``: the largest ``gammas[p, l, c]`` within the squared radius, ties included."""
-    points, _, start, end, left, right, lo, hi, _, _ = tree
+    points, _, start, end, left, right, _, _, _, _ = tree
+    zpoints, zlo, zhi, _, _, _ = frame
     if not radius2 < np.inf:
         out[:, :] = np.inf
         return
     out[:, :] = 0.0
     shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = box_screen2(w, lo, hi, 0) * shrink
+    dist_stack[0] = frame_lower2(box_screen2(qz, zlo, zhi, 0), shrink, slack)
     top = 1
     while top > 0:
         top -= 1
@@ -244,17 +270,17 @@ def _neighbour_gammas(
             continue
         if left[node] < 0:
             first = start[node]
-            leaf_screen2(w, points, first, end[node], screen)
+            leaf_screen2(qz, zpoints, first, end[node], screen)
             for p in range(first, end[node]):
-                if screen[p - first] * shrink > radius2:
+                if frame_lower2(screen[p - first], shrink, slack) > radius2:
                     continue  # beyond the radius, exactly too
                 if squared_distance_capped(w, points, p, radius2) <= radius2:
                     for m in range(out.shape[0]):
                         for c in range(out.shape[1]):
                             out[m, c] = max(out[m, c], gammas[p, m, c])
         else:
-            top = push_screened(
-                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, True
+            top = push_framed(
+                qz, frame, left, right, node, node_stack, dist_stack, top, shrink, slack, True
             )
 
 
@@ -266,6 +292,9 @@ def _walk_priors(
     local: IntArray,
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
+    frame: tuple[NDArray, ...],
+    qz: FloatArray,
+    slack: float,
     node_stack: IntArray,
     dist_stack: FloatArray,
     best_lower: FloatArray,
@@ -273,13 +302,14 @@ def _walk_priors(
     screen: FloatArray,
 ) -> None:  # pragma: no cover - compiled; query_one for every prior at once
     """``query_one`` of every prior ``s`` (slope ``max(floor[s], γ_j)`` or ``floor[s]``) at once."""
-    points, targets, start, end, left, right, lo, hi, ymin, ymax = tree
+    points, targets, start, end, left, right, _, _, ymin, ymax = tree
+    zpoints, zlo, zhi, _, _, _ = frame
     n_priors = floor.shape[0]
     best_upper[:] = np.inf
     best_lower[:] = -np.inf
     shrink = screen_shrink(w.shape[0])
     node_stack[0] = 0
-    dist_stack[0] = math.sqrt(box_screen2(w, lo, hi, 0) * shrink)
+    dist_stack[0] = math.sqrt(frame_lower2(box_screen2(qz, zlo, zhi, 0), shrink, slack))
     top = 1
     while top > 0:
         top -= 1
@@ -297,7 +327,7 @@ def _walk_priors(
         child = left[node]
         if child < 0:
             first = start[node]
-            leaf_screen2(w, points, first, end[node], screen)
+            leaf_screen2(qz, zpoints, first, end[node], screen)
             for p in range(first, end[node]):
                 v = targets[p, c]
                 reach = -1.0
@@ -308,7 +338,7 @@ def _walk_priors(
                 if reach < 0.0:
                     continue  # it changes no prior's bounds at any distance
                 cap = reach_cap(reach)
-                if screen[p - first] * shrink > cap:
+                if frame_lower2(screen[p - first], shrink, slack) > cap:
                     continue  # farther than the cap, exactly too
                 acc = squared_distance_capped(w, points, p, cap)
                 if acc > cap:
@@ -323,8 +353,8 @@ def _walk_priors(
                     if v - gd > best_lower[s]:
                         best_lower[s] = v - gd
         else:
-            top = push_screened(
-                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, False
+            top = push_framed(
+                qz, frame, left, right, node, node_stack, dist_stack, top, shrink, slack, False
             )
 
 
@@ -339,6 +369,9 @@ def _near_constants(
     k_near: int,
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
+    frame: tuple[NDArray, ...],
+    qz: FloatArray,
+    slack: float,
     node_stack: IntArray,
     dist_stack: FloatArray,
     near_d: FloatArray,
@@ -354,14 +387,15 @@ def _near_constants(
     recorded (its node is opened, its screen and its exact sum are within the running distance).
     If more than :data:`NEAR_RECORD` are, the second walk of :func:`_neighbour_gammas` is made.
     """
-    points, _, start, end, left, right, lo, hi, _, _ = tree
+    points, _, start, end, left, right, _, _, _, _ = tree
+    zpoints, zlo, zhi, _, _, _ = frame
     k_near = min(k_near, points.shape[0])
     shrink = screen_shrink(w.shape[0])
     for k in range(k_near):
         near_d[k] = np.inf
     n_rec = 0
     node_stack[0] = 0
-    dist_stack[0] = box_screen2(w, lo, hi, 0) * shrink
+    dist_stack[0] = frame_lower2(box_screen2(qz, zlo, zhi, 0), shrink, slack)
     top = 1
     while top > 0:
         top -= 1
@@ -370,10 +404,10 @@ def _near_constants(
             continue
         if left[node] < 0:
             first = start[node]
-            leaf_screen2(w, points, first, end[node], screen)
+            leaf_screen2(qz, zpoints, first, end[node], screen)
             for p in range(first, end[node]):
                 radius = near_d[k_near - 1]
-                if screen[p - first] * shrink > radius:
+                if frame_lower2(screen[p - first], shrink, slack) > radius:
                     continue
                 acc = squared_distance_capped(w, points, p, radius)
                 if not acc <= radius:
@@ -389,12 +423,14 @@ def _near_constants(
                         slot -= 1
                     near_d[slot] = acc
         else:
-            top = push_screened(
-                w, lo, hi, left, right, node, node_stack, dist_stack, top, shrink, True
+            top = push_framed(
+                qz, frame, left, right, node, node_stack, dist_stack, top, shrink, slack, True
             )
     radius2 = near_d[k_near - 1]
     if n_rec > record_p.shape[0]:
-        _neighbour_gammas(w, radius2, gammas, tree, node_stack, dist_stack, out, screen)
+        _neighbour_gammas(
+            w, radius2, gammas, tree, frame, qz, slack, node_stack, dist_stack, out, screen
+        )
         return
     if not radius2 < np.inf:
         out[:, :] = np.inf
@@ -417,6 +453,7 @@ def _prior_bounds_kernel(
     local: IntArray,
     gammas: FloatArray,
     tree: tuple[NDArray, ...],
+    frame: tuple[NDArray, ...],
     max_leaf: int,
     lower: FloatArray,
     upper: FloatArray,
@@ -436,12 +473,17 @@ def _prior_bounds_kernel(
         screen = np.empty(max_leaf)
         record_p = np.empty(NEAR_RECORD if any_local else 0, np.int64)
         record_d = np.empty(NEAR_RECORD if any_local else 0)
+        qz = np.empty(frame[0].shape[1])
+        slack = frame_query(w, frame, qz)
         if any_local:
             _near_constants(
                 w,
                 k_near,
                 gammas,
                 tree,
+                frame,
+                qz,
+                slack,
                 node_stack,
                 dist_stack,
                 near_d,
@@ -460,6 +502,9 @@ def _prior_bounds_kernel(
                 local,
                 gammas,
                 tree,
+                frame,
+                qz,
+                slack,
                 node_stack,
                 dist_stack,
                 best_lower,
@@ -545,6 +590,7 @@ def prior_bounds(
         np.ascontiguousarray(local, dtype=np.int64),
         gammas,
         tree.kernel_arrays(),
+        tree.frame_arrays(),
         tree.max_leaf,
         lower,
         upper,

@@ -47,9 +47,12 @@ from neckid.models.set_membership._kernels.screens import _push_pair
 from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
+    "FRAME_AXES",
+    "FRAME_MIN_TERMS",
     "LEAF_SIZE",
     "SMTree",
     "build_tree",
+    "principal_frame",
 ]
 
 
@@ -497,6 +500,45 @@ def _bounds_few_kernel(
             )
 
 
+#: Fewest terms for which ``SMTree(frame=True)`` splits in a principal frame: with few terms a
+#: kd-tree over the raw components prunes about as well.
+FRAME_MIN_TERMS = 8
+#: Principal axes a frame keeps (all of them with fewer terms). A screen over the leading axes
+#: is a lower bound of the one over all (fewer non-negative terms) and costs proportionally
+#: less; at horizon 40 of the soft-neck payload split (84 terms) one fold's slopes and bounds
+#: took 2.7 CPU s keeping 84 axes, 2.7 keeping 32, 2.5 keeping 16 and 2.4 keeping 8 (7.3
+#: without a frame; ``docs/benchmarks/sm_speed.md``). 16 leaves room for signals spread over
+#: more directions than the neck's.
+FRAME_AXES = 16
+
+
+def principal_frame(points: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """``(μ, R, error)``: the centre, the principal axes (rows) and the rounding room of a frame.
+
+    ``R`` holds the leading :data:`FRAME_AXES` eigenvectors of the points' scatter matrix,
+    largest spread first, so a kd-tree over ``R (w − μ)`` splits along the directions the
+    points spread in; distances in the frame are at most those in the points' coordinates. ``error`` is
+    ``(e, c)``: ``c = 2 (n + 2) u √n`` bounds the rounding of a rotated point relative to
+    ``‖w − μ‖`` (``γ_{n+1} ‖R‖_F``, Higham 2002, §3.5, with room) and ``e`` that of the stored
+    points (``c`` times their largest ``‖w − μ‖``, with room). None (no frame) below
+    :data:`FRAME_MIN_TERMS` terms, for fewer than two points, non-finite points, or an ``R``
+    farther than 1e-10 from orthogonal (Frobenius norm of ``R Rᵀ − I``).
+    """
+    n_points, n_dims = points.shape
+    if n_dims < FRAME_MIN_TERMS or n_points < 2 or not np.all(np.isfinite(points)):
+        return None
+    centre = points.mean(axis=0)
+    centred = points - centre
+    _, vectors = np.linalg.eigh(centred.T @ centred)
+    rotation = np.ascontiguousarray(vectors[:, ::-1].T)
+    if not np.linalg.norm(rotation @ rotation.T - np.eye(n_dims)) <= 1e-10:
+        return None
+    rotation = np.ascontiguousarray(rotation[:FRAME_AXES])
+    factor = 2.0 * (n_dims + 2) * 2.0**-53 * math.sqrt(n_dims)
+    largest = float(np.sqrt(np.max(np.einsum("ij,ij->i", centred, centred))))
+    return centre, rotation, np.array([factor * largest * 1.01, factor])
+
+
 #: Below this many queries the bounds are evaluated without threads.
 SERIAL_QUERIES = 64
 
@@ -529,6 +571,13 @@ class SMTree:
         as usual): for a caller that no longer needs the rows in their first order.
     overwrite_targets : bool, default False
         The same for ``targets`` (when it is a writeable C-contiguous float64 array).
+    frame : bool, default False
+        Split the tree in the principal frame of the points (:func:`principal_frame`; from
+        :data:`FRAME_MIN_TERMS` terms on) and keep the rotated points and boxes for the screened
+        walks (:meth:`frame_arrays`). Every result is the same; the screened walks visit fewer
+        points where a few directions hold most of the spread (lagged signals, many terms),
+        for one more copy of the points. :attr:`lo`/:attr:`hi` stay the boxes in the points'
+        own coordinates.
     """
 
     def __init__(
@@ -539,10 +588,13 @@ class SMTree:
         *,
         overwrite_points: bool = False,
         overwrite_targets: bool = False,
+        frame: bool = False,
     ) -> None:
         points = np.ascontiguousarray(points, dtype=np.float64)
         targets = np.ascontiguousarray(targets, dtype=np.float64)
-        tree = build_tree(points, leaf_size)
+        principal = principal_frame(points) if frame else None
+        rotated = None if principal is None else (points - principal[0]) @ principal[1].T
+        tree = build_tree(points if rotated is None else rotated, leaf_size)
         perm = tree["perm"]
         self.perm: IntArray = perm
         self.points: FloatArray = _reordered(points, perm, overwrite_points)
@@ -551,8 +603,22 @@ class SMTree:
         self.end: IntArray = tree["end"]
         self.left: IntArray = tree["left"]
         self.right: IntArray = tree["right"]
-        self.lo: FloatArray = tree["lo"]
-        self.hi: FloatArray = tree["hi"]
+        if rotated is None or principal is None:
+            self.lo: FloatArray = tree["lo"]
+            self.hi: FloatArray = tree["hi"]
+            self._frame: tuple[NDArray, ...] = (
+                self.points,
+                self.lo,
+                self.hi,
+                np.empty((0, 0)),
+                np.empty(0),
+                np.empty(2),
+            )
+        else:
+            self.lo, self.hi = _node_ranges_kernel(self.points, self.start, self.end)
+            centre, rotation, error = principal
+            rotated = np.ascontiguousarray(rotated[perm])
+            self._frame = (rotated, tree["lo"], tree["hi"], rotation, centre, error)
         self.ymin, self.ymax = _node_ranges_kernel(self.targets, self.start, self.end)
         leaves = self.left < 0
         #: Points of the largest leaf (identical points share one leaf, however many).
@@ -577,6 +643,21 @@ class SMTree:
             self.ymin,
             self.ymax,
         )
+
+    @property
+    def framed(self) -> bool:
+        """Whether the tree was split in a principal frame (:func:`principal_frame`)."""
+        return bool(self._frame[3].shape[0])
+
+    def frame_arrays(self) -> tuple[NDArray, ...]:
+        """``(points, lo, hi, R, μ, error)`` in the screening frame, for the screened walks.
+
+        Without a principal frame: the tree's points and boxes, and empty ``R`` and ``μ``
+        (:func:`~.screens.frame_query`). With one: the rotated points in tree order, the boxes
+        the tree was split by, the rotation, the centre and ``(slack of the points, factor of a
+        query's norm)``.
+        """
+        return self._frame
 
     def bounds(
         self, queries: FloatArray, epsilon: FloatArray, gamma: FloatArray
