@@ -13,7 +13,8 @@ a fit with those settings given does), with their ratio, and the load average.
 ``--profile K`` instead times the parts of one fold of horizon K (the first log held out) in
 CPU seconds of the process, the second of two runs (compiled): the ε floor and weights, the
 kd-tree, every point's steepest slope at the 7 ε factors, the bounds of the 14 priors and of the
-7 global ones at the held-out rows.
+7 global ones at the held-out rows, with the tree split in the principal frame as the
+cross-validation splits it (``--no-frame``: in the raw components, as before).
 
 ``--save`` writes the chosen settings, ε, γ, the cross-validation table's coverage and width and
 the guaranteed band of every horizon on the six test logs (200 g and 400 g); ``--compare``
@@ -37,7 +38,6 @@ from neckid.experiments.benchmark import softneck_protocol
 from neckid.models.set_membership.multistep import MultiStepSetMembership
 
 LAGS = Lags(outputs=[1, 2], inputs=[0, 1])
-FRAME = os.environ.get("NECKID_BENCH_FRAME", "1") == "1"
 
 
 def logs(folder: Path) -> tuple[list, list]:
@@ -69,7 +69,7 @@ def results(model: MultiStepSetMembership, test: list) -> dict[str, np.ndarray]:
     return out
 
 
-def profile_fold(train: list, steps: int) -> None:
+def profile_fold(train: list, steps: int, frame: bool = True) -> None:
     """CPU seconds of the parts of one fold of one horizon (see the module docstring)."""
     from neckid.models.set_membership import multistep_selection as ms
     from neckid.models.set_membership._kernels.priors import prior_bounds
@@ -100,7 +100,14 @@ def profile_fold(train: list, steps: int) -> None:
             eps = np.vstack([rule_epsilon(f, linear.scale, floor) for f in grid.epsilon_factors])
             times["floor"], clock = time.process_time() - clock, time.process_time()
             tree, _ = training_tree(
-                x.copy(), y, weights, linear.coef, linear.intercept, True, frame=FRAME
+                x.copy(),
+                y,
+                weights,
+                linear.coef,
+                linear.intercept,
+                True,
+                frame=frame,
+                leaf_size=ms.SELECTION_LEAF_SIZE if frame else 16,
             )
             times["tree"], clock = time.process_time() - clock, time.process_time()
             priors = prior_grid(tree, eps, 1.1)
@@ -123,13 +130,16 @@ def main() -> None:
     parser.add_argument("folder", type=Path, help="the softneck folder (holds stair/)")
     parser.add_argument("--horizon", type=int, default=40)
     parser.add_argument("--profile", type=int, metavar="K", help="time one fold of horizon K")
+    parser.add_argument(
+        "--no-frame", action="store_true", help="with --profile: the tree split in raw components"
+    )
     parser.add_argument("--save", type=Path, help="write the results to this .npz")
     parser.add_argument("--compare", type=Path, help="check the results against this .npz")
     args = parser.parse_args()
     train, test = logs(args.folder)
     if args.profile:
         print(f"load average {os.getloadavg()[0]:.1f}")
-        profile_fold(train, args.profile)
+        profile_fold(train, args.profile, frame=not args.no_frame)
         return
     load = os.getloadavg()[0]
     start = time.perf_counter()

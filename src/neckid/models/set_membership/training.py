@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from neckid.models.linear.arx import linear_sum
 from neckid.models.set_membership._kernels import (
+    LEAF_SIZE,
     TREE_MIN_POINTS,
     SMTree,
     gamma_star,
@@ -139,6 +140,7 @@ def training_tree(
     keep_outputs: bool,
     *,
     frame: bool = False,
+    leaf_size: int = LEAF_SIZE,
 ) -> tuple[SMTree, FloatArray | None]:
     """Scale ``x`` in place and build the kd-tree on it: the model's one copy of the points.
 
@@ -156,6 +158,8 @@ def training_tree(
     frame : bool, default False
         Split the tree in the points' principal frame (``SMTree(frame=True)``): the same
         results, fewer visits of the screened walks over many lagged terms.
+    leaf_size : int, default LEAF_SIZE
+        Largest number of points in a leaf of the tree.
 
     Returns
     -------
@@ -165,7 +169,9 @@ def training_tree(
     """
     x *= weights
     residual = _residual(x, y, weights, coef, intercept)  # a new array, reordered in place
-    tree = SMTree(x, residual, overwrite_points=True, overwrite_targets=True, frame=frame)
+    tree = SMTree(
+        x, residual, leaf_size, overwrite_points=True, overwrite_targets=True, frame=frame
+    )
     return tree, (np.ascontiguousarray(y[tree.perm]) if keep_outputs else None)
 
 

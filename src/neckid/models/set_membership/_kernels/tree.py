@@ -506,7 +506,7 @@ FRAME_MIN_TERMS = 8
 #: Principal axes a frame keeps (all of them with fewer terms). A screen over the leading axes
 #: is a lower bound of the one over all (fewer non-negative terms) and costs proportionally
 #: less; at horizon 40 of the soft-neck payload split (84 terms) one fold's slopes and bounds
-#: took 2.7 CPU s keeping 84 axes, 2.7 keeping 32, 2.5 keeping 16 and 2.4 keeping 8 (7.3
+#: took 3.4 CPU s keeping 84 axes, 2.7 keeping 32, 2.5 keeping 16 and 2.4 keeping 8 (7.3
 #: without a frame; ``docs/benchmarks/sm_speed.md``). 16 leaves room for signals spread over
 #: more directions than the neck's.
 FRAME_AXES = 16
