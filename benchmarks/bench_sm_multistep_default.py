@@ -8,7 +8,8 @@ setting at its default, on the six training stair logs of the payload split (0 g
 the ``ada``, ``fra`` and ``int`` controllers through ``softneck_protocol``, 18,426 rows). It
 prints the wall time of the whole fit, of the cross-validation that chooses the settings
 (``selection_.seconds``) and of the rest, the fit of every horizon with its chosen setting (what
-a fit with those settings given does), with their ratio, and the load average.
+a fit with those settings given does), with their ratio, and the load average; then the wall
+time of ``predict_ahead`` at every horizon on the six test logs (200 g and 400 g).
 
 ``--profile K`` instead times the parts of one fold of horizon K (the first log held out) in
 CPU seconds of the process, the second of two runs (compiled): the ε floor and weights, the
@@ -155,7 +156,12 @@ def main() -> None:
         f" {total - choice:.1f} s, ratio {total / (total - choice):.1f}x); load average"
         f" {load:.1f} -> {os.getloadavg()[0]:.1f}"
     )
+    start = time.perf_counter()
     found = results(model, test)
+    print(
+        f"predict_ahead at the {len(model.horizons_)} horizons on the {len(test)} test logs:"
+        f" {time.perf_counter() - start:.1f} s"
+    )
     if args.save:
         np.savez(args.save, **found)
     if args.compare:

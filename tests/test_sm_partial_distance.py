@@ -236,6 +236,12 @@ def test_principal_frame_axes_and_when_there_is_none() -> None:
     assert np.all(np.diff(spread) <= 1e-9 * spread[0])  # largest spread first
     assert spread[:3].sum() > 0.9 * np.var(points, axis=0).sum()  # a few axes hold it
     assert 0.0 < error[0] < 1e-10 and 0.0 < error[1] < 1e-12
+    tree = SMTree(points, np.zeros((500, 1)), leaf_size=8, frame=True)
+    assert tree.framed
+    for node in range(tree.n_nodes):  # the boxes in the points' own coordinates
+        inside = tree.points[tree.start[node] : tree.end[node]]
+        assert np.array_equal(tree.lo[node], inside.min(axis=0))
+        assert np.array_equal(tree.hi[node], inside.max(axis=0))
     assert principal_frame(points[:, : FRAME_MIN_TERMS - 1]) is None
     assert principal_frame(points[:1]) is None
     points[3, 5] = np.nan

@@ -391,8 +391,10 @@ def fit_horizon(
     names = model.output_names_
     _checked_prior(SMSettings(epsilon=epsilon.tolist()), y, names)  # a constant output
     # From here on x is the tree's points: scaled and reordered in place (one copy).
+    # Split in the principal frame: its steepest slopes and predict_ahead's bounds are screened
+    # walks, the same floats on fewer points.
     tree, outputs = training_tree(
-        x, y, weights, linear.coef, linear.intercept, bool(options.linear_part)
+        x, y, weights, linear.coef, linear.intercept, bool(options.linear_part), frame=True
     )
     check_duplicates(tree, epsilon, names)
     priors = prior_grid(tree, epsilon[None, :], float(options.gamma_margin), options.progress)

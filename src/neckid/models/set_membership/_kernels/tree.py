@@ -236,6 +236,40 @@ def _node_ranges_kernel(
     return ymin, ymax
 
 
+@njit(cache=True)
+def _node_boxes_kernel(
+    points: FloatArray, start: IntArray, end: IntArray, left: IntArray, right: IntArray
+) -> tuple[FloatArray, FloatArray]:
+    """Every node's bounding box of ``points`` (tree order), bottom up.
+
+    Leaves from their points, the other nodes from their children's boxes (a node's children
+    come after it): the min and max over the node's points, exactly, in one pass.
+    """
+    n_nodes = start.shape[0]
+    n_dims = points.shape[1]
+    lo = np.empty((n_nodes, n_dims))
+    hi = np.empty((n_nodes, n_dims))
+    for node in range(n_nodes - 1, -1, -1):
+        a = left[node]
+        if a >= 0:
+            b = right[node]
+            for k in range(n_dims):
+                lo[node, k] = min(lo[a, k], lo[b, k])
+                hi[node, k] = max(hi[a, k], hi[b, k])
+            continue
+        for k in range(n_dims):
+            lo[node, k] = np.inf
+            hi[node, k] = -np.inf
+        for p in range(start[node], end[node]):
+            for k in range(n_dims):
+                v = points[p, k]
+                if v < lo[node, k]:
+                    lo[node, k] = v
+                if v > hi[node, k]:
+                    hi[node, k] = v
+    return lo, hi
+
+
 def build_tree(points: FloatArray, leaf_size: int = LEAF_SIZE) -> dict[str, NDArray]:
     """Build the kd-tree over ``points`` (shape ``(n_points, n_dims)``, already scaled).
 
@@ -615,7 +649,9 @@ class SMTree:
                 np.empty(2),
             )
         else:
-            self.lo, self.hi = _node_ranges_kernel(self.points, self.start, self.end)
+            self.lo, self.hi = _node_boxes_kernel(
+                self.points, self.start, self.end, self.left, self.right
+            )
             centre, rotation, error = principal
             rotated = np.ascontiguousarray(rotated[perm])
             self._frame = (rotated, tree["lo"], tree["hi"], rotation, centre, error)
