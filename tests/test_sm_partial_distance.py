@@ -25,6 +25,11 @@ import numpy as np
 import pytest
 
 from neckid.models.set_membership._kernels import SMTree
+from neckid.models.set_membership._kernels.frame import (
+    FRAME_AXES,
+    FRAME_MIN_TERMS,
+    principal_frame,
+)
 from neckid.models.set_membership._kernels.priors import point_gamma_grid, prior_bounds
 from neckid.models.set_membership._kernels.screens import (
     box_screen2,
@@ -32,11 +37,6 @@ from neckid.models.set_membership._kernels.screens import (
     frame_query,
     leaf_screen2,
     screen_shrink,
-)
-from neckid.models.set_membership._kernels.tree import (
-    FRAME_AXES,
-    FRAME_MIN_TERMS,
-    principal_frame,
 )
 
 

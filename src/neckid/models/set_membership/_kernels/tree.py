@@ -43,16 +43,14 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
+from neckid.models.set_membership._kernels.frame import node_boxes, principal_frame
 from neckid.models.set_membership._kernels.screens import _push_pair
 from neckid.utils.types import FloatArray, IntArray
 
 __all__ = [
-    "FRAME_AXES",
-    "FRAME_MIN_TERMS",
     "LEAF_SIZE",
     "SMTree",
     "build_tree",
-    "principal_frame",
 ]
 
 
@@ -234,40 +232,6 @@ def _node_ranges_kernel(
             ymin[node, c] = low
             ymax[node, c] = high
     return ymin, ymax
-
-
-@njit(cache=True)
-def _node_boxes_kernel(
-    points: FloatArray, start: IntArray, end: IntArray, left: IntArray, right: IntArray
-) -> tuple[FloatArray, FloatArray]:
-    """Every node's bounding box of ``points`` (tree order), bottom up.
-
-    Leaves from their points, the other nodes from their children's boxes (a node's children
-    come after it): the min and max over the node's points, exactly, in one pass.
-    """
-    n_nodes = start.shape[0]
-    n_dims = points.shape[1]
-    lo = np.empty((n_nodes, n_dims))
-    hi = np.empty((n_nodes, n_dims))
-    for node in range(n_nodes - 1, -1, -1):
-        a = left[node]
-        if a >= 0:
-            b = right[node]
-            for k in range(n_dims):
-                lo[node, k] = min(lo[a, k], lo[b, k])
-                hi[node, k] = max(hi[a, k], hi[b, k])
-            continue
-        for k in range(n_dims):
-            lo[node, k] = np.inf
-            hi[node, k] = -np.inf
-        for p in range(start[node], end[node]):
-            for k in range(n_dims):
-                v = points[p, k]
-                if v < lo[node, k]:
-                    lo[node, k] = v
-                if v > hi[node, k]:
-                    hi[node, k] = v
-    return lo, hi
 
 
 def build_tree(points: FloatArray, leaf_size: int = LEAF_SIZE) -> dict[str, NDArray]:
@@ -534,45 +498,6 @@ def _bounds_few_kernel(
             )
 
 
-#: Fewest terms for which ``SMTree(frame=True)`` splits in a principal frame: with few terms a
-#: kd-tree over the raw components prunes about as well.
-FRAME_MIN_TERMS = 8
-#: Principal axes a frame keeps (all of them with fewer terms). A screen over the leading axes
-#: is a lower bound of the one over all (fewer non-negative terms) and costs proportionally
-#: less; at horizon 40 of the soft-neck payload split (84 terms) one fold's slopes and bounds
-#: took 3.4 CPU s keeping 84 axes, 2.7 keeping 32, 2.5 keeping 16 and 2.4 keeping 8 (7.3
-#: without a frame; ``docs/benchmarks/sm_speed.md``). 16 leaves room for signals spread over
-#: more directions than the neck's.
-FRAME_AXES = 16
-
-
-def principal_frame(points: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray] | None:
-    """``(μ, R, error)``: the centre, the principal axes (rows) and the rounding room of a frame.
-
-    ``R`` holds the leading :data:`FRAME_AXES` eigenvectors of the points' scatter matrix,
-    largest spread first, so a kd-tree over ``R (w − μ)`` splits along the directions the
-    points spread in; distances in the frame are at most those in the points' coordinates. ``error`` is
-    ``(e, c)``: ``c = 2 (n + 2) u √n`` bounds the rounding of a rotated point relative to
-    ``‖w − μ‖`` (``γ_{n+1} ‖R‖_F``, Higham 2002, §3.5, with room) and ``e`` that of the stored
-    points (``c`` times their largest ``‖w − μ‖``, with room). None (no frame) below
-    :data:`FRAME_MIN_TERMS` terms, for fewer than two points, non-finite points, or an ``R``
-    farther than 1e-10 from orthogonal (Frobenius norm of ``R Rᵀ − I``).
-    """
-    n_points, n_dims = points.shape
-    if n_dims < FRAME_MIN_TERMS or n_points < 2 or not np.all(np.isfinite(points)):
-        return None
-    centre = points.mean(axis=0)
-    centred = points - centre
-    _, vectors = np.linalg.eigh(centred.T @ centred)
-    rotation = np.ascontiguousarray(vectors[:, ::-1].T)
-    if not np.linalg.norm(rotation @ rotation.T - np.eye(n_dims)) <= 1e-10:
-        return None
-    rotation = np.ascontiguousarray(rotation[:FRAME_AXES])
-    factor = 2.0 * (n_dims + 2) * 2.0**-53 * math.sqrt(n_dims)
-    largest = float(np.sqrt(np.max(np.einsum("ij,ij->i", centred, centred))))
-    return centre, rotation, np.array([factor * largest * 1.01, factor])
-
-
 #: Below this many queries the bounds are evaluated without threads.
 SERIAL_QUERIES = 64
 
@@ -606,9 +531,9 @@ class SMTree:
     overwrite_targets : bool, default False
         The same for ``targets`` (when it is a writeable C-contiguous float64 array).
     frame : bool, default False
-        Split the tree in the principal frame of the points (:func:`principal_frame`; from
-        :data:`FRAME_MIN_TERMS` terms on) and keep the rotated points and boxes for the screened
-        walks (:meth:`frame_arrays`). Every result is the same; the screened walks visit fewer
+        Split the tree in the principal frame of the points
+        (:func:`~.frame.principal_frame`; from :data:`~.frame.FRAME_MIN_TERMS` terms on) and
+        keep the rotated points and boxes for the screened walks (:meth:`frame_arrays`). Every result is the same; the screened walks visit fewer
         points where a few directions hold most of the spread (lagged signals, many terms),
         for one more copy of the points. :attr:`lo`/:attr:`hi` stay the boxes in the points'
         own coordinates.
@@ -649,9 +574,7 @@ class SMTree:
                 np.empty(2),
             )
         else:
-            self.lo, self.hi = _node_boxes_kernel(
-                self.points, self.start, self.end, self.left, self.right
-            )
+            self.lo, self.hi = node_boxes(self.points, self.start, self.end, self.left, self.right)
             centre, rotation, error = principal
             rotated = np.ascontiguousarray(rotated[perm])
             self._frame = (rotated, tree["lo"], tree["hi"], rotation, centre, error)
@@ -682,7 +605,7 @@ class SMTree:
 
     @property
     def framed(self) -> bool:
-        """Whether the tree was split in a principal frame (:func:`principal_frame`)."""
+        """Whether the tree was split in a principal frame (:func:`~.frame.principal_frame`)."""
         return bool(self._frame[3].shape[0])
 
     def frame_arrays(self) -> tuple[NDArray, ...]:
