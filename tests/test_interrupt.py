@@ -455,9 +455,13 @@ def test_a_deferred_block_runs_whole_and_raises_at_its_end() -> None:
 
 def test_no_exception_is_raised_inside_a_frame_of_numba() -> None:
     """A signal that arrives while numba's Python code runs waits until the thread leaves it."""
+    # The signal is sent from inside the frame, to the main thread: a timer's process-directed
+    # signal can come after the frame on a loaded machine, and reach another thread, which
+    # does not cut the main thread's sleep short.
     source = (
-        "def busy(seconds, clock, done):\n"
+        "def busy(seconds, clock, done, send):\n"
         "    end = clock() + seconds\n"
+        "    send()\n"
         "    while clock() < end:\n"
         "        pass\n"
         "    done.append(clock())\n"
@@ -466,9 +470,14 @@ def test_no_exception_is_raised_inside_a_frame_of_numba() -> None:
     exec(compile(source, "<numba's machinery>", "exec"), namespace)
     busy = namespace["busy"]
     done: list[float] = []
+    main = threading.main_thread().ident
+    assert main is not None
+
+    def send() -> None:
+        signal.pthread_kill(main, signal.SIGINT)
+
     with pytest.raises(Interrupted), stop_signals():
-        _send_soon(signal.SIGINT)
-        busy(0.3, time.monotonic, done)  # type: ignore[operator]
+        busy(0.3, time.monotonic, done, send)  # type: ignore[operator]
         time.sleep(5)  # the signal, delivered again, ends this at once
     raised = time.monotonic()
     assert done, "the exception was raised inside the numba frame"
