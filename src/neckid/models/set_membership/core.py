@@ -161,7 +161,6 @@ class SMCore:
         if scaled.shape[0] >= SERIAL_QUERIES:
             # The screened walk of the cross-validation, bit for bit the two below and faster
             # (most of all on a tree split in its principal frame: docs/benchmarks/sm_speed.md).
-            local = self.point_gamma is not None
             constants = (
                 self.point_gamma[None]
                 if self.point_gamma is not None
@@ -173,7 +172,7 @@ class SMCore:
                 self.epsilon[None, :],
                 self.gamma[None, :],
                 constants,
-                np.array([0 if local else -1]),
+                np.array([0 if constants.shape[0] else -1]),
                 self.local_neighbours,
             )
             lower, upper = low[:, 0], high[:, 0]

@@ -533,10 +533,10 @@ class SMTree:
     frame : bool, default False
         Split the tree in the principal frame of the points
         (:func:`~.frame.principal_frame`; from :data:`~.frame.FRAME_MIN_TERMS` terms on) and
-        keep the rotated points and boxes for the screened walks (:meth:`frame_arrays`). Every result is the same; the screened walks visit fewer
-        points where a few directions hold most of the spread (lagged signals, many terms),
-        for one more copy of the points. :attr:`lo`/:attr:`hi` stay the boxes in the points'
-        own coordinates.
+        keep the rotated points and boxes for the screened walks (:meth:`frame_arrays`). Every
+        result is the same; the screened walks visit fewer points where a few directions hold
+        most of the spread (lagged signals, many terms), for one more copy of the points.
+        :attr:`lo`/:attr:`hi` stay the boxes in the points' own coordinates.
     """
 
     def __init__(
