@@ -96,7 +96,7 @@ def main() -> None:
     parser.add_argument("--large", action="store_true", help="also N = 1,000,000, tree only")
     args = parser.parse_args()
     sizes = [2_000, 10_000] if args.quick else [20_000, 100_000]
-    logger = logging.getLogger("neckid.models.set_membership._kernels.tree")
+    logger = logging.getLogger("neckid.models.set_membership._kernels.gamma")
     logger.addHandler(STATS)
     logger.setLevel(logging.DEBUG)
 

@@ -18,6 +18,8 @@ from hypothesis import strategies as st
 from _sm_reference import gamma_star_reference
 from neckid.models.set_membership._kernels.gamma import (
     TREE_MIN_POINTS,
+    TREE_STRIKES,
+    _TreeBlocks,
     gamma_star,
     gamma_star_blocked,
 )
@@ -165,7 +167,7 @@ def test_auto_walks_the_pairs_below_the_threshold_and_searches_above(
 
 def test_auto_hands_over_to_the_pairs_when_the_tree_prunes_nothing() -> None:
     # Points on a line with targets on a line: every pair has slope exactly 2 = γ*(0), so no
-    # node can be pruned; "auto" gives up on the tree after its first block.
+    # node can be pruned; "auto" gives up on the tree after its first TREE_STRIKES blocks.
     x = np.linspace(0.0, 1.0, 4000)[:, None]
     y = 2.0 * x
     grid = np.zeros((1, 1))
@@ -174,13 +176,42 @@ def test_auto_hands_over_to_the_pairs_when_the_tree_prunes_nothing() -> None:
     gamma, stats = gamma_star_blocked(
         x, y, grid, 16, lambda done, total: calls.append(done), tree, adaptive=True
     )
-    assert stats["pair_rows"] > 0 and stats["tree_rows"] < 4000 / 8
+    assert stats["pair_rows"] > 0 and stats["tree_rows"] <= 1.1 * TREE_STRIKES * 4000 / 16
     assert stats["tree_rows"] + stats["pair_rows"] == 4000
     assert len(calls) == 16 and calls == sorted(calls) and calls[-1] == stats["pairs"]
     forced, forced_stats = gamma_star_blocked(x, y, grid, 16, None, tree, adaptive=False)
     assert forced_stats["pair_rows"] == 0
     np.testing.assert_array_equal(gamma, forced)
     np.testing.assert_allclose(gamma, [[2.0]], rtol=1e-12)
+
+
+@pytest.mark.parametrize("costly", [{0}, {0, 2}, {0, 1}, {3, 4, 5}])
+def test_auto_hands_over_only_after_consecutive_costly_blocks(
+    monkeypatch: pytest.MonkeyPatch, costly: set[int]
+) -> None:
+    # The first block also finds the large slopes later blocks prune with: a costly block alone
+    # (or costly blocks apart) keeps the tree; TREE_STRIKES costly blocks in a row hand over.
+    x, y = _time_series(np.random.default_rng(9), 4000)
+    tree = SMTree(x, y, 8)
+    run = _TreeBlocks.run
+    blocks: list[int] = []
+
+    def counted(self: _TreeBlocks, *args: object) -> np.ndarray:
+        out = run(self, *args)  # type: ignore[arg-type]
+        if len(blocks) in costly:
+            self.cost = np.inf
+        blocks.append(len(blocks))
+        return out
+
+    monkeypatch.setattr(_TreeBlocks, "run", counted)
+    gamma, stats = gamma_star_blocked(x, y, np.zeros((1, 1)), 16, None, tree, adaptive=True)
+    consecutive = any(set(range(k, k + TREE_STRIKES)) <= costly for k in range(16))
+    if consecutive:
+        last = min(k for k in range(16) if set(range(k, k + TREE_STRIKES)) <= costly)
+        assert len(blocks) == last + TREE_STRIKES and stats["pair_rows"] > 0
+    else:
+        assert len(blocks) == 16 and stats["pair_rows"] == 0
+    np.testing.assert_array_equal(gamma, gamma_star(x, y, np.zeros((1, 1)), method="pairs"))
 
 
 def test_the_tree_skips_most_pairs_on_time_series() -> None:
