@@ -82,6 +82,8 @@ logger = logging.getLogger(__name__)
 REACH_BINS = 4096
 #: Consecutive rows (in the order given, and in tree order) paired for the first lower bound.
 _SEED_STEPS = 8
+_FIRST_STEP = np.array([1], dtype=np.int64)
+_LATER_STEPS = np.arange(2, _SEED_STEPS + 1, dtype=np.int64)
 #: Cost of a pair whose distance the tree computes, and of a node it tests, in units of one pair
 #: of the all-pairs kernel (which streams the distances of a row); see :func:`gamma_star_blocked`.
 TREE_PAIR_COST = 2.5
@@ -146,13 +148,22 @@ def _pairs_rows_kernel(
 # ------------------------------------------------------------------------- driver
 @njit(cache=True)
 def _seed_kernel(
-    points: FloatArray, targets: FloatArray, twice_eps: FloatArray, g: FloatArray, margin: bool
+    points: FloatArray,
+    targets: FloatArray,
+    twice_eps: FloatArray,
+    g: FloatArray,
+    margin: bool,
+    steps: IntArray,
+    reach2: FloatArray,
+    bins_per_unit: FloatArray,
 ) -> None:
-    """Raise ``g`` with the pairs of rows up to ``_SEED_STEPS`` apart (no pruning)."""
+    """Raise ``g`` with the pairs of rows ``step`` apart, for each step of ``steps``.
+
+    ``reach2`` and ``bins_per_unit`` are the table of :func:`_reach_table` (a pair it rules out
+    cannot raise ``g``), or ``(1, m)`` infinities and zeros to test every pair.
+    """
     n_points, n_dims = points.shape
-    reach2 = np.full((1, targets.shape[1]), np.inf)
-    bins_per_unit = np.zeros(targets.shape[1])
-    for step in range(1, _SEED_STEPS + 1):
+    for step in steps:
         for i in range(n_points - step):
             dd = 0.0
             for k in range(n_dims):
@@ -275,7 +286,9 @@ def gamma_star_blocked(
         ``pair_rows`` (rows done by each kernel).
     """
     n_points = points.shape[0]
-    best = _first_maxima(points, targets, twice_eps, floor, margin, tree)
+    span = np.ptp(targets, axis=0) if n_points else np.zeros(targets.shape[1])
+    bins_per_unit = np.where(span > 0, (REACH_BINS - 2) / np.where(span > 0, span, 1.0), 0.0)
+    best = _first_maxima(points, targets, twice_eps, floor, margin, tree, bins_per_unit)
     search: _TreeBlocks | None = None
     if tree is not None:
         points, targets = tree.points, tree.targets
@@ -284,8 +297,6 @@ def gamma_star_blocked(
         units = _interleaved(leaves[np.argsort(tree.start[leaves], kind="stable")])
     else:
         units = _interleaved(np.arange(n_points))
-    span = np.ptp(targets, axis=0) if n_points else np.zeros(targets.shape[1])
-    bins_per_unit = np.where(span > 0, (REACH_BINS - 2) / np.where(span > 0, span, 1.0), 0.0)
     total = n_points * (n_points - 1) // 2
     stats = dict.fromkeys(
         ("computed", "tested", "sloped", "skipped", "slope_blocks", "tree_rows", "pair_rows"), 0
@@ -339,19 +350,32 @@ def _first_maxima(
     floor: FloatArray | None,
     margin: bool,
     tree: SMTree | None,
+    bins_per_unit: FloatArray,
 ) -> FloatArray:
     """The running maxima before the first block: the floor raised by the seed pairs.
 
     The pairs of rows up to ``_SEED_STEPS`` apart, in the order given and (with a tree) in tree
-    order.
+    order: the neighbours one row apart with every pair tested, the others through the table of
+    the maxima these gave (a pair it rules out cannot raise them, so the maxima are the same).
     """
     best = np.zeros(twice_eps.shape)
     if floor is not None:
         best = np.array(np.broadcast_to(floor, twice_eps.shape), dtype=np.float64)
-    if tree is None or points is not tree.points:
-        _seed_kernel(points, targets, twice_eps, best, margin)
+    orders = [] if tree is not None and points is tree.points else [(points, targets)]
     if tree is not None:
-        _seed_kernel(tree.points, tree.targets, twice_eps, best, margin)
+        orders.append((tree.points, tree.targets))
+    every = (np.full((1, targets.shape[1]), np.inf), np.zeros(targets.shape[1]))
+    for order_points, order_targets in orders:
+        _seed_kernel(order_points, order_targets, twice_eps, best, margin, _FIRST_STEP, *every)
+    table = (
+        _reach_table(twice_eps, best, bins_per_unit)
+        if margin
+        else _reach_table(best, twice_eps, bins_per_unit)
+    )
+    for order_points, order_targets in orders:
+        _seed_kernel(
+            order_points, order_targets, twice_eps, best, margin, _LATER_STEPS, table, bins_per_unit
+        )
     return best
 
 
