@@ -92,10 +92,10 @@ TREE_NODE_COST = 4.5
 #: exceeds the block's pairs by this factor: the estimate is within about 30 % of the measured
 #: ratio (1 to 20 dimensions, 1 or 2 threads), so a near tie stays with the tree.
 TREE_HANDOVER = 1.25
-#: ... and only after this many consecutive blocks did: the first block also finds the large
-#: slopes that later blocks prune with, so its cost alone overstates the search's (on a payload
-#: split's residuals, 4 terms, 14,811 rows: the first of 64 blocks cost more than its pairs, the
-#: whole search then 0.15 s against 0.50 s handed over after it).
+#: With ``adaptive``, the handover waits for this many such blocks in a row. The first block
+#: also finds the large slopes that later blocks prune with, so its cost alone overstates the
+#: search's: on a payload split's residuals (4 terms, 14,811 rows) the first of 64 blocks cost
+#: more than its pairs, and the whole search took 0.15 s on the tree against 0.50 s handed over.
 TREE_STRIKES = 2
 #: A tree block runs without threads when the previous one cost less than this (in pairs).
 SERIAL_WORK = 200_000
@@ -249,12 +249,13 @@ def gamma_star_blocked(
         The kd-tree over ``points`` and ``targets`` (leaf size 4 to 16 works best); None runs
         the all-pairs kernel only.
     adaptive : bool, default False
-        With a tree: once a block's counted work, ``TREE_PAIR_COST`` per pair distance plus
-        ``TREE_NODE_COST`` per box distance, exceeds ``TREE_HANDOVER`` times the number of
-        pairs the all-pairs kernel would have walked, the remaining blocks go to the all-pairs
-        kernel (over the points in tree order). The result is the same, bit for bit; only the
-        time differs. The costs are in units of one pair of the all-pairs kernel, measured on 1
-        to 20 dimensions.
+        With a tree: once the counted work of ``TREE_STRIKES`` blocks in a row
+        (``TREE_PAIR_COST`` per pair distance plus ``TREE_NODE_COST`` per box distance) exceeds
+        ``TREE_HANDOVER`` times the number of pairs the all-pairs kernel would have walked, the
+        remaining blocks go to the all-pairs kernel (over the points in tree order). The first
+        block alone can be costly while the search finds the large slopes, so it does not
+        decide. The result is the same, bit for bit; only the time differs. The costs are in
+        units of one pair of the all-pairs kernel, measured on 1 to 20 dimensions.
     floor : ndarray, shape (n_outputs,) or (n_eps, n_outputs), optional
         Start the running maxima at this value instead of 0: the result is
         ``max(γ*(ε), floor)``, and only pairs that could exceed the floor are computed. With a
