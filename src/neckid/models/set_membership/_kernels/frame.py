@@ -18,7 +18,14 @@ from numba import njit
 
 from neckid.utils.types import FloatArray, IntArray
 
-__all__ = ["FRAME_AXES", "FRAME_MIN_TERMS", "node_boxes", "principal_frame"]
+__all__ = [
+    "FRAME_AXES",
+    "FRAME_MIN_TERMS",
+    "empty_box",
+    "node_boxes",
+    "principal_frame",
+    "widen_box",
+]
 
 #: Fewest terms for which ``SMTree(frame=True)`` splits in a principal frame: with few terms a
 #: kd-tree over the raw components prunes about as well.
@@ -59,6 +66,25 @@ def principal_frame(points: FloatArray) -> tuple[FloatArray, FloatArray, FloatAr
     return centre, rotation, np.array([factor * largest * 1.01, factor])
 
 
+@njit(cache=True, inline="always")
+def empty_box(lo: FloatArray, hi: FloatArray, node: int) -> None:
+    """Set the box of ``node`` to the empty one (``lo = inf``, ``hi = -inf``)."""
+    for k in range(lo.shape[1]):
+        lo[node, k] = np.inf
+        hi[node, k] = -np.inf
+
+
+@njit(cache=True, inline="always")
+def widen_box(lo: FloatArray, hi: FloatArray, node: int, points: FloatArray, i: int) -> None:
+    """Widen the box of ``node`` to hold ``points[i]``."""
+    for k in range(lo.shape[1]):
+        v = points[i, k]
+        if v < lo[node, k]:
+            lo[node, k] = v
+        if v > hi[node, k]:
+            hi[node, k] = v
+
+
 @njit(cache=True)
 def node_boxes(
     points: FloatArray, start: IntArray, end: IntArray, left: IntArray, right: IntArray
@@ -80,14 +106,7 @@ def node_boxes(
                 lo[node, k] = min(lo[a, k], lo[b, k])
                 hi[node, k] = max(hi[a, k], hi[b, k])
             continue
-        for k in range(n_dims):
-            lo[node, k] = np.inf
-            hi[node, k] = -np.inf
+        empty_box(lo, hi, node)
         for p in range(start[node], end[node]):
-            for k in range(n_dims):
-                v = points[p, k]
-                if v < lo[node, k]:
-                    lo[node, k] = v
-                if v > hi[node, k]:
-                    hi[node, k] = v
+            widen_box(lo, hi, node, points, p)
     return lo, hi

@@ -43,7 +43,12 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from neckid.models.set_membership._kernels.frame import node_boxes, principal_frame
+from neckid.models.set_membership._kernels.frame import (
+    empty_box,
+    node_boxes,
+    principal_frame,
+    widen_box,
+)
 from neckid.models.set_membership._kernels.screens import _push_pair
 from neckid.utils.types import FloatArray, IntArray
 
@@ -139,17 +144,9 @@ def _build_tree_kernel(
         node = stack[top]
         s = start[node]
         e = end[node]
-        for k in range(n_dims):
-            lo[node, k] = np.inf
-            hi[node, k] = -np.inf
+        empty_box(lo, hi, node)
         for p in range(s, e):
-            i = perm[p]
-            for k in range(n_dims):
-                v = points[i, k]
-                if v < lo[node, k]:
-                    lo[node, k] = v
-                if v > hi[node, k]:
-                    hi[node, k] = v
+            widen_box(lo, hi, node, points, perm[p])
         if e - s <= leaf_size:
             continue
         dim = 0
