@@ -1,7 +1,8 @@
 """The Set Membership family's compiled kernels: the kd-tree and its bounds, γ*(ε), local constants.
 
 - :mod:`.tree`: :class:`SMTree` (a kd-tree with per-node target ranges), the exact branch-and-bound
-  bounds and the compiled free run;
+  bounds;
+- :mod:`.free_run`: the compiled free run (the screened walk of :mod:`.priors`, one prior);
 - :mod:`.gamma`: γ*(ε) over a grid of ε (:func:`gamma_star`), by branch and bound over the tree
   (:mod:`.gamma_search`, pruned further by the per-region slope bound of :mod:`.slope`) or over
   all pairs;

@@ -69,7 +69,7 @@ from neckid.utils.types import FloatArray, IntArray
 if TYPE_CHECKING:
     from neckid.models.set_membership._kernels.tree import SMTree
 
-__all__ = ["PROGRESS_BLOCKS", "point_gamma_grid", "prior_bounds"]
+__all__ = ["PROGRESS_BLOCKS", "point_gamma_grid", "prior_bounds", "walk_priors"]
 
 
 # ---------------------------------------------------------------------------------- constants
@@ -285,7 +285,7 @@ def _neighbour_gammas(
 
 
 @njit(cache=True)
-def _walk_priors(
+def walk_priors(
     w: FloatArray,
     c: int,
     floor: FloatArray,
@@ -495,7 +495,7 @@ def _prior_bounds_kernel(
         for c in range(n_out):
             for s in range(n_priors):
                 floor[s] = near_g[local[s], c] if local[s] >= 0 else gamma[s, c]
-            _walk_priors(
+            walk_priors(
                 w,
                 c,
                 floor,
