@@ -10,8 +10,8 @@ Each observable is a function of the standardised regressor ``r`` (the model's l
 - ``"monomials"``: products of the terms of total degree 2 and 3 in graded lexicographic order
   (``r1^2, r1 r2, …, r1^3, …``), the first ``n_observables`` of them.
 
-RBF centres are the k-means centres (scikit-learn ``KMeans``, seeded) of the training regressor
-rows, at most :data:`KMEANS_ROWS` of them drawn at random. Every observable is then standardised
+RBF centres are the k-means centres (scikit-learn ``KMeans``, seeded, :data:`KMEANS_INITS` run)
+of the training regressor rows, at most :data:`KMEANS_ROWS` of them drawn at random. Every observable is then standardised
 by its mean and standard deviation over the training rows, so that one ridge penalty weighs them
 alike.
 
@@ -31,13 +31,26 @@ import numpy as np
 
 from neckid.utils.types import FloatArray, IntArray
 
-__all__ = ["DICTIONARIES", "KMEANS_ROWS", "Observables", "fit_observables", "monomial_powers"]
+__all__ = [
+    "DICTIONARIES",
+    "KMEANS_ROWS",
+    "Observables",
+    "fit_observables",
+    "fit_observables_with_values",
+    "monomial_powers",
+]
 
 #: The kinds of observables.
 DICTIONARIES = ("thin-plate", "gaussian", "monomials")
 
 #: Most training rows k-means sees (drawn at random without replacement, seeded).
 KMEANS_ROWS = 5000
+#: Runs of k-means++ and Lloyd per dictionary (the one of least inertia kept). One, as
+#: scikit-learn's own default for k-means++: on the training folds of the benchmark's data sets
+#: the chosen candidate's mean fold fit moved by -0.27 to +0.16 points against three runs, inside
+#: the spread over four seeds (up to 1.1 points on the robot arm), for 30-45 % less time per fit
+#: (docs/benchmarks/runs.md, 2026-12-03 evening).
+KMEANS_INITS = 1
 
 Kind = Literal["thin-plate", "gaussian", "monomials"]
 
@@ -132,12 +145,14 @@ def _centres(r: FloatArray, n: int, seed: int) -> FloatArray:
             f"n_observables={n} radial basis functions need as many distinct training regressors;"
             f" the training data have {distinct}: use fewer observables"
         )
-    means = KMeans(n_clusters=n, n_init=3, random_state=seed).fit(rows)
+    means = KMeans(n_clusters=n, n_init=KMEANS_INITS, random_state=seed).fit(rows)
     return np.ascontiguousarray(means.cluster_centers_, dtype=np.float64)
 
 
 def fit_observables(r: FloatArray, kind: str, n: int, seed: int = 0) -> Observables:
     """The observables of kind ``kind`` and size ``n`` fitted on the training regressor rows ``r``.
+
+    :func:`fit_observables_with_values` without the values.
 
     Parameters
     ----------
@@ -156,6 +171,17 @@ def fit_observables(r: FloatArray, kind: str, n: int, seed: int = 0) -> Observab
     >>> phi(r).shape, bool(np.allclose(phi(r).mean(axis=0), 0.0))
     ((200, 5), True)
     """
+    return fit_observables_with_values(r, kind, n, seed)[0]
+
+
+def fit_observables_with_values(
+    r: FloatArray, kind: str, n: int, seed: int = 0
+) -> tuple[Observables, FloatArray]:
+    """:func:`fit_observables`, and the standardised observables of ``r`` it computed on the way.
+
+    The values are ``observables(r)``, the same floats (the standardisation needs them, and the
+    Gram sums of the same rows use them instead of computing them again).
+    """
     n_terms = r.shape[1]
     empty_int = np.zeros((0, n_terms), dtype=np.int64)
     centres, powers, width = np.zeros((0, n_terms)), empty_int, 1.0
@@ -172,9 +198,12 @@ def fit_observables(r: FloatArray, kind: str, n: int, seed: int = 0) -> Observab
     provisional = Observables(kind, centres, powers, width, np.zeros(0), np.ones(0))
     size = powers.shape[0] if kind == "monomials" else centres.shape[0]
     if size == 0:
-        return Observables(kind, centres, powers, width, np.zeros(0), np.ones(0))
+        empty = Observables(kind, centres, powers, width, np.zeros(0), np.ones(0))
+        return empty, np.zeros((r.shape[0], 0))
     values = provisional.raw(r)
     mean = values.mean(axis=0)
     std = values.std(axis=0)
     std = np.where(std > 1e-12 * np.maximum(np.abs(mean), 1.0), std, 1.0)
-    return Observables(kind, centres, powers, width, mean, std)
+    values -= mean  # in place: what Observables.__call__ computes, element by element
+    values /= std
+    return Observables(kind, centres, powers, width, mean, std), values

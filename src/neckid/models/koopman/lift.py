@@ -184,8 +184,13 @@ def gram(
     layout: Layout,
     observables: Observables,
     blocks: Sequence[tuple[FloatArray, FloatArray]],
+    values: FloatArray | None = None,
 ) -> Gram:
-    """The sums of products of ``blocks`` (per experiment, the standardised ``(y, u)``)."""
+    """The sums of products of ``blocks`` (per experiment, the standardised ``(y, u)``).
+
+    ``values``, when given, are the observables of every block's delay rows, stacked in block
+    order (what :func:`~.dictionary.fit_observables_with_values` returns for those rows).
+    """
     m = layout.max_lag
     n_z = layout.n_delays + observables.size + 1
     n_in, n_out = blocks[0][1].shape[1], blocks[0][0].shape[1]
@@ -193,8 +198,15 @@ def gram(
     xx, xy = np.zeros((n_x, n_x)), np.zeros((n_x, n_out))
     ww, wz = np.zeros((n_z + n_in, n_z + n_in)), np.zeros((n_z + n_in, n_z))
     rows = np.zeros(2)
+    first = 0
     for y, u in blocks:
-        z = lift_rows(layout, observables, layout.delays(y, u, m))
+        p = layout.delays(y, u, m)
+        if values is None:
+            z = lift_rows(layout, observables, p)
+        else:
+            phi = values[first : first + p.shape[0]]
+            z = np.hstack([p, phi, np.ones((p.shape[0], 1))])
+        first += p.shape[0]
         x = np.hstack([z[:, layout.terms], z[:, layout.n_delays :], u[m:, layout.direct]])
         xx += x.T @ x
         xy += x.T @ y[m:]

@@ -32,7 +32,11 @@ from neckid.data.iodata import IOData, as_experiments
 from neckid.models.base import Estimator, ModelResult, check_is_fitted
 from neckid.models.cache import remembered_fit
 from neckid.models.domain import regressor_box
-from neckid.models.koopman.dictionary import DICTIONARIES, Observables, fit_observables
+from neckid.models.koopman.dictionary import (
+    DICTIONARIES,
+    Observables,
+    fit_observables_with_values,
+)
 from neckid.models.koopman.lift import (
     Gram,
     Layout,
@@ -281,8 +285,10 @@ class KoopmanEDMD(Estimator):
     def _prepare(self, blocks: Blocks, layout: Layout, size: int) -> tuple[Observables, Gram]:
         """Observables of this size fitted on ``blocks``, and the Gram sums of ``blocks``."""
         r = np.vstack([layout.delays(y, u, layout.max_lag)[:, layout.terms] for y, u in blocks])
-        observables = fit_observables(r, self.dictionary, size, self.random_state)
-        return observables, gram(layout, observables, blocks)
+        observables, values = fit_observables_with_values(
+            r, self.dictionary, size, self.random_state
+        )
+        return observables, gram(layout, observables, blocks, values)
 
     def _system(
         self, layout: Layout, observables: Observables, normal: Gram, ridge: float
